@@ -1,0 +1,35 @@
+"""Named constants of the quadcos robot (models/mjcf/quadruped.xml): one place for names and sizes."""
+
+import pathlib
+
+MJCF_PATH = pathlib.Path(__file__).resolve().parent.parent / "models" / "mjcf" / "quadruped.xml"
+
+LEGS = ("LF", "RF", "LB", "RB")
+# Paper Eq. 3 order: LF hip, LF knee, RF hip, RF knee, LB hip, LB knee, RB hip, RB knee.
+JOINTS = tuple(f"{leg}_{joint}" for leg in LEGS for joint in ("hip", "knee"))
+FEET = tuple(f"{leg}_foot" for leg in LEGS)
+TORSO_BODY = "torso"
+TORSO_GEOM = "torso"
+ROOT_JOINT = "root"
+IMU_SITE = "imu"
+IMU_ORIENTATION_SENSOR = "imu_orientation"
+
+# Leg geometry (must match the MJCF; tests compare forward kinematics against MuJoCo).
+HIP_OFFSETS = (  # hip position in the torso frame, metres, per leg in LEGS order
+    (0.32, 0.315, 0.0),
+    (0.32, -0.315, 0.0),
+    (-0.32, 0.315, 0.0),
+    (-0.32, -0.315, 0.0),
+)
+THIGH_LENGTH = 0.32
+SHANK_LENGTH = 0.32
+FOOT_RADIUS = 0.03
+STANDING_HEIGHT = THIGH_LENGTH + SHANK_LENGTH + FOOT_RADIUS  # torso centre above flat ground
+
+# qpos / qvel layout of the free-floating base followed by the 8 joints.
+QPOS_POSITION = slice(0, 3)
+QPOS_QUATERNION = slice(3, 7)
+QPOS_JOINTS = slice(7, 15)
+QVEL_LINEAR = slice(0, 3)
+QVEL_ANGULAR = slice(3, 6)
+QVEL_JOINTS = slice(6, 14)

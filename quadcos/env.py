@@ -1,0 +1,271 @@
+"""The quadruped env: Brax `Env` API over MuJoCo MJX (impl="jax").
+
+One step (paper Fig. 3): action → rhythm-controller parameters (§3.3) → joint targets at every
+physics substep (Eq. 3) → MJX physics → proprioceptive slope estimate (Eq. 5) → reward
+(Eqs. 8–13) and fall check. `controller="joint"` replaces the first two stages by joint targets
+straight from the action (the "DRL-only" baseline of §5).
+"""
+
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import mujoco
+from brax.envs import base
+from mujoco import mjx
+
+from quadcos import constants, oscillator, reward, robot, slope
+from quadcos import terrain as terrain_lib
+from quadcos.config import apply_overrides
+
+CONTROLLERS = ("oscillator", "joint")
+OSCILLATOR_FORMS = ("phase", "literal")
+JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
+
+
+class _Observed(NamedTuple):
+    """What one look at the robot yields: the policy's observation and the estimator's outputs."""
+
+    obs: jax.Array
+    attitude: slope.Attitude
+    slope_estimate: jax.Array
+
+
+def default_config() -> ml_collections.ConfigDict:
+    """A fresh env config; every field is overridable by `make_env(**overrides)`."""
+    config = ml_collections.ConfigDict()
+    config.terrain = "flat"  # name or spec string, see quadcos.terrain.parse
+    config.mjcf_path = ""  # "" = models/mjcf/quadruped.xml
+    config.impl = "jax"  # MJX implementation, pinned (Playground 0.2 defaults to Warp)
+    config.control_dt = 0.02  # s: one env step = one SAC action (50 Hz)
+    config.physics_dt = 0.004  # s: MJX step (250 Hz); control_dt must be a multiple
+    config.solver_iterations = 0  # 0 = the MJCF's
+    config.ls_iterations = 0  # 0 = the MJCF's
+    config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
+    # "phase" integrates ψ += 2π dt/T every physics step (continuous when T changes); "literal"
+    # evaluates Eq. 3 at 2πt/T. Equal while T is constant; see quadcos.oscillator.
+    config.oscillator_form = "phase"
+    config.period_min = oscillator.PERIOD_MIN  # s: lower end of T's range (0, 2]
+    config.reward_variant = "full"  # "full" (Eq. 13) or "xy" (Fig. 9's r_xy)
+    config.reward = ml_collections.ConfigDict(reward.RewardWeights()._asdict())
+    config.observe_slope = False  # append the slope estimate to the paper's 14-d state
+    config.observe_phase = False  # append (cos ψ, sin ψ) of the oscillator
+    config.reset_joint_noise = 0.02  # rad: uniform noise on the initial joint angles
+    config.fall_min_height = 0.35  # m: torso centre above the ground below it
+    config.fall_max_roll = 0.8  # rad
+    config.fall_max_pitch_error = 0.8  # rad: |pitch − true slope|
+    return config
+
+
+class QuadrupedEnv(base.Env):
+    """The paper's quadruped on a terrain, as a Brax env. Holds only fixed data.
+
+    Observation (paper §3.3): (v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8) — world-frame torso
+    velocity (m/s), attitude (rad, pitch nose-up), joint angles (rad, Eq. 3 order); optionally the
+    slope estimate and (cos ψ, sin ψ). Action: [−1, 1]^5 = (A_k, A_h, T, φ1, φ3) for the oscillator
+    controller, [−1, 1]^8 joint targets (×0.5 rad) for the joint controller.
+    """
+
+    def __init__(
+        self,
+        terrain: terrain_lib.Terrain | str = "flat",
+        config: ml_collections.ConfigDict | None = None,
+    ):
+        config = default_config() if config is None else config
+        _validate(config)
+        self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
+        self.config = config
+        self.mj_model = robot.build_model(
+            self.terrain,
+            config.mjcf_path or None,
+            timestep=config.physics_dt,
+            solver_iterations=config.solver_iterations or None,
+            ls_iterations=config.ls_iterations or None,
+        )
+        self.model = mjx.put_model(self.mj_model, impl=config.impl)
+        self.substeps = round(config.control_dt / config.physics_dt)
+        self.weights = reward.RewardWeights(**config.reward.to_dict())
+        orientation_sensor = self.mj_model.sensor(constants.IMU_ORIENTATION_SENSOR)
+        self._orientation_slice = slice(orientation_sensor.adr[0], orientation_sensor.adr[0] + 4)
+        self._torso_body = self.mj_model.body(constants.TORSO_BODY).id
+        self._torso_half_size = self.mj_model.geom(constants.TORSO_GEOM).size.copy()
+        self._spawn_height = constants.STANDING_HEIGHT + float(self.terrain.height_at(0.0, 0.0)) + 0.002
+
+    # --- Brax Env API -------------------------------------------------------------------------
+
+    @property
+    def observation_size(self) -> int:
+        state = jax.eval_shape(self.reset, jax.random.PRNGKey(0))
+        return state.obs.shape[-1]
+
+    @property
+    def action_size(self) -> int:
+        return 5 if self.config.controller == "oscillator" else len(constants.JOINTS)
+
+    @property
+    def backend(self) -> str:
+        return "mjx"
+
+    @property
+    def dt(self) -> float:
+        return self.substeps * self.config.physics_dt
+
+    def reset(self, rng: jax.Array) -> base.State:
+        """A standing robot at the spawn point, joints perturbed by `reset_joint_noise`."""
+        noise = self.config.reset_joint_noise
+        joints = jax.random.uniform(rng, (len(constants.JOINTS),), minval=-noise, maxval=noise)
+        qpos = jnp.zeros(self.mj_model.nq)
+        qpos = qpos.at[constants.QPOS_POSITION].set(jnp.array([0.0, 0.0, self._spawn_height]))
+        qpos = qpos.at[constants.QPOS_QUATERNION].set(jnp.array([1.0, 0.0, 0.0, 0.0]))
+        qpos = qpos.at[constants.QPOS_JOINTS].set(joints)
+        data = mjx.make_data(self.model).replace(qpos=qpos, ctrl=joints)
+        data = mjx.forward(self.model, data)
+        phase = jnp.zeros(())
+        observed = self._observe(data, phase)
+        zero = jnp.zeros(())
+        metrics = {f"reward/{name}": zero for name in _REWARD_TERMS}
+        metrics |= {name: zero for name in _STEP_METRICS}
+        return base.State(
+            pipeline_state=data,
+            obs=observed.obs,
+            reward=zero,
+            done=zero,
+            metrics=metrics,
+            info={"phase": phase},
+        )
+
+    def step(self, state: base.State, action: jax.Array) -> base.State:
+        """One control period: `substeps` MJX steps under the controller, then reward and fall."""
+        before = state.pipeline_state
+        data, phase = self._actuate(before, state.info["phase"], action)
+        observed = self._observe(data, phase)
+        position = data.qpos[constants.QPOS_POSITION]
+        slope_truth = self.terrain.slope_at(position[0], position[1])
+        finite = jnp.isfinite(data.qpos).all() & jnp.isfinite(data.qvel).all()
+        fell = self._fell(data, observed.attitude, slope_truth) | ~finite
+        terms = reward.reward_terms(
+            x_now=position[0],
+            x_last=before.qpos[0],
+            y_now=position[1],
+            y_last=before.qpos[1],
+            pitch=observed.attitude.pitch,
+            yaw=observed.attitude.yaw,
+            roll=observed.attitude.roll,
+            slope=observed.slope_estimate,
+            fell=fell,
+            weights=self.weights,
+            variant=self.config.reward_variant,
+        )
+        metrics = {f"reward/{name}": value for name, value in terms.items()}
+        metrics |= {
+            "forward_speed": (position[0] - before.qpos[0]) / self.dt,
+            "slope_estimate": observed.slope_estimate,
+            "slope_truth": slope_truth,
+            "slope_error": jnp.abs(observed.slope_estimate - slope_truth),
+        }
+        return state.replace(
+            pipeline_state=data,
+            obs=observed.obs,
+            reward=sum(terms.values()),
+            done=fell.astype(jnp.float32),
+            metrics=metrics,
+            info={**state.info, "phase": phase},
+        )
+
+    # --- pieces of a step ---------------------------------------------------------------------
+
+    def joint_targets(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
+        """(8,) joint targets (rad) that `action` commands at oscillator phase ψ / time t."""
+        if self.config.controller == "joint":
+            return JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
+        params = oscillator.action_to_parameters(action, self.config.period_min)
+        phases = oscillator.trot_phases(params.phi1, params.phi3)
+        if self.config.oscillator_form == "literal":
+            return oscillator.cosine_rhythm(
+                time, params.amplitude_hip, params.amplitude_knee, params.period, phases
+            )
+        return oscillator.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
+
+    def _actuate(self, data: mjx.Data, phase: jax.Array, action: jax.Array) -> tuple[mjx.Data, jax.Array]:
+        period = oscillator.action_to_parameters(action, self.config.period_min).period
+        dt = self.config.physics_dt
+
+        def substep(carry, _):
+            data, phase = carry
+            data = data.replace(ctrl=self.joint_targets(action, phase, data.time))
+            data = mjx.step(self.model, data)
+            return (data, oscillator.advance_phase(phase, period, dt)), None
+
+        (data, phase), _ = jax.lax.scan(substep, (data, phase), None, length=self.substeps)
+        if self.config.oscillator_form == "literal":
+            phase = jnp.mod(oscillator.TWO_PI * data.time / period, oscillator.TWO_PI)
+        return data, phase
+
+    def _observe(self, data: mjx.Data, phase: jax.Array) -> _Observed:
+        quaternion = data.sensordata[self._orientation_slice]
+        body = slope.attitude(quaternion)
+        joints = data.qpos[constants.QPOS_JOINTS]
+        slope_estimate = slope.estimate_slope(joints, quaternion)
+        parts = [
+            data.qvel[constants.QVEL_LINEAR],
+            jnp.stack([body.pitch, body.yaw, body.roll]),
+            joints,
+        ]
+        if self.config.observe_slope:
+            parts.append(slope_estimate[None])
+        if self.config.observe_phase:
+            parts.append(jnp.stack([jnp.cos(phase), jnp.sin(phase)]))
+        return _Observed(obs=jnp.concatenate(parts), attitude=body, slope_estimate=slope_estimate)
+
+    def _fell(self, data: mjx.Data, body: slope.Attitude, slope_truth: jax.Array) -> jax.Array:
+        """Torso too low, attitude beyond limits, or the torso box touching the ground."""
+        position = data.qpos[constants.QPOS_POSITION]
+        clearance = position[2] - self.terrain.height_at(position[0], position[1])
+        torso = self._torso_body
+        signs = jnp.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        corners = data.xpos[torso] + (signs * self._torso_half_size) @ data.xmat[torso].T
+        corner_clearance = corners[:, 2] - self.terrain.height_at(corners[:, 0], corners[:, 1])
+        config = self.config
+        return (
+            (clearance < config.fall_min_height)
+            | (jnp.abs(body.roll) > config.fall_max_roll)
+            | (jnp.abs(body.pitch - slope_truth) > config.fall_max_pitch_error)
+            | (corner_clearance.min() < 0.0)
+        )
+
+
+_REWARD_TERMS = ("fall", "survival", "forward", "lateral", "orientation")
+_STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
+
+
+def _validate(config: ml_collections.ConfigDict) -> None:
+    if config.controller not in CONTROLLERS:
+        raise ValueError(f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}")
+    if config.oscillator_form not in OSCILLATOR_FORMS:
+        raise ValueError(
+            f"unknown oscillator_form {config.oscillator_form!r}; known: {', '.join(OSCILLATOR_FORMS)}"
+        )
+    if config.reward_variant not in reward.VARIANTS:
+        raise ValueError(
+            f"unknown reward_variant {config.reward_variant!r}; known: {', '.join(reward.VARIANTS)}"
+        )
+    if not (config.physics_dt > 0 and config.control_dt > 0):
+        raise ValueError(f"control_dt and physics_dt must be > 0; got {config.control_dt}, {config.physics_dt}")
+    ratio = config.control_dt / config.physics_dt
+    if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+        raise ValueError(
+            f"control_dt {config.control_dt} must be a whole multiple of physics_dt {config.physics_dt}"
+        )
+    if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
+        raise ValueError(f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}")
+
+
+def make_env(terrain: terrain_lib.Terrain | str | None = None, **overrides: Any) -> QuadrupedEnv:
+    """Build the env: `make_env("slope5", controller="joint", **{"reward.yaw": 0.0})`.
+
+    Overrides are env config keys (dotted for nested ones); an unknown key is a ValueError.
+    `terrain` defaults to the config's "terrain" (flat).
+    """
+    config = apply_overrides(default_config(), overrides)
+    return QuadrupedEnv(terrain if terrain is not None else config.terrain, config)

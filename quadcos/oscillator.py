@@ -1,0 +1,166 @@
+"""Cosine-oscillator rhythm controller (paper §3.1, Eqs. 1–4) and the trot action map (§3.3).
+
+Pure JAX: every function broadcasts over leading dimensions and is jit/vmap-able.
+Joint order everywhere: LF hip, LF knee, RF hip, RF knee, LB hip, LB knee, RB hip, RB knee.
+
+Two forms of the same oscillator:
+- the literal form `cosine_rhythm(t, ...)` evaluates Eq. 3 at time t with period T. When T changes
+  (SAC picks a new T every control step) 2πt/T jumps, and so do the joint targets.
+- the phase-continuous form carries the oscillator phase ψ and advances it by 2π·dt/T each physics
+  step (`advance_phase`), then evaluates `rhythm_at_phase(ψ, ...)`. With T constant,
+  ψ(t) = 2πt/T and both forms agree exactly; when T changes the targets stay continuous. It is the
+  env's default because target jumps of up to 2·A_h rad per control step are not a gait.
+"""
+
+from typing import NamedTuple
+
+import jax.numpy as jnp
+import numpy as np
+
+TWO_PI = 2.0 * np.pi
+_HIP_MASK = np.array([True, False] * 4)  # hips at even indices of the Eq. 3 order
+
+AMPLITUDE_BOUND = 0.5  # rad: A_k, A_h ∈ [−0.5, 0.5] (§3.3)
+PERIOD_MAX = 2.0  # s: T ∈ (0, 2] (§3.3)
+PERIOD_MIN = 0.2  # s: the open end of (0, 2] made concrete: 10 control steps at 50 Hz per cycle.
+PHASE_BOUND = TWO_PI  # rad: φ1, φ3 ∈ [−2π, 2π] (§3.3)
+
+
+class RhythmParameters(NamedTuple):
+    """The controller parameters a SAC action sets (§3.3): a = [A_k, A_h, T, φ1, φ3]."""
+
+    amplitude_knee: jnp.ndarray  # (...,) rad
+    amplitude_hip: jnp.ndarray  # (...,) rad
+    period: jnp.ndarray  # (...,) s
+    phi1: jnp.ndarray  # (...,) rad, LF and RB knee phase
+    phi3: jnp.ndarray  # (...,) rad, RF and LB knee phase
+
+
+def rhythm_at_phase(
+    phase: jnp.ndarray,
+    amplitude_hip: jnp.ndarray,
+    amplitude_knee: jnp.ndarray,
+    phases: jnp.ndarray,
+) -> jnp.ndarray:
+    """Eq. 2 for all four legs (Eq. 3) at oscillator phase ψ = 2πt/T.
+
+    Hips: θ_h = A_h cos(ψ + φ_i). Knees: θ_k = A_k cos(ψ + φ_i) where that is ≥ 0, else 0.
+
+    Args:
+      phase: (...,) rad, the common phase ψ.
+      amplitude_hip, amplitude_knee: (...,) rad.
+      phases: (..., 8) rad, initial phases φ0..φ7.
+    Returns:
+      (..., 8) joint targets, rad.
+    """
+    phase = jnp.asarray(phase)[..., None]
+    wave = jnp.cos(phase + phases)
+    hip = jnp.asarray(amplitude_hip)[..., None] * wave
+    knee = jnp.maximum(jnp.asarray(amplitude_knee)[..., None] * wave, 0.0)
+    return jnp.where(_HIP_MASK, hip, knee)
+
+
+def cosine_rhythm(
+    t: jnp.ndarray,
+    amplitude_hip: jnp.ndarray,
+    amplitude_knee: jnp.ndarray,
+    period: jnp.ndarray,
+    phases: jnp.ndarray,
+) -> jnp.ndarray:
+    """Eq. 3, literally: the eight oscillators Y_i = A_i cos(2πt/T + φ_i), knees half-wave.
+
+    Args:
+      t: (...,) s. amplitude_hip, amplitude_knee: (...,) rad. period: (...,) s.
+      phases: (..., 8) rad.
+    Returns:
+      (..., 8) joint targets, rad.
+    """
+    return rhythm_at_phase(TWO_PI * jnp.asarray(t) / period, amplitude_hip, amplitude_knee, phases)
+
+
+def advance_phase(phase: jnp.ndarray, period: jnp.ndarray, dt: float) -> jnp.ndarray:
+    """The phase-continuous form of Eq. 1: ψ ← ψ + 2π·dt/T, wrapped to [0, 2π)."""
+    return jnp.mod(phase + TWO_PI * dt / period, TWO_PI)
+
+
+def trot_phases(phi1: jnp.ndarray, phi3: jnp.ndarray) -> jnp.ndarray:
+    """The trot of §3.3: φ0 = φ6 = 0, φ1 = φ7, φ2 = φ4 = π, φ3 = φ5.
+
+    Args:
+      phi1, phi3: (...,) rad.
+    Returns:
+      (..., 8) phases φ0..φ7, rad.
+    """
+    phi1, phi3 = jnp.broadcast_arrays(jnp.asarray(phi1, jnp.float32), jnp.asarray(phi3, jnp.float32))
+    zero = jnp.zeros_like(phi1)
+    pi = jnp.full_like(phi1, jnp.pi)
+    return jnp.stack([zero, phi1, pi, phi3, pi, phi3, zero, phi1], axis=-1)
+
+
+# Hip phases of other gaits (LF, RF, LB, RB), as fractions of a cycle, following the paper's
+# convention that legs in phase share φ and legs half a cycle apart differ by π.
+_GAIT_HIP_CYCLE = {
+    "trot": (0.0, 0.5, 0.5, 0.0),  # diagonal pairs (§2.2)
+    "pace": (0.0, 0.5, 0.0, 0.5),  # lateral pairs
+    "bound": (0.0, 0.0, 0.5, 0.5),  # front pair, then rear pair
+    "walk": (0.0, 0.5, 0.75, 0.25),  # lateral-sequence walk: LF, RB, RF, LB a quarter apart
+    "pronk": (0.0, 0.0, 0.0, 0.0),  # all four together
+}
+GAITS = tuple(_GAIT_HIP_CYCLE)
+
+
+def gait_phases(gait: str, knee_lead: float = np.pi / 2) -> jnp.ndarray:
+    """Phase table φ0..φ7 of a named gait; each knee leads its hip by `knee_lead` (Fig. 4: π/2).
+
+    With knee_lead = π/2 the knee is bent exactly while its hip swings forward (the swing half).
+    "trot" equals `trot_phases(π/2, 3π/2)`.
+
+    Returns:
+      (8,) rad.
+    """
+    if gait not in _GAIT_HIP_CYCLE:
+        raise ValueError(f"unknown gait {gait!r}; known: {', '.join(GAITS)}")
+    hips = TWO_PI * jnp.asarray(_GAIT_HIP_CYCLE[gait])
+    knees = jnp.mod(hips + knee_lead, TWO_PI)
+    return jnp.stack([hips, knees], axis=-1).reshape(8)
+
+
+def action_to_parameters(action: jnp.ndarray, period_min: float = PERIOD_MIN) -> RhythmParameters:
+    """Map a policy action in [−1, 1]^5 to the controller parameters of §3.3.
+
+    a = [A_k, A_h, T, φ1, φ3] with A_k, A_h ∈ [−0.5, 0.5] rad, T ∈ [period_min, 2] s
+    (the paper's (0, 2] needs a positive floor: T → 0 is an infinitely fast oscillator),
+    φ1, φ3 ∈ [−2π, 2π] rad. Linear in each component; actions outside [−1, 1] are clipped.
+
+    Args:
+      action: (..., 5).
+    """
+    action = jnp.clip(action, -1.0, 1.0)
+    return RhythmParameters(
+        amplitude_knee=AMPLITUDE_BOUND * action[..., 0],
+        amplitude_hip=AMPLITUDE_BOUND * action[..., 1],
+        period=period_min + (PERIOD_MAX - period_min) * 0.5 * (action[..., 2] + 1.0),
+        phi1=PHASE_BOUND * action[..., 3],
+        phi3=PHASE_BOUND * action[..., 4],
+    )
+
+
+def parameters_to_action(params: RhythmParameters, period_min: float = PERIOD_MIN) -> jnp.ndarray:
+    """Inverse of `action_to_parameters` (for fixed-parameter baselines and tests). Returns (..., 5)."""
+    return jnp.stack(
+        [
+            jnp.asarray(params.amplitude_knee) / AMPLITUDE_BOUND,
+            jnp.asarray(params.amplitude_hip) / AMPLITUDE_BOUND,
+            2.0 * (jnp.asarray(params.period) - period_min) / (PERIOD_MAX - period_min) - 1.0,
+            jnp.asarray(params.phi1) / PHASE_BOUND,
+            jnp.asarray(params.phi3) / PHASE_BOUND,
+        ],
+        axis=-1,
+    )
+
+
+# A fixed trot that walks on flat ground (~0.5 m/s) with the quadcos robot: the Fig. 15 baseline's
+# starting point, found by a grid search over A_h, A_k, T with plain MuJoCo.
+FIXED_TROT = RhythmParameters(
+    amplitude_knee=0.5, amplitude_hip=0.15, period=0.6, phi1=np.pi / 2, phi3=-np.pi / 2
+)

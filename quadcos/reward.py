@@ -1,0 +1,99 @@
+"""The reward of paper §3.3, Eqs. 8–13, and the r_xy ablation of Fig. 9.
+
+Pure JAX, for one robot (batch with jax.vmap). Axes: the paper's forward axis is world Y and its
+sideways axis world X; quadcos walks along MuJoCo's +x. So the paper's r_y (Eq. 10, forward
+progress) is written here with x, and its r_x (Eq. 11, sideways drift) with y.
+
+Eq. 13: r = α r_p + β (r_s + r_y + r_x + r_o), α = 1 and β = 0 when the robot falls, else α = 0
+and β = 1. `reward_terms` returns every term already multiplied by α or β, so the terms sum to r
+and can be logged one by one as reward/<name>.
+"""
+
+from typing import NamedTuple
+
+import jax.numpy as jnp
+
+VARIANTS = ("full", "xy")
+
+
+class RewardWeights(NamedTuple):
+    """Paper defaults (§3.3): r_p = −100, r_s = 10, w1..w5 = 150, 100, 30, 40, 30."""
+
+    fall_penalty: float = -100.0
+    survival: float = 10.0
+    forward: float = 150.0  # w1
+    lateral: float = 100.0  # w2
+    pitch: float = 30.0  # w3
+    yaw: float = 40.0  # w4
+    roll: float = 30.0  # w5
+
+
+def fall_penalty(weights: RewardWeights) -> jnp.ndarray:
+    """Eq. 8: r_p = −100, given when the robot falls (the episode then ends)."""
+    return jnp.asarray(weights.fall_penalty)
+
+
+def survival(weights: RewardWeights) -> jnp.ndarray:
+    """Eq. 9: r_s = 10 for every step the robot moves without falling."""
+    return jnp.asarray(weights.survival)
+
+
+def forward_progress(x_now: jnp.ndarray, x_last: jnp.ndarray, weights: RewardWeights) -> jnp.ndarray:
+    """Eq. 10 (the paper's r_y): w1 (x_now − x_last), metres along the walking direction."""
+    return weights.forward * (x_now - x_last)
+
+
+def lateral_drift(y_now: jnp.ndarray, y_last: jnp.ndarray, weights: RewardWeights) -> jnp.ndarray:
+    """Eq. 11 (the paper's r_x): −w2 |y_now − y_last|, metres sideways."""
+    return -weights.lateral * jnp.abs(y_now - y_last)
+
+
+def orientation(
+    pitch: jnp.ndarray,
+    yaw: jnp.ndarray,
+    roll: jnp.ndarray,
+    slope: jnp.ndarray,
+    weights: RewardWeights,
+) -> jnp.ndarray:
+    """Eq. 12: r_o = −w3 |pitch − θ| − w4 |yaw| − w5 |roll|; θ is the Eq. 5 slope estimate (rad)."""
+    return (
+        -weights.pitch * jnp.abs(pitch - slope)
+        - weights.yaw * jnp.abs(yaw)
+        - weights.roll * jnp.abs(roll)
+    )
+
+
+def reward_terms(
+    *,
+    x_now: jnp.ndarray,
+    x_last: jnp.ndarray,
+    y_now: jnp.ndarray,
+    y_last: jnp.ndarray,
+    pitch: jnp.ndarray,
+    yaw: jnp.ndarray,
+    roll: jnp.ndarray,
+    slope: jnp.ndarray,
+    fell: jnp.ndarray,
+    weights: RewardWeights = RewardWeights(),
+    variant: str = "full",
+) -> dict[str, jnp.ndarray]:
+    """Eq. 13's terms, each weighted by α or β; their sum is the step reward.
+
+    variant "full" is Eq. 13. variant "xy" is Fig. 9's r_xy: only r_y + r_x while walking (no r_s,
+    no r_o); a fall still gives r_p and ends the episode, as in the full reward.
+
+    Returns:
+      {"fall", "survival", "forward", "lateral", "orientation"} -> (...,) arrays.
+    """
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown reward variant {variant!r}; known: {', '.join(VARIANTS)}")
+    alpha = jnp.asarray(fell, jnp.float32)
+    beta = 1.0 - alpha
+    walking = beta if variant == "full" else jnp.zeros_like(beta)
+    return {
+        "fall": alpha * fall_penalty(weights),
+        "survival": walking * survival(weights),
+        "forward": beta * forward_progress(x_now, x_last, weights),
+        "lateral": beta * lateral_drift(y_now, y_last, weights),
+        "orientation": walking * orientation(pitch, yaw, roll, slope, weights),
+    }

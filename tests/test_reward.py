@@ -1,0 +1,60 @@
+"""Eqs. 8–13 against the paper's numbers, in quadcos axes (forward = +x)."""
+
+import jax
+import numpy as np
+import pytest
+
+from quadcos import reward
+
+WALK = dict(x_now=1.01, x_last=1.0, y_now=0.002, y_last=0.0, pitch=0.1, yaw=-0.05, roll=0.02, slope=0.08)
+
+
+def test_paper_defaults():
+    assert reward.RewardWeights() == (-100.0, 10.0, 150.0, 100.0, 30.0, 40.0, 30.0)
+
+
+def test_walking_step_is_eq13_with_beta_one():
+    terms = reward.reward_terms(**WALK, fell=False)
+    expected = 10 + 150 * 0.01 - 100 * 0.002 - (30 * 0.02 + 40 * 0.05 + 30 * 0.02)
+    assert set(terms) == {"fall", "survival", "forward", "lateral", "orientation"}
+    np.testing.assert_allclose(float(sum(terms.values())), expected, rtol=1e-5)
+    assert float(terms["fall"]) == 0.0
+
+
+def test_a_fall_gives_only_the_penalty():
+    terms = reward.reward_terms(**WALK, fell=True)
+    assert float(sum(terms.values())) == -100.0
+    assert float(terms["survival"]) == 0.0 and float(terms["forward"]) == 0.0
+
+
+def test_term_signs():
+    terms = reward.reward_terms(**WALK, fell=False)
+    assert terms["survival"] > 0 and terms["forward"] > 0
+    assert terms["lateral"] < 0 and terms["orientation"] < 0
+    backwards = reward.reward_terms(**{**WALK, "x_now": 0.99}, fell=False)
+    assert backwards["forward"] < 0
+
+
+def test_pitch_is_rewarded_for_following_the_slope():
+    on_slope = reward.reward_terms(**{**WALK, "pitch": 0.087, "slope": 0.087}, fell=False)
+    level = reward.reward_terms(**{**WALK, "pitch": 0.0, "slope": 0.087}, fell=False)
+    assert on_slope["orientation"] > level["orientation"]
+
+
+def test_xy_variant_keeps_only_progress_terms():
+    terms = reward.reward_terms(**WALK, fell=False, variant="xy")
+    np.testing.assert_allclose(float(sum(terms.values())), 150 * 0.01 - 100 * 0.002, rtol=1e-5)
+    assert float(reward.reward_terms(**WALK, fell=True, variant="xy")["fall"]) == -100.0
+
+
+def test_batched_under_vmap():
+    batch = {k: np.full(7, v) for k, v in WALK.items()}
+    terms = jax.vmap(lambda b, f: reward.reward_terms(**b, fell=f))(batch, np.array([0, 1, 0, 0, 1, 0, 0]))
+    total = sum(terms.values())
+    assert total.shape == (7,)
+    assert float(total[1]) == -100.0
+
+
+def test_unknown_variant():
+    with pytest.raises(ValueError, match="unknown reward variant 'yx'"):
+        reward.reward_terms(**WALK, fell=False, variant="yx")
