@@ -1,0 +1,9 @@
+"""quadcos: cosine-oscillator rhythm control learned by SAC, on thousands of MJX quadrupeds.
+
+Zhang et al. 2023, "Adaptive Locomotion Learning for Quadruped Robots by Combining DRL with a
+Cosine Oscillator Based Rhythm Controller" (Appl. Sci. 13, 11045), as a JAX library.
+"""
+
+from quadcos.env import QuadrupedEnv, default_config, make_env
+
+__all__ = ["QuadrupedEnv", "default_config", "make_env"]

@@ -90,7 +90,6 @@ class QuadrupedEnv(base.Env):
         self._orientation_slice = slice(orientation_sensor.adr[0], orientation_sensor.adr[0] + 4)
         self._torso_body = self.mj_model.body(constants.TORSO_BODY).id
         self._torso_half_size = self.mj_model.geom(constants.TORSO_GEOM).size.copy()
-        self._spawn_height = constants.STANDING_HEIGHT + float(self.terrain.height_at(0.0, 0.0)) + 0.002
 
     # --- Brax Env API -------------------------------------------------------------------------
 
@@ -112,12 +111,20 @@ class QuadrupedEnv(base.Env):
         return self.substeps * self.config.physics_dt
 
     def reset(self, rng: jax.Array) -> base.State:
-        """A standing robot at the spawn point, joints perturbed by `reset_joint_noise`."""
+        """A standing robot at the spawn point (0, 0), joints perturbed by `reset_joint_noise`."""
+        return self.reset_at(rng, jnp.zeros(()), jnp.zeros(()))
+
+    def reset_at(self, rng: jax.Array, x: jax.Array, y: jax.Array) -> base.State:
+        """A standing robot at (x, y): feet on the ground, torso pitched with the ground's slope."""
         noise = self.config.reset_joint_noise
         joints = jax.random.uniform(rng, (len(constants.JOINTS),), minval=-noise, maxval=noise)
+        ground_slope = self.terrain.slope_at(x, y)
+        # Legs perpendicular to the ground: the torso centre sits STANDING_HEIGHT along the normal.
+        height = self.terrain.height_at(x, y) + constants.STANDING_HEIGHT / jnp.cos(ground_slope)
+        nose_up = jnp.array([jnp.cos(ground_slope / 2), 0.0, -jnp.sin(ground_slope / 2), 0.0])
         qpos = jnp.zeros(self.mj_model.nq)
-        qpos = qpos.at[constants.QPOS_POSITION].set(jnp.array([0.0, 0.0, self._spawn_height]))
-        qpos = qpos.at[constants.QPOS_QUATERNION].set(jnp.array([1.0, 0.0, 0.0, 0.0]))
+        qpos = qpos.at[constants.QPOS_POSITION].set(jnp.stack([x, y, height + _SPAWN_CLEARANCE]))
+        qpos = qpos.at[constants.QPOS_QUATERNION].set(nose_up)
         qpos = qpos.at[constants.QPOS_JOINTS].set(joints)
         data = mjx.make_data(self.model).replace(qpos=qpos, ctrl=joints)
         data = mjx.forward(self.model, data)
@@ -235,6 +242,7 @@ class QuadrupedEnv(base.Env):
         )
 
 
+_SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _REWARD_TERMS = ("fall", "survival", "forward", "lateral", "orientation")
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
 

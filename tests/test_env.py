@@ -1,0 +1,165 @@
+"""The MJX env: shapes, physics facts and the paper's fixed-parameter trot.
+
+Compiling an MJX step costs 10–20 s on two cores, so each env is built and jitted once per
+session and shared.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import quadcos
+from quadcos import constants, oscillator
+from quadcos import terrain as terrain_lib
+
+CONTROL_STEPS_10_S = 500  # 10 s at the default 50 Hz control
+RAMP_DEGREES = (-9.0, -5.0, 0.0, 5.0, 9.0)
+RAMP_BAND = 2.0  # m: width in y of each ramp of the estimator test terrain
+
+
+def rollout(env, steps):
+    """jit(vmap) rollout of a constant action per env: returns (final state, per-step states)."""
+
+    def run(state, action):
+        def body(state, _):
+            state = jax.vmap(env.step)(state, action)
+            return state, state
+
+        return jax.lax.scan(body, state, None, length=steps)
+
+    return jax.jit(run)
+
+
+@pytest.fixture(scope="session")
+def flat_env():
+    return quadcos.make_env("flat")
+
+
+@pytest.fixture(scope="session")
+def flat_reset(flat_env):
+    return jax.jit(jax.vmap(flat_env.reset))
+
+
+@pytest.fixture(scope="session")
+def fixed_trot_run(flat_env, flat_reset):
+    """Four robots trotting with fixed paper-style parameters for 10 s on flat ground."""
+    state = flat_reset(jax.random.split(jax.random.PRNGKey(0), 4))
+    action = jnp.broadcast_to(oscillator.parameters_to_action(oscillator.FIXED_TROT), (4, 5))
+    return rollout(flat_env, CONTROL_STEPS_10_S)(state, action)
+
+
+def test_sizes(flat_env):
+    assert flat_env.observation_size == 14  # v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8
+    assert flat_env.action_size == 5
+    assert flat_env.dt == pytest.approx(0.02)
+
+
+def test_optional_observations_and_joint_controller():
+    env = quadcos.make_env("flat", observe_slope=True, observe_phase=True, controller="joint")
+    assert env.observation_size == 17
+    assert env.action_size == 8
+
+
+def test_reset_is_finite_and_standing(flat_env, flat_reset):
+    state = flat_reset(jax.random.split(jax.random.PRNGKey(1), 3))
+    assert state.obs.shape == (3, 14)
+    assert np.isfinite(state.obs).all()
+    np.testing.assert_allclose(state.pipeline_state.qpos[:, 2], constants.STANDING_HEIGHT, atol=0.01)
+    assert set(state.metrics) >= {"reward/fall", "reward/survival", "reward/forward", "reward/lateral",
+                                  "reward/orientation", "forward_speed", "slope_estimate", "slope_truth"}
+
+
+def test_fixed_trot_walks_forward_for_10_s(fixed_trot_run):
+    final, trace = fixed_trot_run
+    assert not np.asarray(trace.done).any(), "a robot fell"
+    distance = np.asarray(final.pipeline_state.qpos[:, 0])
+    assert (distance / 10.0 >= 0.2).all(), f"too slow: {distance / 10} m/s"
+    assert np.isfinite(np.asarray(trace.obs)).all()
+
+
+def test_reward_terms_while_walking(fixed_trot_run):
+    _, trace = fixed_trot_run
+    metrics = {k: np.asarray(v) for k, v in trace.metrics.items()}
+    assert (metrics["reward/survival"] == 10.0).all()
+    assert (metrics["reward/fall"] == 0.0).all()
+    assert metrics["reward/forward"].sum(0).min() > 0  # net progress along +x
+    assert (metrics["reward/lateral"] <= 0).all() and (metrics["reward/orientation"] <= 0).all()
+    total = sum(metrics[f"reward/{t}"] for t in ("fall", "survival", "forward", "lateral", "orientation"))
+    np.testing.assert_allclose(total, np.asarray(trace.reward), rtol=1e-5, atol=1e-4)
+    np.testing.assert_allclose(metrics["forward_speed"].mean(), 0.5, atol=0.3)
+
+
+def test_a_fall_ends_the_episode_with_the_penalty(flat_env, flat_reset):
+    state = flat_reset(jax.random.split(jax.random.PRNGKey(2), 2))
+    qpos = state.pipeline_state.qpos
+    # Robot 0 upside down, robot 1 untouched.
+    qpos = qpos.at[0, constants.QPOS_QUATERNION].set(jnp.array([0.0, 1.0, 0.0, 0.0]))
+    state = state.replace(pipeline_state=state.pipeline_state.replace(qpos=qpos))
+    state = jax.jit(jax.vmap(flat_env.step))(state, jnp.zeros((2, 5)))
+    np.testing.assert_array_equal(np.asarray(state.done), [1.0, 0.0])
+    assert float(state.reward[0]) == -100.0
+    assert float(state.reward[1]) > 0
+
+
+def _ramps(x, y):
+    """Side-by-side planes through the origin, one per slope, each RAMP_BAND wide in y."""
+    band = np.clip(np.round(y / RAMP_BAND).astype(int) + len(RAMP_DEGREES) // 2, 0, len(RAMP_DEGREES) - 1)
+    return np.tan(np.deg2rad(np.asarray(RAMP_DEGREES)))[band] * x
+
+
+def test_estimator_on_ramps_within_one_degree():
+    """Robots standing still on 0°, ±5°, ±9° ramps estimate the slope within 1° (Eq. 5)."""
+    half = RAMP_BAND * len(RAMP_DEGREES) / 2
+    ramps = terrain_lib.heightfield(_ramps, x_range=(-3.0, 3.0), y_range=(-half, half), name="ramps")
+    env = quadcos.make_env(ramps)
+    ys = RAMP_BAND * (np.arange(len(RAMP_DEGREES)) - len(RAMP_DEGREES) // 2)
+    keys = jax.random.split(jax.random.PRNGKey(3), len(ys))
+    state = jax.jit(jax.vmap(env.reset_at))(keys, jnp.zeros(len(ys)), jnp.asarray(ys, jnp.float32))
+    stand = jnp.zeros((len(ys), 5))  # A_h = A_k = 0: every joint target stays 0
+    final, trace = rollout(env, 75)(state, stand)  # 1.5 s to settle
+    assert not np.asarray(trace.done).any()
+    estimate = np.rad2deg(np.asarray(final.metrics["slope_estimate"]))
+    truth = np.rad2deg(np.asarray(final.metrics["slope_truth"]))
+    np.testing.assert_allclose(truth, RAMP_DEGREES, atol=0.2)
+    np.testing.assert_allclose(estimate, RAMP_DEGREES, atol=1.0)
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        ({"controller": "cpg"}, "unknown controller 'cpg'"),
+        ({"oscillator_form": "x"}, "unknown oscillator_form 'x'"),
+        ({"reward_variant": "yx"}, "unknown reward_variant 'yx'"),
+        ({"control_dt": 0.021}, "whole multiple of physics_dt"),
+        ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
+    ],
+)
+def test_bad_env_config_is_named(overrides, message):
+    with pytest.raises(ValueError, match=message):
+        quadcos.make_env("flat", **overrides)
+
+
+def test_unknown_terrain_is_named():
+    with pytest.raises(ValueError, match="unknown terrain 's5'"):
+        quadcos.make_env("s5")
+
+
+def test_missing_mjcf_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.xml"):
+        quadcos.make_env("flat", mjcf_path=str(tmp_path / "nope.xml"))
+
+
+def test_broken_mjcf_is_named(tmp_path):
+    broken = tmp_path / "broken.xml"
+    broken.write_text("<mujoco><worldbody><body><geom type='sphere'/></worldbody></mujoco>")
+    with pytest.raises(ValueError, match="broken.xml"):
+        quadcos.make_env("flat", mjcf_path=str(broken))
+
+
+def test_mjcf_that_fails_to_compile_is_named(tmp_path):
+    text = constants.MJCF_PATH.read_text().replace('mass="12"', 'mass="-12"')
+    bad = tmp_path / "negative_mass.xml"
+    bad.write_text(text)
+    with pytest.raises(ValueError, match="negative_mass.xml"):
+        quadcos.make_env("flat", mjcf_path=str(bad))
