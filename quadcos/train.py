@@ -1,0 +1,250 @@
+"""`python -m quadcos.train`: train the paper's rhythm controller with SAC on a terrain.
+
+    python -m quadcos.train --terrain=slope5 --preset=gpu --output_dir=runs/slope5
+    python -m quadcos.train --output_dir=runs/slope5 --resume --num_timesteps=20000000
+    python -m quadcos.train --preset=smoke --config.sac.batch_size=128 --config.env.reward.yaw=0
+
+Every value of the resolved config (`--print_config` shows it) can be overridden with
+`--config.<dotted.key>=<value>`. Bad flags, values or terrain specs exit with one line on stderr
+and status 2, before anything is written.
+"""
+
+import argparse
+import ast
+import json
+import os
+import pathlib
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import ml_collections
+
+from quadcos import env as env_lib
+from quadcos import terrain as terrain_lib
+from quadcos.config import apply_overrides, flat_keys
+
+# Presets: overrides of the default config, applied before the flags.
+PRESETS: dict[str, dict[str, Any]] = {
+    # A complete, tiny run (a few minutes on two CPU cores, mostly compilation); used by tests.
+    "smoke": {
+        "sac.num_envs": 4,
+        "sac.num_timesteps": 1_024,
+        "sac.episode_length": 100,
+        "sac.batch_size": 32,
+        "sac.replay_size": 4_096,
+        "sac.min_replay_size": 256,
+        "sac.hidden_sizes.policy": (32, 32),
+        "sac.hidden_sizes.q": (32, 32),
+        "sac.steps_per_chunk": 32,
+        "sac.eval_interval": 512,
+        "sac.num_eval_envs": 2,
+        "sac.eval_episode_length": 50,
+        "sac.checkpoint_interval": 512,
+    },
+    # The paper's flat experiment at CPU scale: `make train`.
+    "cpu": {
+        "sac.num_envs": 32,
+        "sac.num_timesteps": 150_000,
+        "sac.episode_length": 500,
+        "sac.batch_size": 256,
+        "sac.updates_per_step": 4,
+        "sac.replay_size": 200_000,
+        "sac.min_replay_size": 4_096,
+        "sac.hidden_sizes.policy": (128, 128),
+        "sac.hidden_sizes.q": (128, 128),
+        "sac.reward_scaling": 0.1,
+        "sac.learning_rate.actor": 1e-3,
+        "sac.learning_rate.critic": 1e-3,
+        "sac.learning_rate.alpha": 1e-3,
+        "sac.steps_per_chunk": 100,
+        "sac.eval_interval": 25_000,
+        "sac.num_eval_envs": 16,
+        "sac.eval_episode_length": 500,
+        "sac.checkpoint_interval": 50_000,
+    },
+    # The fast path: thousands of robots on one GPU.
+    "gpu": {
+        "sac.num_envs": 4_096,
+        "sac.num_timesteps": 10_000_000,
+        "sac.episode_length": 1_000,
+        "sac.batch_size": 8_192,
+        "sac.updates_per_step": 1,
+        "sac.replay_size": 4_000_000,
+        "sac.min_replay_size": 65_536,
+        "sac.hidden_sizes.policy": (256, 256),
+        "sac.hidden_sizes.q": (256, 256),
+        "sac.reward_scaling": 0.1,
+        "sac.learning_rate.actor": 1e-3,
+        "sac.learning_rate.critic": 1e-3,
+        "sac.learning_rate.alpha": 1e-3,
+        "sac.steps_per_chunk": 50,
+        "sac.eval_interval": 500_000,
+        "sac.num_eval_envs": 1_024,
+        "sac.eval_episode_length": 1_000,
+        "sac.checkpoint_interval": 2_000_000,
+    },
+}
+
+# Short flags -> the config key each one sets.
+FLAGS = {
+    "terrain": "env.terrain",
+    "num_envs": "sac.num_envs",
+    "num_timesteps": "sac.num_timesteps",
+    "seed": "sac.seed",
+    "reward": "env.reward_variant",
+    "controller": "env.controller",
+    "save_replay": "sac.save_replay",
+}
+
+
+class UsageError(ValueError):
+    """A user error on the command line: reported as one line, exit status 2."""
+
+
+def default_config() -> ml_collections.ConfigDict:
+    """The whole run's config: {"env": env config, "sac": trainer config}."""
+    from quadcos.training.config import default_config as sac_config
+
+    config = ml_collections.ConfigDict()
+    config.env = env_lib.default_config()
+    config.sac = sac_config()
+    return config
+
+
+def _parse_value(text: str) -> Any:
+    """A flag value as a Python literal when it is one (1e-3, (64, 64), True), else a string."""
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m quadcos.train",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=(
+            "Any config value: --config.KEY=VALUE, e.g. --config.sac.batch_size=1024, "
+            "--config.env.control_dt=0.01, --config.sac.hidden_sizes.policy='(64, 64)'. "
+            "Known keys: --print_config."
+        ),
+    )
+    parser.add_argument("--terrain", help=f"terrain name or spec: {', '.join(terrain_lib.names())} or sections:ANGLE@LENGTH,... (default: flat)")
+    parser.add_argument("--num_envs", type=int, help="parallel training envs")
+    parser.add_argument("--num_timesteps", type=int, help="total env steps (raise it with --resume to extend a run)")
+    parser.add_argument("--seed", type=int, help="seed of everything random")
+    parser.add_argument("--output_dir", help="run directory (config, metrics, checkpoints, policy)")
+    parser.add_argument("--resume", action="store_true", help="continue from the latest good checkpoint in --output_dir")
+    parser.add_argument("--save_replay", action="store_true", help="store the replay buffer in checkpoints (exact resume)")
+    parser.add_argument("--reward", choices=("full", "xy"), help="full: Eq. 13; xy: Fig. 9's r_xy ablation")
+    parser.add_argument("--controller", choices=env_lib.CONTROLLERS, help="oscillator (paper) or joint (DRL-only baseline)")
+    parser.add_argument("--preset", choices=tuple(PRESETS), default="cpu", help="sizes for: smoke (tiny test run), cpu (default), gpu")
+    parser.add_argument("--print_config", action="store_true", help="print the resolved config as JSON and exit")
+    parser.add_argument("--no_progress", action="store_true", help="plain log lines even on a terminal")
+    return parser
+
+
+def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
+    """Parse the command line into (flags, the config overrides it names). Raises UsageError."""
+    parser = _parser()
+    parser.error = _raise_usage_error  # one line, no SystemExit from inside the library
+    args, rest = parser.parse_known_args(argv)
+    overrides = {}
+    for flag, key in FLAGS.items():
+        value = getattr(args, flag)
+        if value is not None and value is not False:
+            overrides[key] = value
+    for item in rest:
+        if not item.startswith("--config.") or "=" not in item:
+            raise UsageError(f"unrecognised argument {item!r} (config overrides look like --config.sac.batch_size=1024)")
+        key, text = item[len("--config."):].split("=", 1)
+        overrides[key] = _parse_value(text)
+    return args, overrides
+
+
+def _raise_usage_error(message: str):
+    raise UsageError(message)
+
+
+def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collections.ConfigDict:
+    """default_config() with `base` then `overrides` applied; checks the terrain spec too."""
+    try:
+        config = apply_overrides(apply_overrides(default_config(), base), overrides)
+        terrain_lib.parse(config.env.terrain)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    return config
+
+
+def _check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
+    if run_dir is None:
+        raise UsageError("--output_dir is required")
+    if not resume and run_dir.exists() and any(run_dir.iterdir()):
+        raise UsageError(f"--output_dir {run_dir} already holds files; pass --resume to continue that run, or choose another directory")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """CLI entry point; returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        args, overrides = resolve(argv)
+        run_dir = pathlib.Path(args.output_dir) if args.output_dir else None
+        if args.resume:
+            config = build_config(_saved_config(run_dir), overrides)
+        else:
+            config = build_config(PRESETS[args.preset], overrides)
+        if args.print_config:
+            print(json.dumps(config.to_dict(), indent=2))
+            return 0
+        _check_output_dir(run_dir, args.resume)
+        env = env_lib.QuadrupedEnv(config.env.terrain, ml_collections.ConfigDict(config.env.to_dict()))
+    except (UsageError, ValueError, FileNotFoundError) as error:
+        print(f"quadcos.train: error: {error}", file=sys.stderr)
+        return 2
+
+    os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
+    from quadcos import training
+
+    try:
+        training.train(
+            env,
+            config.sac,
+            run_dir,
+            resume=args.resume,
+            progress=not args.no_progress,
+            extra_run_info={"env": config.env.to_dict(), "argv": argv},
+        )
+    except training.TrainingError as error:
+        print(f"quadcos.train: error: {error}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
+    """The flattened config a run was started with (its config.json), to resume it as it was."""
+    path = run_dir / "config.json" if run_dir else None
+    if path is None or not path.is_file():
+        raise UsageError(f"--resume: {run_dir} holds no run to resume (no config.json)")
+    try:
+        saved = json.loads(path.read_text())
+        tree = {"env": saved["run_info"]["env"], "sac": saved["sac"]}
+    except (ValueError, KeyError, TypeError) as error:
+        raise UsageError(f"--resume: {path} is not a quadcos run config ({error})") from None
+    known = set(flat_keys(default_config()))
+    return {key: value for key, value in _flatten(tree).items() if key in known}
+
+
+def _flatten(tree: dict, prefix: str = "") -> dict[str, Any]:
+    flat = {}
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            flat |= _flatten(value, f"{prefix}{key}.")
+        else:
+            flat[f"{prefix}{key}"] = tuple(value) if isinstance(value, list) else value
+    return flat
+
+
+if __name__ == "__main__":
+    sys.exit(main())
