@@ -216,7 +216,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             progress=not args.no_progress,
             extra_run_info={"env": config.env.to_dict(), "argv": argv},
         )
-    except training.TrainingError as error:
+    except training.NonFiniteLossError as error:
         print(f"quadcos.train: error: {error}", file=sys.stderr)
         return 1
     return 0
@@ -229,7 +229,7 @@ def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
         raise UsageError(f"--resume: {run_dir} holds no run to resume (no config.json)")
     try:
         saved = json.loads(path.read_text())
-        tree = {"env": saved["run_info"]["env"], "sac": saved["sac"]}
+        tree = {"env": saved["run_info"]["env"], "sac": saved["config"]}
     except (ValueError, KeyError, TypeError) as error:
         raise UsageError(f"--resume: {path} is not a quadcos run config ({error})") from None
     known = set(flat_keys(default_config()))

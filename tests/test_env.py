@@ -13,7 +13,7 @@ import quadcos
 from quadcos import constants, oscillator
 from quadcos import terrain as terrain_lib
 
-CONTROL_STEPS_10_S = 500  # 10 s at the default 50 Hz control
+CONTROL_STEPS_10_S = 200  # 10 s at the default 20 Hz control
 RAMP_DEGREES = (-9.0, -5.0, 0.0, 5.0, 9.0)
 RAMP_BAND = 2.0  # m: width in y of each ramp of the estimator test terrain
 
@@ -52,7 +52,7 @@ def fixed_trot_run(flat_env, flat_reset):
 def test_sizes(flat_env):
     assert flat_env.observation_size == 14  # v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8
     assert flat_env.action_size == 5
-    assert flat_env.dt == pytest.approx(0.02)
+    assert flat_env.dt == pytest.approx(0.05)
 
 
 def test_optional_observations_and_joint_controller():
@@ -117,7 +117,7 @@ def test_estimator_on_ramps_within_one_degree():
     keys = jax.random.split(jax.random.PRNGKey(3), len(ys))
     state = jax.jit(jax.vmap(env.reset_at))(keys, jnp.zeros(len(ys)), jnp.asarray(ys, jnp.float32))
     stand = jnp.zeros((len(ys), 5))  # A_h = A_k = 0: every joint target stays 0
-    final, trace = rollout(env, 75)(state, stand)  # 1.5 s to settle
+    final, trace = rollout(env, 30)(state, stand)  # 1.5 s to settle
     assert not np.asarray(trace.done).any()
     estimate = np.rad2deg(np.asarray(final.metrics["slope_estimate"]))
     truth = np.rad2deg(np.asarray(final.metrics["slope_truth"]))
@@ -131,7 +131,7 @@ def test_estimator_on_ramps_within_one_degree():
         ({"controller": "cpg"}, "unknown controller 'cpg'"),
         ({"oscillator_form": "x"}, "unknown oscillator_form 'x'"),
         ({"reward_variant": "yx"}, "unknown reward_variant 'yx'"),
-        ({"control_dt": 0.021}, "whole multiple of physics_dt"),
+        ({"control_dt": 0.052}, "whole multiple of physics_dt"),
         ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
     ],
 )

@@ -1,0 +1,112 @@
+"""`python -m quadcos.train`: a smoke run end to end, resume, and one-line errors for bad input."""
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import quadcos
+from quadcos import train
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "JAX_COMPILATION_CACHE_DIR": str(ROOT / ".jax_cache")}
+    return subprocess.run(
+        [sys.executable, "-m", "quadcos.train", *args], capture_output=True, text=True, env=env, cwd=ROOT, timeout=900
+    )
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("runs") / "smoke"
+    result = run_cli("--preset=smoke", f"--output_dir={run_dir}", "--no_progress", "--seed=3")
+    assert result.returncode == 0, result.stderr[-3000:]
+    return run_dir
+
+
+@pytest.mark.slow
+def test_smoke_run_writes_a_complete_run_directory(smoke_run):
+    config = json.loads((smoke_run / "config.json").read_text())
+    assert config["config"]["seed"] == 3
+    assert config["run_info"]["env"]["terrain"] == "flat"
+    assert {"jax", "brax", "mujoco"} <= set(config["versions"])
+    rows = [json.loads(line) for line in (smoke_run / "metrics.jsonl").read_text().splitlines()]
+    for key in ("step", "wall_time_s", "eval/episode_reward", "eval/forward_speed", "eval/fall_rate",
+                "eval/episode_length", "eval/reward/orientation", "eval/slope_error"):
+        assert key in rows[-1], key
+    assert rows[-1]["step"] >= 1024
+    assert "env_steps_per_s" in rows[-1]
+    assert (smoke_run / "metrics.csv").is_file()
+    assert any((smoke_run / "checkpoints").iterdir())
+    policy = quadcos.load_policy(smoke_run)
+    action = np.asarray(policy.act(np.zeros(14, np.float32)))
+    assert action.shape == (5,) and np.all(np.abs(action) <= 1)
+
+
+@pytest.mark.slow
+def test_resume_extends_a_finished_run(smoke_run):
+    before = [json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()]
+    result = run_cli(f"--output_dir={smoke_run}", "--resume", "--num_timesteps=2048", "--no_progress")
+    assert result.returncode == 0, result.stderr[-3000:]
+    steps = [json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()]
+    assert steps[: len(before)] == before
+    assert steps[-1] >= 2048 and steps == sorted(steps)
+    config = json.loads((smoke_run / "config.json").read_text())
+    assert config["config"]["num_envs"] == 4  # the run's own preset survived the resume
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--bogus=1"], "unrecognised argument '--bogus=1'"),
+        (["--num_envs=many"], "invalid int value"),
+        (["--terrain=s5"], "unknown terrain 's5'"),
+        (["--terrain=sections:5@"], "bad section"),
+        (["--config.sac.nope=3"], "unknown config key 'sac.nope'"),
+        (["--config.sac.batch_size=big"], "sac.batch_size"),
+        (["--reward=yx"], "invalid choice"),
+        (["--preset=huge"], "invalid choice"),
+        ([], "--output_dir is required"),
+    ],
+)
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):
+    run_dir = tmp_path / "out"
+    argv = args + ([f"--output_dir={run_dir}"] if args else [])
+    assert train.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1, err
+    assert not run_dir.exists()
+
+
+def test_an_occupied_output_dir_is_refused(tmp_path, capsys):
+    (tmp_path / "config.json").write_text("{}")
+    assert train.main(["--preset=smoke", f"--output_dir={tmp_path}"]) == 2
+    assert "already holds files" in capsys.readouterr().err
+    assert (tmp_path / "config.json").read_text() == "{}"
+
+
+def test_resume_of_nothing_is_refused(tmp_path, capsys):
+    assert train.main([f"--output_dir={tmp_path / 'none'}", "--resume"]) == 2
+    assert "no run to resume" in capsys.readouterr().err
+
+
+def test_help_documents_every_flag(capsys):
+    with pytest.raises(SystemExit):
+        train.main(["--help"])
+    text = capsys.readouterr().out
+    for flag in ("--terrain", "--num_envs", "--num_timesteps", "--seed", "--output_dir", "--resume",
+                 "--reward", "--controller", "--preset", "--config.KEY=VALUE"):
+        assert flag in text, flag
+
+
+def test_print_config_resolves_presets_and_overrides(capsys):
+    assert train.main(["--preset=gpu", "--config.sac.batch_size=1024", "--terrain=s4", "--print_config"]) == 0
+    config = json.loads(capsys.readouterr().out)
+    assert config["sac"]["batch_size"] == 1024 and config["sac"]["num_envs"] == 4096
+    assert config["env"]["terrain"] == "s4"
