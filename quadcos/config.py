@@ -7,7 +7,9 @@ from typing import Any
 import ml_collections
 
 
-def apply_overrides(config: ml_collections.ConfigDict, overrides: Mapping[str, Any]) -> ml_collections.ConfigDict:
+def apply_overrides(
+    config: ml_collections.ConfigDict, overrides: Mapping[str, Any]
+) -> ml_collections.ConfigDict:
     """Return a copy of `config` with `overrides` ({"sac.batch_size": 256, ...}) applied.
 
     Raises:

@@ -11,7 +11,6 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 import ml_collections
-import mujoco
 from brax.envs import base
 from mujoco import mjx
 
@@ -199,9 +198,13 @@ class QuadrupedEnv(base.Env):
             return oscillator.cosine_rhythm(
                 time, params.amplitude_hip, params.amplitude_knee, params.period, phases
             )
-        return oscillator.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
+        return oscillator.rhythm_at_phase(
+            phase, params.amplitude_hip, params.amplitude_knee, phases
+        )
 
-    def _actuate(self, data: mjx.Data, phase: jax.Array, action: jax.Array) -> tuple[mjx.Data, jax.Array]:
+    def _actuate(
+        self, data: mjx.Data, phase: jax.Array, action: jax.Array
+    ) -> tuple[mjx.Data, jax.Array]:
         period = oscillator.action_to_parameters(action, self.config.period_min).period
         dt = self.config.physics_dt
 
@@ -256,7 +259,9 @@ _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error"
 
 def _validate(config: ml_collections.ConfigDict) -> None:
     if config.controller not in CONTROLLERS:
-        raise ValueError(f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}")
+        raise ValueError(
+            f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}"
+        )
     if config.oscillator_form not in OSCILLATOR_FORMS:
         raise ValueError(
             f"unknown oscillator_form {config.oscillator_form!r}; known: {', '.join(OSCILLATOR_FORMS)}"
@@ -266,14 +271,18 @@ def _validate(config: ml_collections.ConfigDict) -> None:
             f"unknown reward_variant {config.reward_variant!r}; known: {', '.join(reward.VARIANTS)}"
         )
     if not (config.physics_dt > 0 and config.control_dt > 0):
-        raise ValueError(f"control_dt and physics_dt must be > 0; got {config.control_dt}, {config.physics_dt}")
+        raise ValueError(
+            f"control_dt and physics_dt must be > 0; got {config.control_dt}, {config.physics_dt}"
+        )
     ratio = config.control_dt / config.physics_dt
     if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
         raise ValueError(
             f"control_dt {config.control_dt} must be a whole multiple of physics_dt {config.physics_dt}"
         )
     if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
-        raise ValueError(f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}")
+        raise ValueError(
+            f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"
+        )
 
 
 def make_env(terrain: terrain_lib.Terrain | str | None = None, **overrides: Any) -> QuadrupedEnv:

@@ -91,7 +91,9 @@ def trot_phases(phi1: jnp.ndarray, phi3: jnp.ndarray) -> jnp.ndarray:
     Returns:
       (..., 8) phases φ0..φ7, rad.
     """
-    phi1, phi3 = jnp.broadcast_arrays(jnp.asarray(phi1, jnp.float32), jnp.asarray(phi3, jnp.float32))
+    phi1, phi3 = jnp.broadcast_arrays(
+        jnp.asarray(phi1, jnp.float32), jnp.asarray(phi3, jnp.float32)
+    )
     zero = jnp.zeros_like(phi1)
     pi = jnp.full_like(phi1, jnp.pi)
     return jnp.stack([zero, phi1, pi, phi3, pi, phi3, zero, phi1], axis=-1)

@@ -38,7 +38,9 @@ def survival(weights: RewardWeights) -> jnp.ndarray:
     return jnp.asarray(weights.survival)
 
 
-def forward_progress(x_now: jnp.ndarray, x_last: jnp.ndarray, weights: RewardWeights) -> jnp.ndarray:
+def forward_progress(
+    x_now: jnp.ndarray, x_last: jnp.ndarray, weights: RewardWeights
+) -> jnp.ndarray:
     """Eq. 10 (the paper's r_y): w1 (x_now − x_last), metres along the walking direction."""
     return weights.forward * (x_now - x_last)
 

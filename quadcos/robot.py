@@ -73,4 +73,6 @@ def build_model(
         return spec.compile()
     except Exception as error:
         path = mjcf_path if mjcf_path is not None else constants.MJCF_PATH
-        raise ValueError(f"MJCF {path} failed to compile on terrain {terrain.name!r}: {error}") from None
+        raise ValueError(
+            f"MJCF {path} failed to compile on terrain {terrain.name!r}: {error}"
+        ) from None

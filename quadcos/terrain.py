@@ -357,8 +357,7 @@ def sections(
             )
         if abs(angle_deg) > _MAX_SECTION_ANGLE:
             raise ValueError(
-                f"segment {index} angle_deg must be within ±{_MAX_SECTION_ANGLE:g},"
-                f" got {angle_deg}"
+                f"segment {index} angle_deg must be within ±{_MAX_SECTION_ANGLE:g}, got {angle_deg}"
             )
         lengths.append(length)
         angles_deg.append(angle_deg)

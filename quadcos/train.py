@@ -131,18 +131,46 @@ def _parser() -> argparse.ArgumentParser:
             "Known keys: --print_config."
         ),
     )
-    parser.add_argument("--terrain", help=f"terrain name or spec: {', '.join(terrain_lib.names())} or sections:ANGLE@LENGTH,... (default: flat)")
+    parser.add_argument(
+        "--terrain",
+        help=f"terrain name or spec: {', '.join(terrain_lib.names())} or sections:ANGLE@LENGTH,... (default: flat)",
+    )
     parser.add_argument("--num_envs", type=int, help="parallel training envs")
-    parser.add_argument("--num_timesteps", type=int, help="total env steps (raise it with --resume to extend a run)")
+    parser.add_argument(
+        "--num_timesteps", type=int, help="total env steps (raise it with --resume to extend a run)"
+    )
     parser.add_argument("--seed", type=int, help="seed of everything random")
     parser.add_argument("--output_dir", help="run directory (config, metrics, checkpoints, policy)")
-    parser.add_argument("--resume", action="store_true", help="continue from the latest good checkpoint in --output_dir")
-    parser.add_argument("--save_replay", action="store_true", help="store the replay buffer in checkpoints (exact resume)")
-    parser.add_argument("--reward", choices=("full", "xy"), help="full: Eq. 13; xy: Fig. 9's r_xy ablation")
-    parser.add_argument("--controller", choices=env_lib.CONTROLLERS, help="oscillator (paper) or joint (DRL-only baseline)")
-    parser.add_argument("--preset", choices=tuple(PRESETS), default="cpu", help="sizes for: smoke (tiny test run), cpu (default), gpu")
-    parser.add_argument("--print_config", action="store_true", help="print the resolved config as JSON and exit")
-    parser.add_argument("--no_progress", action="store_true", help="plain log lines even on a terminal")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue from the latest good checkpoint in --output_dir",
+    )
+    parser.add_argument(
+        "--save_replay",
+        action="store_true",
+        help="store the replay buffer in checkpoints (exact resume)",
+    )
+    parser.add_argument(
+        "--reward", choices=("full", "xy"), help="full: Eq. 13; xy: Fig. 9's r_xy ablation"
+    )
+    parser.add_argument(
+        "--controller",
+        choices=env_lib.CONTROLLERS,
+        help="oscillator (paper) or joint (DRL-only baseline)",
+    )
+    parser.add_argument(
+        "--preset",
+        choices=tuple(PRESETS),
+        default="cpu",
+        help="sizes for: smoke (tiny test run), cpu (default), gpu",
+    )
+    parser.add_argument(
+        "--print_config", action="store_true", help="print the resolved config as JSON and exit"
+    )
+    parser.add_argument(
+        "--no_progress", action="store_true", help="plain log lines even on a terminal"
+    )
     return parser
 
 
@@ -158,8 +186,10 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
             overrides[key] = value
     for item in rest:
         if not item.startswith("--config.") or "=" not in item:
-            raise UsageError(f"unrecognised argument {item!r} (config overrides look like --config.sac.batch_size=1024)")
-        key, text = item[len("--config."):].split("=", 1)
+            raise UsageError(
+                f"unrecognised argument {item!r} (config overrides look like --config.sac.batch_size=1024)"
+            )
+        key, text = item[len("--config.") :].split("=", 1)
         overrides[key] = _parse_value(text)
     return args, overrides
 
@@ -182,7 +212,9 @@ def _check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
     if run_dir is None:
         raise UsageError("--output_dir is required")
     if not resume and run_dir.exists() and any(run_dir.iterdir()):
-        raise UsageError(f"--output_dir {run_dir} already holds files; pass --resume to continue that run, or choose another directory")
+        raise UsageError(
+            f"--output_dir {run_dir} already holds files; pass --resume to continue that run, or choose another directory"
+        )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -199,7 +231,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(json.dumps(config.to_dict(), indent=2))
             return 0
         _check_output_dir(run_dir, args.resume)
-        env = env_lib.QuadrupedEnv(config.env.terrain, ml_collections.ConfigDict(config.env.to_dict()))
+        env = env_lib.QuadrupedEnv(
+            config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
+        )
     except (UsageError, ValueError, FileNotFoundError) as error:
         print(f"quadcos.train: error: {error}", file=sys.stderr)
         return 2

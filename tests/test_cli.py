@@ -16,9 +16,18 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "JAX_COMPILATION_CACHE_DIR": str(ROOT / ".jax_cache")}
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "JAX_COMPILATION_CACHE_DIR": str(ROOT / ".jax_cache"),
+    }
     return subprocess.run(
-        [sys.executable, "-m", "quadcos.train", *args], capture_output=True, text=True, env=env, cwd=ROOT, timeout=900
+        [sys.executable, "-m", "quadcos.train", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+        timeout=900,
     )
 
 
@@ -37,8 +46,16 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
     assert config["run_info"]["env"]["terrain"] == "flat"
     assert {"jax", "brax", "mujoco"} <= set(config["versions"])
     rows = [json.loads(line) for line in (smoke_run / "metrics.jsonl").read_text().splitlines()]
-    for key in ("step", "wall_time_s", "eval/episode_reward", "eval/forward_speed", "eval/fall_rate",
-                "eval/episode_length", "eval/reward/orientation", "eval/slope_error"):
+    for key in (
+        "step",
+        "wall_time_s",
+        "eval/episode_reward",
+        "eval/forward_speed",
+        "eval/fall_rate",
+        "eval/episode_length",
+        "eval/reward/orientation",
+        "eval/slope_error",
+    ):
         assert key in rows[-1], key
     assert rows[-1]["step"] >= 1024
     assert "env_steps_per_s" in rows[-1]
@@ -51,10 +68,16 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
 
 @pytest.mark.slow
 def test_resume_extends_a_finished_run(smoke_run):
-    before = [json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()]
-    result = run_cli(f"--output_dir={smoke_run}", "--resume", "--num_timesteps=2048", "--no_progress")
+    before = [
+        json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()
+    ]
+    result = run_cli(
+        f"--output_dir={smoke_run}", "--resume", "--num_timesteps=2048", "--no_progress"
+    )
     assert result.returncode == 0, result.stderr[-3000:]
-    steps = [json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()]
+    steps = [
+        json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()
+    ]
     assert steps[: len(before)] == before
     assert steps[-1] >= 2048 and steps == sorted(steps)
     config = json.loads((smoke_run / "config.json").read_text())
@@ -100,13 +123,28 @@ def test_help_documents_every_flag(capsys):
     with pytest.raises(SystemExit):
         train.main(["--help"])
     text = capsys.readouterr().out
-    for flag in ("--terrain", "--num_envs", "--num_timesteps", "--seed", "--output_dir", "--resume",
-                 "--reward", "--controller", "--preset", "--config.KEY=VALUE"):
+    for flag in (
+        "--terrain",
+        "--num_envs",
+        "--num_timesteps",
+        "--seed",
+        "--output_dir",
+        "--resume",
+        "--reward",
+        "--controller",
+        "--preset",
+        "--config.KEY=VALUE",
+    ):
         assert flag in text, flag
 
 
 def test_print_config_resolves_presets_and_overrides(capsys):
-    assert train.main(["--preset=gpu", "--config.sac.batch_size=1024", "--terrain=s4", "--print_config"]) == 0
+    assert (
+        train.main(
+            ["--preset=gpu", "--config.sac.batch_size=1024", "--terrain=s4", "--print_config"]
+        )
+        == 0
+    )
     config = json.loads(capsys.readouterr().out)
     assert config["sac"]["batch_size"] == 1024 and config["sac"]["num_envs"] == 4096
     assert config["env"]["terrain"] == "s4"

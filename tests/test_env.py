@@ -65,9 +65,19 @@ def test_reset_is_finite_and_standing(flat_env, flat_reset):
     state = flat_reset(jax.random.split(jax.random.PRNGKey(1), 3))
     assert state.obs.shape == (3, 14)
     assert np.isfinite(state.obs).all()
-    np.testing.assert_allclose(state.pipeline_state.qpos[:, 2], constants.STANDING_HEIGHT, atol=0.01)
-    assert set(state.metrics) >= {"reward/fall", "reward/survival", "reward/forward", "reward/lateral",
-                                  "reward/orientation", "forward_speed", "slope_estimate", "slope_truth"}
+    np.testing.assert_allclose(
+        state.pipeline_state.qpos[:, 2], constants.STANDING_HEIGHT, atol=0.01
+    )
+    assert set(state.metrics) >= {
+        "reward/fall",
+        "reward/survival",
+        "reward/forward",
+        "reward/lateral",
+        "reward/orientation",
+        "forward_speed",
+        "slope_estimate",
+        "slope_truth",
+    }
 
 
 def test_fixed_trot_walks_forward_for_10_s(fixed_trot_run):
@@ -85,7 +95,9 @@ def test_reward_terms_while_walking(fixed_trot_run):
     assert (metrics["reward/fall"] == 0.0).all()
     assert metrics["reward/forward"].sum(0).min() > 0  # net progress along +x
     assert (metrics["reward/lateral"] <= 0).all() and (metrics["reward/orientation"] <= 0).all()
-    total = sum(metrics[f"reward/{t}"] for t in ("fall", "survival", "forward", "lateral", "orientation"))
+    total = sum(
+        metrics[f"reward/{t}"] for t in ("fall", "survival", "forward", "lateral", "orientation")
+    )
     np.testing.assert_allclose(total, np.asarray(trace.reward), rtol=1e-5, atol=1e-4)
     np.testing.assert_allclose(metrics["forward_speed"].mean(), 0.5, atol=0.3)
 
@@ -104,14 +116,18 @@ def test_a_fall_ends_the_episode_with_the_penalty(flat_env, flat_reset):
 
 def _ramps(x, y):
     """Side-by-side planes through the origin, one per slope, each RAMP_BAND wide in y."""
-    band = np.clip(np.round(y / RAMP_BAND).astype(int) + len(RAMP_DEGREES) // 2, 0, len(RAMP_DEGREES) - 1)
+    band = np.clip(
+        np.round(y / RAMP_BAND).astype(int) + len(RAMP_DEGREES) // 2, 0, len(RAMP_DEGREES) - 1
+    )
     return np.tan(np.deg2rad(np.asarray(RAMP_DEGREES)))[band] * x
 
 
 def test_estimator_on_ramps_within_one_degree():
     """Robots standing still on 0°, ±5°, ±9° ramps estimate the slope within 1° (Eq. 5)."""
     half = RAMP_BAND * len(RAMP_DEGREES) / 2
-    ramps = terrain_lib.heightfield(_ramps, x_range=(-3.0, 3.0), y_range=(-half, half), name="ramps")
+    ramps = terrain_lib.heightfield(
+        _ramps, x_range=(-3.0, 3.0), y_range=(-half, half), name="ramps"
+    )
     env = quadcos.make_env(ramps)
     ys = RAMP_BAND * (np.arange(len(RAMP_DEGREES)) - len(RAMP_DEGREES) // 2)
     keys = jax.random.split(jax.random.PRNGKey(3), len(ys))

@@ -30,7 +30,9 @@ def test_matches_numpy_eq3_at_random_inputs():
     got = np.asarray(
         jax.jit(oscillator.cosine_rhythm)(t, amplitude_hip, amplitude_knee, period, phases)
     )
-    want = np.stack([numpy_eq3(*args) for args in zip(t, amplitude_hip, amplitude_knee, period, phases)])
+    want = np.stack(
+        [numpy_eq3(*args) for args in zip(t, amplitude_hip, amplitude_knee, period, phases)]
+    )
     # float32: 2πt/T reaches ~600 rad, so the argument carries ~4e-5 rad of rounding.
     np.testing.assert_allclose(got, want, atol=2e-4)
 
@@ -58,13 +60,19 @@ def test_trot_table():
 
 def test_trot_gait_table_equals_trot_phases():
     np.testing.assert_allclose(
-        oscillator.gait_phases("trot"), np.mod(oscillator.trot_phases(np.pi / 2, 3 * np.pi / 2), 2 * np.pi), atol=1e-5
+        oscillator.gait_phases("trot"),
+        np.mod(oscillator.trot_phases(np.pi / 2, 3 * np.pi / 2), 2 * np.pi),
+        atol=1e-5,
     )
 
 
 @pytest.mark.parametrize(
     "gait, in_phase, anti_phase",
-    [("pace", [(0, 2), (1, 3)], [(0, 1)]), ("bound", [(0, 1), (2, 3)], [(0, 2)]), ("pronk", [(0, 1), (2, 3), (0, 3)], [])],
+    [
+        ("pace", [(0, 2), (1, 3)], [(0, 1)]),
+        ("bound", [(0, 1), (2, 3)], [(0, 2)]),
+        ("pronk", [(0, 1), (2, 3), (0, 3)], []),
+    ],
 )
 def test_other_gait_tables(gait, in_phase, anti_phase):
     hips = np.asarray(oscillator.gait_phases(gait))[0::2]
@@ -89,8 +97,12 @@ def test_action_bounds():
     params = oscillator.action_to_parameters(corners)
     np.testing.assert_allclose(params.amplitude_knee, [-0.5, 0.5, 0.5, -0.5])
     np.testing.assert_allclose(params.amplitude_hip, [-0.5, 0.5, 0.5, -0.5])
-    np.testing.assert_allclose(params.period, [oscillator.PERIOD_MIN, 2.0, 2.0, oscillator.PERIOD_MIN], rtol=1e-6)
-    np.testing.assert_allclose(params.phi1, [-2 * np.pi, 2 * np.pi, 2 * np.pi, -2 * np.pi], rtol=1e-6)
+    np.testing.assert_allclose(
+        params.period, [oscillator.PERIOD_MIN, 2.0, 2.0, oscillator.PERIOD_MIN], rtol=1e-6
+    )
+    np.testing.assert_allclose(
+        params.phi1, [-2 * np.pi, 2 * np.pi, 2 * np.pi, -2 * np.pi], rtol=1e-6
+    )
     assert float(params.period.min()) > 0
 
 
@@ -113,8 +125,12 @@ def test_phase_form_equals_literal_form_while_period_is_constant():
 def test_phase_form_is_continuous_when_period_changes():
     phases = oscillator.trot_phases(np.pi / 2, -np.pi / 2)
     t, dt = 1.3, 0.004
-    jump = oscillator.cosine_rhythm(t, 0.5, 0.5, 1.5, phases) - oscillator.cosine_rhythm(t, 0.5, 0.5, 0.5, phases)
+    jump = oscillator.cosine_rhythm(t, 0.5, 0.5, 1.5, phases) - oscillator.cosine_rhythm(
+        t, 0.5, 0.5, 0.5, phases
+    )
     phase = 2 * np.pi * t / 1.5
-    step = oscillator.rhythm_at_phase(oscillator.advance_phase(phase, 0.5, dt), 0.5, 0.5, phases) - oscillator.rhythm_at_phase(phase, 0.5, 0.5, phases)
+    step = oscillator.rhythm_at_phase(
+        oscillator.advance_phase(phase, 0.5, dt), 0.5, 0.5, phases
+    ) - oscillator.rhythm_at_phase(phase, 0.5, 0.5, phases)
     assert float(np.abs(jump).max()) > 0.2  # the literal form jumps
     assert float(np.abs(step).max()) < 0.05  # the integrated one does not

@@ -6,7 +6,9 @@ import pytest
 
 from quadcos import reward
 
-WALK = dict(x_now=1.01, x_last=1.0, y_now=0.002, y_last=0.0, pitch=0.1, yaw=-0.05, roll=0.02, slope=0.08)
+WALK = dict(
+    x_now=1.01, x_last=1.0, y_now=0.002, y_last=0.0, pitch=0.1, yaw=-0.05, roll=0.02, slope=0.08
+)
 
 
 def test_paper_defaults():
@@ -49,7 +51,9 @@ def test_xy_variant_keeps_only_progress_terms():
 
 def test_batched_under_vmap():
     batch = {k: np.full(7, v) for k, v in WALK.items()}
-    terms = jax.vmap(lambda b, f: reward.reward_terms(**b, fell=f))(batch, np.array([0, 1, 0, 0, 1, 0, 0]))
+    terms = jax.vmap(lambda b, f: reward.reward_terms(**b, fell=f))(
+        batch, np.array([0, 1, 0, 0, 1, 0, 0])
+    )
     total = sum(terms.values())
     assert total.shape == (7,)
     assert float(total[1]) == -100.0

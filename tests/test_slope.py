@@ -23,11 +23,15 @@ def test_slope_angle_random_against_arctan():
     np.testing.assert_allclose(slope.slope_angle(a, b), want, atol=1e-5)
 
 
-@pytest.mark.parametrize("roll, pitch_down, yaw", [(0.1, -0.2, 0.3), (-0.3, 0.15, -1.0), (0.0, 0.0, 2.0)])
+@pytest.mark.parametrize(
+    "roll, pitch_down, yaw", [(0.1, -0.2, 0.3), (-0.3, 0.15, -1.0), (0.0, 0.0, 2.0)]
+)
 def test_attitude_matches_scipy_zyx(roll, pitch_down, yaw):
     x, y, z, w = Rotation.from_euler("ZYX", [yaw, pitch_down, roll]).as_quat()
     body = slope.attitude(np.array([w, x, y, z]))
-    np.testing.assert_allclose([body.roll, body.pitch, body.yaw], [roll, -pitch_down, yaw], atol=1e-5)
+    np.testing.assert_allclose(
+        [body.roll, body.pitch, body.yaw], [roll, -pitch_down, yaw], atol=1e-5
+    )
 
 
 def test_forward_kinematics_matches_mujoco():

@@ -84,9 +84,7 @@ def test_slope_is_right_continuous_at_kinks():
     np.testing.assert_allclose(s4.slope_at(kinks, 0.0), entered, atol=ATOL_ANGLE)
     np.testing.assert_allclose(s4.slope_at(kinks - 1e-3, 0.0), left, atol=ATOL_ANGLE)
     # Heights are continuous across the kinks.
-    np.testing.assert_allclose(
-        s4.height_at(kinks - 1e-4, 0.0), s4.height_at(kinks, 0.0), atol=2e-5
-    )
+    np.testing.assert_allclose(s4.height_at(kinks - 1e-4, 0.0), s4.height_at(kinks, 0.0), atol=2e-5)
 
 
 def test_flat_is_zero_everywhere():
@@ -229,8 +227,32 @@ def test_bad_specs_raise_naming_the_problem(spec, message):
     assert message in str(error.value)
 
 
-SPEC_PIECES = ["5", "-5", "0", "1.4", "45", "46", "1e9", "1e-300", "1e308", "nan", "inf", "-1",
-               "x", " ", "@", "@", ",", ",", ";", "=", "lead_in", "run_out", "resolution", ":"]
+SPEC_PIECES = [
+    "5",
+    "-5",
+    "0",
+    "1.4",
+    "45",
+    "46",
+    "1e9",
+    "1e-300",
+    "1e308",
+    "nan",
+    "inf",
+    "-1",
+    "x",
+    " ",
+    "@",
+    "@",
+    ",",
+    ",",
+    ";",
+    "=",
+    "lead_in",
+    "run_out",
+    "resolution",
+    ":",
+]
 
 
 @hypothesis.settings(max_examples=300, deadline=None)

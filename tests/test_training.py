@@ -25,301 +25,309 @@ CHUNK = 800
 # target; the optimum is about -0.4, uniform random actions get about -9.
 LEARNED_RETURN = -2.5
 # Keys whose values depend on timing, not on the computation.
-TIMING_KEYS = ('wall_time_s', 'env_steps_per_s')
+TIMING_KEYS = ("wall_time_s", "env_steps_per_s")
 
 
-@pytest.fixture(scope='module', autouse=True)
+@pytest.fixture(scope="module", autouse=True)
 def compilation_cache(tmp_path_factory):
-  """Shares compiled programs between the many `train` calls of this file."""
-  if jax.config.jax_compilation_cache_dir is None:
-    cache = Path(__file__).parents[1] / '.jax_cache'
-    jax.config.update('jax_compilation_cache_dir', str(cache))
-    jax.config.update('jax_persistent_cache_min_compile_time_secs', 0.2)
-  yield
+    """Shares compiled programs between the many `train` calls of this file."""
+    if jax.config.jax_compilation_cache_dir is None:
+        cache = Path(__file__).parents[1] / ".jax_cache"
+        jax.config.update("jax_compilation_cache_dir", str(cache))
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+    yield
 
 
 def toy_config(**overrides):
-  """Every test uses these shapes, so the compiled programs are shared."""
-  config = training.default_config()
-  config.num_envs = 16
-  config.episode_length = 20
-  config.batch_size = 128
-  config.replay_size = 20_000
-  config.min_replay_size = CHUNK
-  config.hidden_sizes.policy = (32, 32)
-  config.hidden_sizes.q = (32, 32)
-  config.learning_rate.actor = 1e-3
-  config.learning_rate.critic = 1e-3
-  config.learning_rate.alpha = 1e-3
-  config.discount = 0.9
-  config.reward_scaling = 5.0
-  config.steps_per_chunk = CHUNK // config.num_envs
-  config.num_eval_envs = 32
-  config.eval_episode_length = 20
-  config.num_timesteps = CHUNK + 4 * CHUNK
-  config.eval_interval = CHUNK
-  config.checkpoint_interval = 2 * CHUNK
-  config.keep_checkpoints = 3
-  for name, value in overrides.items():
-    config[name] = value
-  return config
+    """Every test uses these shapes, so the compiled programs are shared."""
+    config = training.default_config()
+    config.num_envs = 16
+    config.episode_length = 20
+    config.batch_size = 128
+    config.replay_size = 20_000
+    config.min_replay_size = CHUNK
+    config.hidden_sizes.policy = (32, 32)
+    config.hidden_sizes.q = (32, 32)
+    config.learning_rate.actor = 1e-3
+    config.learning_rate.critic = 1e-3
+    config.learning_rate.alpha = 1e-3
+    config.discount = 0.9
+    config.reward_scaling = 5.0
+    config.steps_per_chunk = CHUNK // config.num_envs
+    config.num_eval_envs = 32
+    config.eval_episode_length = 20
+    config.num_timesteps = CHUNK + 4 * CHUNK
+    config.eval_interval = CHUNK
+    config.checkpoint_interval = 2 * CHUNK
+    config.keep_checkpoints = 3
+    for name, value in overrides.items():
+        config[name] = value
+    return config
 
 
 def without_timing(rows):
-  return [
-      {name: value for name, value in row.items() if name not in TIMING_KEYS}
-      for row in rows
-  ]
+    return [{name: value for name, value in row.items() if name not in TIMING_KEYS} for row in rows]
 
 
 def random_policy_return(env: PointEnv, episodes: int = 256) -> float:
-  """Mean return of uniform random actions over eval-length episodes."""
-  key_reset, key_actions = jax.random.split(jax.random.PRNGKey(1))
-  state = jax.vmap(env.reset)(jax.random.split(key_reset, episodes))
-  actions = jax.random.uniform(
-      key_actions, (20, episodes, 1), minval=-1.0, maxval=1.0
-  )
+    """Mean return of uniform random actions over eval-length episodes."""
+    key_reset, key_actions = jax.random.split(jax.random.PRNGKey(1))
+    state = jax.vmap(env.reset)(jax.random.split(key_reset, episodes))
+    actions = jax.random.uniform(key_actions, (20, episodes, 1), minval=-1.0, maxval=1.0)
 
-  def step(state, action):
-    state = jax.vmap(env.step)(state, action)
-    return state, state.reward
+    def step(state, action):
+        state = jax.vmap(env.step)(state, action)
+        return state, state.reward
 
-  _, rewards = jax.lax.scan(step, state, actions)
-  return float(jnp.mean(jnp.sum(rewards, axis=0)))
+    _, rewards = jax.lax.scan(step, state, actions)
+    return float(jnp.mean(jnp.sum(rewards, axis=0)))
 
 
 # --- Learning ---------------------------------------------------------------
 
 
-@pytest.fixture(scope='module')
+@pytest.fixture(scope="module")
 def learned(tmp_path_factory):
-  run_dir = tmp_path_factory.mktemp('learned')
-  config = toy_config(num_timesteps=CHUNK + 10 * CHUNK, eval_interval=2 * CHUNK)
-  return training.train(PointEnv(), config, run_dir, progress=False)
+    run_dir = tmp_path_factory.mktemp("learned")
+    config = toy_config(num_timesteps=CHUNK + 10 * CHUNK, eval_interval=2 * CHUNK)
+    return training.train(PointEnv(), config, run_dir, progress=False)
 
 
 def test_learns_toy_task(learned):
-  random_return = random_policy_return(PointEnv())
-  final_return = learned.metrics['eval/episode_reward']
-  assert random_return < -6.0
-  assert final_return > LEARNED_RETURN
-  assert final_return > random_return + 5.0
-  assert learned.metrics['eval/fall_rate'] == 0.0
-  # reward/ metrics are per-episode sums, others per-step means.
-  assert learned.metrics['eval/reward/distance'] == pytest.approx(final_return)
-  assert 0.0 < learned.metrics['eval/distance'] < 0.2
+    random_return = random_policy_return(PointEnv())
+    final_return = learned.metrics["eval/episode_reward"]
+    assert random_return < -6.0
+    assert final_return > LEARNED_RETURN
+    assert final_return > random_return + 5.0
+    assert learned.metrics["eval/fall_rate"] == 0.0
+    # reward/ metrics are per-episode sums, others per-step means.
+    assert learned.metrics["eval/reward/distance"] == pytest.approx(final_return)
+    assert 0.0 < learned.metrics["eval/distance"] < 0.2
 
 
 def test_chunk_traced_once(learned):
-  assert learned.env_steps >= CHUNK + 3 * CHUNK
-  assert learned.chunk_traces == 1
+    assert learned.env_steps >= CHUNK + 3 * CHUNK
+    assert learned.chunk_traces == 1
 
 
 def test_run_files(learned):
-  run_dir = learned.run_dir
-  rows = [json.loads(line) for line in (run_dir / 'metrics.jsonl').open()]
-  assert rows == learned.history
-  steps = [row['step'] for row in rows]
-  assert steps == [0, 2 * CHUNK, 4 * CHUNK, 6 * CHUNK, 8 * CHUNK, 10 * CHUNK,
-                   11 * CHUNK]
-  for name in ('train/critic_loss', 'train/actor_loss', 'train/alpha_loss',
-               'train/alpha', 'train/nan_resets', 'env_steps_per_s'):
-    assert name in rows[-1]
-  csv_lines = (run_dir / 'metrics.csv').read_text().splitlines()
-  assert len(csv_lines) == len(rows) + 1
-  assert csv_lines[0].startswith('step,wall_time_s,env_steps_per_s')
-  info = json.loads((run_dir / 'config.json').read_text())
-  assert info['config']['num_envs'] == 16
-  assert 'jax' in info['versions'] and 'brax' in info['versions']
-  assert list((run_dir / 'tensorboard').iterdir())
-  with checkpoint.CheckpointStore(run_dir / 'checkpoints', 3) as store:
-    assert store.steps() == [8 * CHUNK, 10 * CHUNK, 11 * CHUNK]
+    run_dir = learned.run_dir
+    rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").open()]
+    assert rows == learned.history
+    steps = [row["step"] for row in rows]
+    assert steps == [0, 2 * CHUNK, 4 * CHUNK, 6 * CHUNK, 8 * CHUNK, 10 * CHUNK, 11 * CHUNK]
+    for name in (
+        "train/critic_loss",
+        "train/actor_loss",
+        "train/alpha_loss",
+        "train/alpha",
+        "train/nan_resets",
+        "env_steps_per_s",
+    ):
+        assert name in rows[-1]
+    csv_lines = (run_dir / "metrics.csv").read_text().splitlines()
+    assert len(csv_lines) == len(rows) + 1
+    assert csv_lines[0].startswith("step,wall_time_s,env_steps_per_s")
+    info = json.loads((run_dir / "config.json").read_text())
+    assert info["config"]["num_envs"] == 16
+    assert "jax" in info["versions"] and "brax" in info["versions"]
+    assert list((run_dir / "tensorboard").iterdir())
+    with checkpoint.CheckpointStore(run_dir / "checkpoints", 3) as store:
+        assert store.steps() == [8 * CHUNK, 10 * CHUNK, 11 * CHUNK]
 
 
 def test_policy_round_trip(learned):
-  policy = training.load_policy(learned.run_dir)
-  observations = jnp.array([[0.0, 0.5], [0.5, 0.0], [0.9, -0.4]])
-  actions = policy.act(observations)
-  assert actions.shape == (3, 1)
-  np.testing.assert_array_equal(actions, learned.policy.act(observations))
-  # Loose: GPUs may use TF32 matmuls, whose rounding depends on the batch.
-  np.testing.assert_allclose(
-      jax.jit(policy.act)(observations[0]), actions[0], atol=1e-2
-  )
-  # Left of the target it moves right, right of it it moves left.
-  assert actions[0, 0] > 0.0 > actions[2, 0], actions
-  assert policy.config['config']['hidden_sizes']['policy'] == [32, 32]
-  again = training.load_policy(learned.run_dir / 'policy')
-  np.testing.assert_array_equal(again.act(observations), actions)
+    policy = training.load_policy(learned.run_dir)
+    observations = jnp.array([[0.0, 0.5], [0.5, 0.0], [0.9, -0.4]])
+    actions = policy.act(observations)
+    assert actions.shape == (3, 1)
+    np.testing.assert_array_equal(actions, learned.policy.act(observations))
+    # Loose: GPUs may use TF32 matmuls, whose rounding depends on the batch.
+    np.testing.assert_allclose(jax.jit(policy.act)(observations[0]), actions[0], atol=1e-2)
+    # Left of the target it moves right, right of it it moves left.
+    assert actions[0, 0] > 0.0 > actions[2, 0], actions
+    assert policy.config["config"]["hidden_sizes"]["policy"] == [32, 32]
+    again = training.load_policy(learned.run_dir / "policy")
+    np.testing.assert_array_equal(again.act(observations), actions)
 
 
 # --- Resume -----------------------------------------------------------------
 
 
-@pytest.fixture(scope='module')
+@pytest.fixture(scope="module")
 def resumed_runs(tmp_path_factory):
-  """The same 4 chunks run straight through and as 2 + 2 with a resume."""
-  straight = tmp_path_factory.mktemp('straight')
-  split = tmp_path_factory.mktemp('split')
-  config = toy_config(save_replay=True)
-  training.train(PointEnv(), config, straight, progress=False)
-  first = training.train(
-      PointEnv(), toy_config(save_replay=True, num_timesteps=3 * CHUNK), split,
-      progress=False,
-  )
-  second = training.train(
-      PointEnv(), config, split, resume=True, progress=False
-  )
-  return straight, split, first, second
+    """The same 4 chunks run straight through and as 2 + 2 with a resume."""
+    straight = tmp_path_factory.mktemp("straight")
+    split = tmp_path_factory.mktemp("split")
+    config = toy_config(save_replay=True)
+    training.train(PointEnv(), config, straight, progress=False)
+    first = training.train(
+        PointEnv(),
+        toy_config(save_replay=True, num_timesteps=3 * CHUNK),
+        split,
+        progress=False,
+    )
+    second = training.train(PointEnv(), config, split, resume=True, progress=False)
+    return straight, split, first, second
 
 
 def test_resume_is_exact(resumed_runs):
-  straight, split, first, second = resumed_runs
-  assert first.env_steps == 3 * CHUNK
-  assert second.env_steps == 5 * CHUNK
-  assert second.chunk_traces == 1
-  straight_rows = metrics_rows(straight)
-  assert [row['step'] for row in straight_rows] == [0] + [
-      k * CHUNK for k in range(2, 6)
-  ]
-  assert without_timing(metrics_rows(split)) == without_timing(straight_rows)
+    straight, split, first, second = resumed_runs
+    assert first.env_steps == 3 * CHUNK
+    assert second.env_steps == 5 * CHUNK
+    assert second.chunk_traces == 1
+    straight_rows = metrics_rows(straight)
+    assert [row["step"] for row in straight_rows] == [0] + [k * CHUNK for k in range(2, 6)]
+    assert without_timing(metrics_rows(split)) == without_timing(straight_rows)
 
 
 def test_extend_finished_run(resumed_runs, tmp_path):
-  straight = copy_run(resumed_runs[0], tmp_path)
-  extended = training.train(
-      PointEnv(), toy_config(num_timesteps=7 * CHUNK), straight, resume=True,
-      progress=False,
-  )
-  steps = [row['step'] for row in metrics_rows(straight)]
-  assert steps == [0] + [k * CHUNK for k in range(2, 8)]
-  assert extended.env_steps == 7 * CHUNK
-  info = json.loads((straight / 'config.json').read_text())
-  assert info['config']['num_timesteps'] == 7 * CHUNK
+    straight = copy_run(resumed_runs[0], tmp_path)
+    extended = training.train(
+        PointEnv(),
+        toy_config(num_timesteps=7 * CHUNK),
+        straight,
+        resume=True,
+        progress=False,
+    )
+    steps = [row["step"] for row in metrics_rows(straight)]
+    assert steps == [0] + [k * CHUNK for k in range(2, 8)]
+    assert extended.env_steps == 7 * CHUNK
+    info = json.loads((straight / "config.json").read_text())
+    assert info["config"]["num_timesteps"] == 7 * CHUNK
 
 
 # Orbax leaves a callback behind after the failed read of the corrupt
 # checkpoint; it fires on a closed event loop when garbage collected.
-@pytest.mark.filterwarnings('ignore::pytest.PytestUnraisableExceptionWarning')
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_corrupt_checkpoint_falls_back(resumed_runs, tmp_path, caplog):
-  straight = copy_run(resumed_runs[0], tmp_path)
-  latest = straight / 'checkpoints' / str(5 * CHUNK)
-  for path in (latest / 'state').rglob('*'):
-    if path.is_file() and path.parent.name == 'd':
-      path.write_bytes(b'garbage')
-  original_rows = metrics_rows(straight)
+    straight = copy_run(resumed_runs[0], tmp_path)
+    latest = straight / "checkpoints" / str(5 * CHUNK)
+    for path in (latest / "state").rglob("*"):
+        if path.is_file() and path.parent.name == "d":
+            path.write_bytes(b"garbage")
+    original_rows = metrics_rows(straight)
 
-  with caplog.at_level(logging.WARNING):
-    result = training.train(
-        PointEnv(), toy_config(save_replay=True), straight, resume=True,
-        progress=False,
-    )
-  assert str(latest) in caplog.text
-  assert result.env_steps == 5 * CHUNK
-  # Resumed from 4 chunks and redid the last one identically.
-  assert without_timing(metrics_rows(straight)) == without_timing(
-      original_rows
-  )
-  assert list((straight / 'checkpoints_corrupt').iterdir())
+    with caplog.at_level(logging.WARNING):
+        result = training.train(
+            PointEnv(),
+            toy_config(save_replay=True),
+            straight,
+            resume=True,
+            progress=False,
+        )
+    assert str(latest) in caplog.text
+    assert result.env_steps == 5 * CHUNK
+    # Resumed from 4 chunks and redid the last one identically.
+    assert without_timing(metrics_rows(straight)) == without_timing(original_rows)
+    assert list((straight / "checkpoints_corrupt").iterdir())
 
 
 def test_resume_without_replay_refills(tmp_path):
-  config = toy_config(num_timesteps=3 * CHUNK)
-  training.train(PointEnv(), config, tmp_path, progress=False)
-  result = training.train(
-      PointEnv(), toy_config(), tmp_path, resume=True, progress=False
-  )
-  # Resumed at 3 chunks, refilled (one chunk's worth), then trained one chunk.
-  assert result.env_steps == 5 * CHUNK
-  assert int(result.state.replay.size) == 2 * CHUNK
-  steps = [row['step'] for row in metrics_rows(tmp_path)]
-  assert steps == sorted(set(steps))
+    config = toy_config(num_timesteps=3 * CHUNK)
+    training.train(PointEnv(), config, tmp_path, progress=False)
+    result = training.train(PointEnv(), toy_config(), tmp_path, resume=True, progress=False)
+    # Resumed at 3 chunks, refilled (one chunk's worth), then trained one chunk.
+    assert result.env_steps == 5 * CHUNK
+    assert int(result.state.replay.size) == 2 * CHUNK
+    steps = [row["step"] for row in metrics_rows(tmp_path)]
+    assert steps == sorted(set(steps))
 
 
 def test_signal_stops_after_chunk_with_checkpoint(tmp_path, monkeypatch):
-  add = loop._Window.add
-  chunks = []
+    add = loop._Window.add
+    chunks = []
 
-  def add_then_signal(self, *args):
-    add(self, *args)
-    chunks.append(None)
-    if len(chunks) == 2:
-      os.kill(os.getpid(), signal.SIGTERM)
+    def add_then_signal(self, *args):
+        add(self, *args)
+        chunks.append(None)
+        if len(chunks) == 2:
+            os.kill(os.getpid(), signal.SIGTERM)
 
-  monkeypatch.setattr(loop._Window, 'add', add_then_signal)
-  result = training.train(
-      PointEnv(), toy_config(checkpoint_interval=100 * CHUNK), tmp_path,
-      progress=False,
-  )
-  assert result.stopped_by_signal == 'SIGTERM'
-  assert result.env_steps == 3 * CHUNK
-  with checkpoint.CheckpointStore(tmp_path / 'checkpoints', 3) as store:
-    assert store.steps() == [3 * CHUNK]
-  assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    monkeypatch.setattr(loop._Window, "add", add_then_signal)
+    result = training.train(
+        PointEnv(),
+        toy_config(checkpoint_interval=100 * CHUNK),
+        tmp_path,
+        progress=False,
+    )
+    assert result.stopped_by_signal == "SIGTERM"
+    assert result.env_steps == 3 * CHUNK
+    with checkpoint.CheckpointStore(tmp_path / "checkpoints", 3) as store:
+        assert store.steps() == [3 * CHUNK]
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
 
 
 # --- Failures ---------------------------------------------------------------
 
 
 def test_nan_guard(tmp_path):
-  config = toy_config(num_timesteps=3 * CHUNK)
-  result = training.train(
-      PointEnv(nan_at_step=3), config, tmp_path, eval_env=PointEnv(),
-      progress=False,
-  )
-  state = result.state
-  nan_resets = int(state.nan_resets)
-  assert nan_resets > 0
-  assert result.metrics['train/nan_resets'] == nan_resets
-  # Every transition but the poisoned ones was stored.
-  assert int(state.replay.size) == result.env_steps - nan_resets
-  assert int(state.normalizer_params.count) == int(state.replay.size)
-  # A reset env starts over, so poisoning cannot hit every step after it.
-  assert nan_resets < result.env_steps / 4
-  for tree in (state.replay.data, state.policy_params, state.q_params,
-               state.normalizer_params.mean, state.normalizer_params.std,
-               state.env_state):
-    leaves = jax.tree.leaves(tree)
-    assert all(
-        bool(jnp.all(jnp.isfinite(leaf)))
-        for leaf in leaves
-        if jnp.issubdtype(leaf.dtype, jnp.floating)
+    config = toy_config(num_timesteps=3 * CHUNK)
+    result = training.train(
+        PointEnv(nan_at_step=3),
+        config,
+        tmp_path,
+        eval_env=PointEnv(),
+        progress=False,
     )
+    state = result.state
+    nan_resets = int(state.nan_resets)
+    assert nan_resets > 0
+    assert result.metrics["train/nan_resets"] == nan_resets
+    # Every transition but the poisoned ones was stored.
+    assert int(state.replay.size) == result.env_steps - nan_resets
+    assert int(state.normalizer_params.count) == int(state.replay.size)
+    # A reset env starts over, so poisoning cannot hit every step after it.
+    assert nan_resets < result.env_steps / 4
+    for tree in (
+        state.replay.data,
+        state.policy_params,
+        state.q_params,
+        state.normalizer_params.mean,
+        state.normalizer_params.std,
+        state.env_state,
+    ):
+        leaves = jax.tree.leaves(tree)
+        assert all(
+            bool(jnp.all(jnp.isfinite(leaf)))
+            for leaf in leaves
+            if jnp.issubdtype(leaf.dtype, jnp.floating)
+        )
 
 
 def test_non_finite_loss_raises_and_keeps_checkpoint(tmp_path):
-  training.train(
-      PointEnv(), toy_config(num_timesteps=3 * CHUNK), tmp_path, progress=False
-  )
-  with checkpoint.CheckpointStore(tmp_path / 'checkpoints', 3) as store:
-    steps_before = store.steps()
-  assert steps_before[-1] == 3 * CHUNK
+    training.train(PointEnv(), toy_config(num_timesteps=3 * CHUNK), tmp_path, progress=False)
+    with checkpoint.CheckpointStore(tmp_path / "checkpoints", 3) as store:
+        steps_before = store.steps()
+    assert steps_before[-1] == 3 * CHUNK
 
-  # Rewards of 1e30 square to infinity in the critic loss.
-  with pytest.raises(training.NonFiniteLossError, match=str(3 * CHUNK)):
-    training.train(
-        PointEnv(), toy_config(reward_scaling=1e30), tmp_path, resume=True,
-        progress=False,
+    # Rewards of 1e30 square to infinity in the critic loss.
+    with pytest.raises(training.NonFiniteLossError, match=str(3 * CHUNK)):
+        training.train(
+            PointEnv(),
+            toy_config(reward_scaling=1e30),
+            tmp_path,
+            resume=True,
+            progress=False,
+        )
+    template = training.SACTrainer(PointEnv(), toy_config()).init()
+    with checkpoint.CheckpointStore(tmp_path / "checkpoints", 3) as store:
+        assert store.steps() == steps_before
+        restored = store.restore_latest(template)
+    assert restored.step == 3 * CHUNK
+    assert all(
+        bool(jnp.all(jnp.isfinite(leaf))) for leaf in jax.tree.leaves(restored.state.q_params)
     )
-  template = training.SACTrainer(PointEnv(), toy_config()).init()
-  with checkpoint.CheckpointStore(tmp_path / 'checkpoints', 3) as store:
-    assert store.steps() == steps_before
-    restored = store.restore_latest(template)
-  assert restored.step == 3 * CHUNK
-  assert all(
-      bool(jnp.all(jnp.isfinite(leaf)))
-      for leaf in jax.tree.leaves(restored.state.q_params)
-  )
 
 
 # --- Helpers ----------------------------------------------------------------
 
 
 def metrics_rows(run_dir: Path) -> list[dict]:
-  return [json.loads(line) for line in (run_dir / 'metrics.jsonl').open()]
+    return [json.loads(line) for line in (run_dir / "metrics.jsonl").open()]
 
 
 def copy_run(run_dir: Path, tmp_path: Path) -> Path:
-  target = tmp_path / 'run'
-  shutil.copytree(run_dir, target)
-  return target
+    target = tmp_path / "run"
+    shutil.copytree(run_dir, target)
+    return target

@@ -6,69 +6,69 @@ import jax.numpy as jnp
 
 
 class PointEnv(base.Env):
-  """A point on a line steered towards a target.
+    """A point on a line steered towards a target.
 
-  Position x' = x + step_size * action, action in [-1, 1]; x0 ~ U(-0.5, 0.5).
-  Reward: -|x' - target| per step. The episode ends (a "fall") when
-  |x'| > limit. Observation: (x, target - x).
+    Position x' = x + step_size * action, action in [-1, 1]; x0 ~ U(-0.5, 0.5).
+    Reward: -|x' - target| per step. The episode ends (a "fall") when
+    |x'| > limit. Observation: (x, target - x).
 
-  Test hook: with `nan_at_step` set, every env whose x0 > 0 gets a NaN
-  position (hence NaN observation and reward) at its `nan_at_step`-th step
-  after a reset.
-  """
+    Test hook: with `nan_at_step` set, every env whose x0 > 0 gets a NaN
+    position (hence NaN observation and reward) at its `nan_at_step`-th step
+    after a reset.
+    """
 
-  def __init__(
-      self,
-      target: float = 0.5,
-      step_size: float = 0.2,
-      limit: float = 1.5,
-      nan_at_step: int | None = None,
-  ):
-    self.target = target
-    self.step_size = step_size
-    self.limit = limit
-    self.nan_at_step = nan_at_step
+    def __init__(
+        self,
+        target: float = 0.5,
+        step_size: float = 0.2,
+        limit: float = 1.5,
+        nan_at_step: int | None = None,
+    ):
+        self.target = target
+        self.step_size = step_size
+        self.limit = limit
+        self.nan_at_step = nan_at_step
 
-  def reset(self, rng: jax.Array) -> base.State:
-    position = jax.random.uniform(rng, (), minval=-0.5, maxval=0.5)
-    zero = jnp.zeros(())
-    return base.State(
-        pipeline_state=position,
-        obs=self._obs(position),
-        reward=zero,
-        done=zero,
-        metrics={'reward/distance': zero, 'distance': zero},
-        info={'time': jnp.zeros((), jnp.int32), 'start': position},
-    )
+    def reset(self, rng: jax.Array) -> base.State:
+        position = jax.random.uniform(rng, (), minval=-0.5, maxval=0.5)
+        zero = jnp.zeros(())
+        return base.State(
+            pipeline_state=position,
+            obs=self._obs(position),
+            reward=zero,
+            done=zero,
+            metrics={"reward/distance": zero, "distance": zero},
+            info={"time": jnp.zeros((), jnp.int32), "start": position},
+        )
 
-  def step(self, state: base.State, action: jax.Array) -> base.State:
-    position = state.pipeline_state + self.step_size * action[0]
-    time = state.info['time'] + 1
-    if self.nan_at_step is not None:
-      poisoned = (time == self.nan_at_step) & (state.info['start'] > 0)
-      position = jnp.where(poisoned, jnp.nan, position)
-    distance = jnp.abs(position - self.target)
-    done = (jnp.abs(position) > self.limit).astype(jnp.float32)
-    return state.replace(
-        pipeline_state=position,
-        obs=self._obs(position),
-        reward=-distance,
-        done=done,
-        metrics={'reward/distance': -distance, 'distance': distance},
-        info={**state.info, 'time': time},
-    )
+    def step(self, state: base.State, action: jax.Array) -> base.State:
+        position = state.pipeline_state + self.step_size * action[0]
+        time = state.info["time"] + 1
+        if self.nan_at_step is not None:
+            poisoned = (time == self.nan_at_step) & (state.info["start"] > 0)
+            position = jnp.where(poisoned, jnp.nan, position)
+        distance = jnp.abs(position - self.target)
+        done = (jnp.abs(position) > self.limit).astype(jnp.float32)
+        return state.replace(
+            pipeline_state=position,
+            obs=self._obs(position),
+            reward=-distance,
+            done=done,
+            metrics={"reward/distance": -distance, "distance": distance},
+            info={**state.info, "time": time},
+        )
 
-  def _obs(self, position: jax.Array) -> jax.Array:
-    return jnp.stack([position, self.target - position])
+    def _obs(self, position: jax.Array) -> jax.Array:
+        return jnp.stack([position, self.target - position])
 
-  @property
-  def observation_size(self) -> int:
-    return 2
+    @property
+    def observation_size(self) -> int:
+        return 2
 
-  @property
-  def action_size(self) -> int:
-    return 1
+    @property
+    def action_size(self) -> int:
+        return 1
 
-  @property
-  def backend(self) -> str:
-    return 'jax'
+    @property
+    def backend(self) -> str:
+        return "jax"

@@ -15,13 +15,13 @@ from quadcos.training.sac import SACTrainer
 from quadcos.training.sac import TrainingState
 
 __all__ = [
-    'NonFiniteLossError',
-    'Policy',
-    'SACTrainer',
-    'TrainResult',
-    'TrainingState',
-    'default_config',
-    'load_policy',
-    'save_policy',
-    'train',
+    "NonFiniteLossError",
+    "Policy",
+    "SACTrainer",
+    "TrainResult",
+    "TrainingState",
+    "default_config",
+    "load_policy",
+    "save_policy",
+    "train",
 ]

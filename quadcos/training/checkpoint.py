@@ -18,131 +18,123 @@ logger = logging.getLogger(__name__)
 
 @dataclasses.dataclass(frozen=True)
 class Restored:
-  """A checkpoint read back: the state, its env step and its metadata."""
+    """A checkpoint read back: the state, its env step and its metadata."""
 
-  state: TrainingState
-  step: int
-  meta: dict[str, Any]
+    state: TrainingState
+    step: int
+    meta: dict[str, Any]
 
 
 def _as_tree(state: TrainingState, include_replay: bool) -> dict[str, Any]:
-  fields = (field.name for field in dataclasses.fields(state))
-  return {
-      name: getattr(state, name)
-      for name in fields
-      if include_replay or name != 'replay'
-  }
+    fields = (field.name for field in dataclasses.fields(state))
+    return {name: getattr(state, name) for name in fields if include_replay or name != "replay"}
 
 
 def _stored_leaves(tree: Any) -> list[Any]:
-  """The leaves orbax stores: all but the empty ones (mjx.Data has zero-size
-  fields, which orbax refuses to save); `_refill` puts them back."""
-  return [leaf for leaf in jax.tree.leaves(tree) if leaf.size]
+    """The leaves orbax stores: all but the empty ones (mjx.Data has zero-size
+    fields, which orbax refuses to save); `_refill` puts them back."""
+    return [leaf for leaf in jax.tree.leaves(tree) if leaf.size]
 
 
 def _refill(template: Any, stored: list[Any]) -> Any:
-  leaves, treedef = jax.tree.flatten(template)
-  stored_iter = iter(stored)
-  return jax.tree.unflatten(
-      treedef, [next(stored_iter) if leaf.size else leaf for leaf in leaves]
-  )
+    leaves, treedef = jax.tree.flatten(template)
+    stored_iter = iter(stored)
+    return jax.tree.unflatten(
+        treedef, [next(stored_iter) if leaf.size else leaf for leaf in leaves]
+    )
 
 
 class CheckpointStore:
-  """One orbax checkpoint per saved env step under `directory`.
+    """One orbax checkpoint per saved env step under `directory`.
 
-  Orbax writes each checkpoint into a temporary directory and renames it when
-  complete, so an interrupted save never looks like a checkpoint. A
-  checkpoint that exists but cannot be read back is moved to
-  `<directory>_corrupt/<step>` (so a later save of that step does not clash)
-  and the previous one is used.
-  """
-
-  def __init__(self, directory: str | os.PathLike[str], keep: int):
-    """Opens (creating if needed) `directory`, keeping the newest `keep`."""
-    self.directory = Path(directory).absolute()
-    self._manager = ocp.CheckpointManager(
-        self.directory,
-        options=ocp.CheckpointManagerOptions(
-            max_to_keep=keep, create=True, enable_async_checkpointing=False
-        ),
-        item_names=('state', 'meta'),
-    )
-
-  def steps(self) -> list[int]:
-    """Env steps of the checkpoints on disk, oldest first."""
-    return sorted(self._manager.all_steps())
-
-  def path(self, step: int) -> Path:
-    return self.directory / str(step)
-
-  def save(
-      self,
-      step: int,
-      state: TrainingState,
-      meta: dict[str, Any],
-      include_replay: bool,
-  ) -> Path:
-    """Writes `state` (without its replay buffer unless `include_replay`)."""
-    meta = {**meta, 'step': step, 'include_replay': include_replay}
-    self._manager.save(
-        step,
-        args=ocp.args.Composite(
-            state=ocp.args.StandardSave(
-                _stored_leaves(_as_tree(state, include_replay))
-            ),
-            meta=ocp.args.JsonSave(meta),
-        ),
-    )
-    return self.path(step)
-
-  def restore_latest(self, template: TrainingState) -> Restored | None:
-    """Restores the newest readable checkpoint, or None when there is none.
-
-    Args:
-      template: a state with the right structure, shapes and dtypes (e.g. a
-        fresh initial state); it supplies the replay buffer when the
-        checkpoint was saved without one.
+    Orbax writes each checkpoint into a temporary directory and renames it when
+    complete, so an interrupted save never looks like a checkpoint. A
+    checkpoint that exists but cannot be read back is moved to
+    `<directory>_corrupt/<step>` (so a later save of that step does not clash)
+    and the previous one is used.
     """
-    for step in reversed(self.steps()):
-      try:
-        meta = self._manager.restore(
-            step, args=ocp.args.Composite(meta=ocp.args.JsonRestore())
-        ).meta
-        template_tree = _as_tree(template, meta['include_replay'])
-        abstract = [
-            ocp.utils.to_shape_dtype_struct(leaf)
-            for leaf in _stored_leaves(template_tree)
-        ]
-        stored = self._manager.restore(
-            step,
-            args=ocp.args.Composite(state=ocp.args.StandardRestore(abstract)),
-        ).state
-        restored = _refill(template_tree, list(stored))
-      except Exception as error:  # orbax/tensorstore raise many types
-        logger.warning(
-            'checkpoint %s cannot be read (%s: %s); falling back to the'
-            ' previous one',
-            self.path(step),
-            type(error).__name__,
-            str(error).splitlines()[0] if str(error) else '',
+
+    def __init__(self, directory: str | os.PathLike[str], keep: int):
+        """Opens (creating if needed) `directory`, keeping the newest `keep`."""
+        self.directory = Path(directory).absolute()
+        self._manager = ocp.CheckpointManager(
+            self.directory,
+            options=ocp.CheckpointManagerOptions(
+                max_to_keep=keep, create=True, enable_async_checkpointing=False
+            ),
+            item_names=("state", "meta"),
         )
-        self._quarantine(step)
-        continue
-      return Restored(state=template.replace(**restored), step=step, meta=meta)
-    return None
 
-  def _quarantine(self, step: int) -> None:
-    target = self.directory.with_name(self.directory.name + '_corrupt')
-    target.mkdir(exist_ok=True)
-    shutil.move(self.path(step), target / f'{step}-{int(time.time())}')
-    self._manager.reload()
+    def steps(self) -> list[int]:
+        """Env steps of the checkpoints on disk, oldest first."""
+        return sorted(self._manager.all_steps())
 
-  def close(self) -> None:
-    self._manager.close()
+    def path(self, step: int) -> Path:
+        return self.directory / str(step)
 
-  def __enter__(self) -> 'CheckpointStore':
-    return self
+    def save(
+        self,
+        step: int,
+        state: TrainingState,
+        meta: dict[str, Any],
+        include_replay: bool,
+    ) -> Path:
+        """Writes `state` (without its replay buffer unless `include_replay`)."""
+        meta = {**meta, "step": step, "include_replay": include_replay}
+        self._manager.save(
+            step,
+            args=ocp.args.Composite(
+                state=ocp.args.StandardSave(_stored_leaves(_as_tree(state, include_replay))),
+                meta=ocp.args.JsonSave(meta),
+            ),
+        )
+        return self.path(step)
 
-  def __exit__(self, *exc_info) -> None:
-    self.close()
+    def restore_latest(self, template: TrainingState) -> Restored | None:
+        """Restores the newest readable checkpoint, or None when there is none.
+
+        Args:
+          template: a state with the right structure, shapes and dtypes (e.g. a
+            fresh initial state); it supplies the replay buffer when the
+            checkpoint was saved without one.
+        """
+        for step in reversed(self.steps()):
+            try:
+                meta = self._manager.restore(
+                    step, args=ocp.args.Composite(meta=ocp.args.JsonRestore())
+                ).meta
+                template_tree = _as_tree(template, meta["include_replay"])
+                abstract = [
+                    ocp.utils.to_shape_dtype_struct(leaf) for leaf in _stored_leaves(template_tree)
+                ]
+                stored = self._manager.restore(
+                    step,
+                    args=ocp.args.Composite(state=ocp.args.StandardRestore(abstract)),
+                ).state
+                restored = _refill(template_tree, list(stored))
+            except Exception as error:  # orbax/tensorstore raise many types
+                logger.warning(
+                    "checkpoint %s cannot be read (%s: %s); falling back to the previous one",
+                    self.path(step),
+                    type(error).__name__,
+                    str(error).splitlines()[0] if str(error) else "",
+                )
+                self._quarantine(step)
+                continue
+            return Restored(state=template.replace(**restored), step=step, meta=meta)
+        return None
+
+    def _quarantine(self, step: int) -> None:
+        target = self.directory.with_name(self.directory.name + "_corrupt")
+        target.mkdir(exist_ok=True)
+        shutil.move(self.path(step), target / f"{step}-{int(time.time())}")
+        self._manager.reload()
+
+    def close(self) -> None:
+        self._manager.close()
+
+    def __enter__(self) -> "CheckpointStore":
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()

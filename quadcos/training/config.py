@@ -5,75 +5,71 @@ from ml_collections import config_dict
 
 
 def default_config() -> ml_collections.ConfigDict:
-  """Returns a fresh, locked SAC trainer config (unknown keys are an error).
+    """Returns a fresh, locked SAC trainer config (unknown keys are an error).
 
-  Units: "env steps" count transitions, so one vectorised step of all
-  `num_envs` environments is `num_envs` env steps.
-  """
-  config = ml_collections.ConfigDict()
+    Units: "env steps" count transitions, so one vectorised step of all
+    `num_envs` environments is `num_envs` env steps.
+    """
+    config = ml_collections.ConfigDict()
 
-  # --- Interaction -----------------------------------------------------------
-  # Training environments stepped in parallel (one vectorised step).
-  config.num_envs = 256
-  # Env steps to train for, prefill included. Training stops at the first
-  # chunk boundary at or past it, so it may overshoot by less than a chunk.
-  config.num_timesteps = 5_000_000
-  # Env steps after which a training episode is truncated (not a fall:
-  # the critic does not treat truncation as a terminal state).
-  config.episode_length = 1000
+    # --- Interaction -----------------------------------------------------------
+    # Training environments stepped in parallel (one vectorised step).
+    config.num_envs = 256
+    # Env steps to train for, prefill included. Training stops at the first
+    # chunk boundary at or past it, so it may overshoot by less than a chunk.
+    config.num_timesteps = 5_000_000
+    # Env steps after which a training episode is truncated (not a fall:
+    # the critic does not treat truncation as a terminal state).
+    config.episode_length = 1000
 
-  # --- SAC (Haarnoja et al. 2018, arXiv:1812.05905) --------------------------
-  # Transitions per gradient update.
-  config.batch_size = 256
-  # Gradient updates per vectorised env step, i.e. per `num_envs` new
-  # transitions (replay ratio = updates_per_step * batch_size / num_envs).
-  config.updates_per_step = 1
-  # Replay capacity in transitions; the oldest are overwritten first.
-  # Memory: replay_size * (2 * obs_size + action_size + 3) * 4 bytes.
-  config.replay_size = 1_000_000
-  # Transitions collected with uniform random actions before learning starts
-  # (again after resuming from a checkpoint saved without its replay buffer).
-  config.min_replay_size = 8192
-  # Hidden layer widths of the policy and of each of the two Q networks.
-  config.hidden_sizes = ml_collections.ConfigDict(
-      dict(policy=(256, 256), q=(256, 256))
-  )
-  # Adam learning rates of the actor, the critics and the temperature.
-  config.learning_rate = ml_collections.ConfigDict(
-      dict(actor=3e-4, critic=3e-4, alpha=3e-4)
-  )
-  # Discount factor gamma of the soft Bellman target.
-  config.discount = 0.99
-  # Polyak rate of the target Q networks: target <- (1 - tau) target + tau q.
-  config.tau = 0.005
-  # Rewards are multiplied by this in the critic target.
-  config.reward_scaling = 1.0
-  # Standardise observations with running mean/std (Welford) before the MLPs.
-  config.normalize_observations = True
-  # Clip actor and critic gradients to this global norm; None: no clipping.
-  config.max_grad_norm = config_dict.placeholder(float)
-  # Seeds network init, env resets, exploration and replay sampling.
-  config.seed = 0
+    # --- SAC (Haarnoja et al. 2018, arXiv:1812.05905) --------------------------
+    # Transitions per gradient update.
+    config.batch_size = 256
+    # Gradient updates per vectorised env step, i.e. per `num_envs` new
+    # transitions (replay ratio = updates_per_step * batch_size / num_envs).
+    config.updates_per_step = 1
+    # Replay capacity in transitions; the oldest are overwritten first.
+    # Memory: replay_size * (2 * obs_size + action_size + 3) * 4 bytes.
+    config.replay_size = 1_000_000
+    # Transitions collected with uniform random actions before learning starts
+    # (again after resuming from a checkpoint saved without its replay buffer).
+    config.min_replay_size = 8192
+    # Hidden layer widths of the policy and of each of the two Q networks.
+    config.hidden_sizes = ml_collections.ConfigDict(dict(policy=(256, 256), q=(256, 256)))
+    # Adam learning rates of the actor, the critics and the temperature.
+    config.learning_rate = ml_collections.ConfigDict(dict(actor=3e-4, critic=3e-4, alpha=3e-4))
+    # Discount factor gamma of the soft Bellman target.
+    config.discount = 0.99
+    # Polyak rate of the target Q networks: target <- (1 - tau) target + tau q.
+    config.tau = 0.005
+    # Rewards are multiplied by this in the critic target.
+    config.reward_scaling = 1.0
+    # Standardise observations with running mean/std (Welford) before the MLPs.
+    config.normalize_observations = True
+    # Clip actor and critic gradients to this global norm; None: no clipping.
+    config.max_grad_norm = config_dict.placeholder(float)
+    # Seeds network init, env resets, exploration and replay sampling.
+    config.seed = 0
 
-  # --- Host loop -------------------------------------------------------------
-  # Vectorised env steps per compiled chunk; the host sees results (metrics,
-  # NaN checks, signals) once per chunk.
-  config.steps_per_chunk = 64
-  # Env steps between evaluations (and metrics rows); an evaluation runs after
-  # the first chunk that crosses each multiple, and once at the end.
-  config.eval_interval = 100_000
-  # Parallel deterministic evaluation episodes.
-  config.num_eval_envs = 128
-  # Env steps per evaluation episode (the time limit; ending earlier is a fall).
-  config.eval_episode_length = 1000
-  # Env steps between checkpoints (crossing rule as for evaluation); a
-  # checkpoint is also written at the end and on SIGINT/SIGTERM.
-  config.checkpoint_interval = 500_000
-  # Checkpoints kept on disk (the newest ones); >= 2 allows falling back when
-  # the newest one is corrupt.
-  config.keep_checkpoints = 3
-  # Store the replay buffer in checkpoints (exact resume, large files).
-  config.save_replay = False
+    # --- Host loop -------------------------------------------------------------
+    # Vectorised env steps per compiled chunk; the host sees results (metrics,
+    # NaN checks, signals) once per chunk.
+    config.steps_per_chunk = 64
+    # Env steps between evaluations (and metrics rows); an evaluation runs after
+    # the first chunk that crosses each multiple, and once at the end.
+    config.eval_interval = 100_000
+    # Parallel deterministic evaluation episodes.
+    config.num_eval_envs = 128
+    # Env steps per evaluation episode (the time limit; ending earlier is a fall).
+    config.eval_episode_length = 1000
+    # Env steps between checkpoints (crossing rule as for evaluation); a
+    # checkpoint is also written at the end and on SIGINT/SIGTERM.
+    config.checkpoint_interval = 500_000
+    # Checkpoints kept on disk (the newest ones); >= 2 allows falling back when
+    # the newest one is corrupt.
+    config.keep_checkpoints = 3
+    # Store the replay buffer in checkpoints (exact resume, large files).
+    config.save_replay = False
 
-  config.lock()
-  return config
+    config.lock()
+    return config

@@ -7,31 +7,29 @@ from typing import Callable
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
-  """Writes `text` to a temporary file beside `path`, then renames it."""
-  path = Path(path)
-  temporary = path.with_name(f'.{path.name}.tmp-{os.getpid()}')
-  with open(temporary, 'w', encoding='utf-8') as file:
-    file.write(text)
-    file.flush()
-    os.fsync(file.fileno())
-  os.replace(temporary, path)
+    """Writes `text` to a temporary file beside `path`, then renames it."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    with open(temporary, "w", encoding="utf-8") as file:
+        file.write(text)
+        file.flush()
+        os.fsync(file.fileno())
+    os.replace(temporary, path)
 
 
-def atomic_replace_dir(
-    path: str | os.PathLike[str], fill: Callable[[Path], None]
-) -> None:
-  """Builds a directory with `fill(temporary_dir)`, then swaps it into `path`.
+def atomic_replace_dir(path: str | os.PathLike[str], fill: Callable[[Path], None]) -> None:
+    """Builds a directory with `fill(temporary_dir)`, then swaps it into `path`.
 
-  Directories cannot be renamed over non-empty ones, so an existing `path` is
-  first renamed aside and deleted after the swap.
-  """
-  path = Path(path)
-  temporary = path.with_name(f'.{path.name}.tmp-{os.getpid()}')
-  shutil.rmtree(temporary, ignore_errors=True)
-  temporary.mkdir(parents=True)
-  fill(temporary)
-  previous = path.with_name(f'.{path.name}.old-{os.getpid()}')
-  if path.exists():
-    os.replace(path, previous)
-  os.replace(temporary, path)
-  shutil.rmtree(previous, ignore_errors=True)
+    Directories cannot be renamed over non-empty ones, so an existing `path` is
+    first renamed aside and deleted after the swap.
+    """
+    path = Path(path)
+    temporary = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    shutil.rmtree(temporary, ignore_errors=True)
+    temporary.mkdir(parents=True)
+    fill(temporary)
+    previous = path.with_name(f".{path.name}.old-{os.getpid()}")
+    if path.exists():
+        os.replace(path, previous)
+    os.replace(temporary, path)
+    shutil.rmtree(previous, ignore_errors=True)

@@ -37,42 +37,49 @@ from quadcos.training import sac
 
 logger = logging.getLogger(__name__)
 
-_LOSSES = ('critic_loss', 'actor_loss', 'alpha_loss', 'alpha')
+_LOSSES = ("critic_loss", "actor_loss", "alpha_loss", "alpha")
 _VERSIONED_PACKAGES = (
-    'jax', 'jaxlib', 'brax', 'mujoco', 'mujoco-mjx', 'flax', 'optax',
-    'orbax-checkpoint', 'numpy',
+    "jax",
+    "jaxlib",
+    "brax",
+    "mujoco",
+    "mujoco-mjx",
+    "flax",
+    "optax",
+    "orbax-checkpoint",
+    "numpy",
 )
 
 
 class NonFiniteLossError(FloatingPointError):
-  """A SAC loss became NaN or infinite; the run cannot continue."""
+    """A SAC loss became NaN or infinite; the run cannot continue."""
 
 
 @dataclasses.dataclass(frozen=True)
 class TrainResult:
-  """What `train` returns.
+    """What `train` returns.
 
-  Attributes:
-    policy: the final deterministic policy.
-    state: the final training state (on device).
-    metrics: the last metrics row ({} when no evaluation ran).
-    history: all metrics rows of the run, those before a resume included.
-    env_steps: env steps taken so far, prefill included.
-    run_dir: the run directory, or None.
-    stopped_by_signal: name of the signal (SIGINT/SIGTERM) that stopped
-      training early after writing a checkpoint, else None.
-    chunk_traces: times the training chunk was traced in this call (1 unless
-      something forces a recompile).
-  """
+    Attributes:
+      policy: the final deterministic policy.
+      state: the final training state (on device).
+      metrics: the last metrics row ({} when no evaluation ran).
+      history: all metrics rows of the run, those before a resume included.
+      env_steps: env steps taken so far, prefill included.
+      run_dir: the run directory, or None.
+      stopped_by_signal: name of the signal (SIGINT/SIGTERM) that stopped
+        training early after writing a checkpoint, else None.
+      chunk_traces: times the training chunk was traced in this call (1 unless
+        something forces a recompile).
+    """
 
-  policy: policy_lib.Policy
-  state: sac.TrainingState
-  metrics: dict[str, Any]
-  history: list[dict[str, Any]]
-  env_steps: int
-  run_dir: Path | None
-  stopped_by_signal: str | None
-  chunk_traces: int
+    policy: policy_lib.Policy
+    state: sac.TrainingState
+    metrics: dict[str, Any]
+    history: list[dict[str, Any]]
+    env_steps: int
+    run_dir: Path | None
+    stopped_by_signal: str | None
+    chunk_traces: int
 
 
 def train(
@@ -85,99 +92,99 @@ def train(
     progress: bool = True,
     extra_run_info: dict[str, Any] | None = None,
 ) -> TrainResult:
-  """Trains a SAC policy on `env`.
+    """Trains a SAC policy on `env`.
 
-  Args:
-    env: unbatched, unwrapped Brax env (wrapped here for training).
-    config: trainer config (`quadcos.training.default_config()` when None).
-    run_dir: directory for config, metrics, checkpoints and the final policy;
-      None keeps everything in memory.
-    eval_env: env for evaluation; `env` when None.
-    resume: continue from the newest readable checkpoint in `run_dir` (a
-      fresh run when there is none). `config.num_timesteps` may exceed that
-      of the original run to extend it; other fields must keep the network,
-      replay and env shapes.
-    progress: report progress on stderr (a redrawn line on a terminal, one
-      line per evaluation otherwise).
-    extra_run_info: JSON-serialisable data stored in config.json under
-      `run_info` (e.g. the env config).
+    Args:
+      env: unbatched, unwrapped Brax env (wrapped here for training).
+      config: trainer config (`quadcos.training.default_config()` when None).
+      run_dir: directory for config, metrics, checkpoints and the final policy;
+        None keeps everything in memory.
+      eval_env: env for evaluation; `env` when None.
+      resume: continue from the newest readable checkpoint in `run_dir` (a
+        fresh run when there is none). `config.num_timesteps` may exceed that
+        of the original run to extend it; other fields must keep the network,
+        replay and env shapes.
+      progress: report progress on stderr (a redrawn line on a terminal, one
+        line per evaluation otherwise).
+      extra_run_info: JSON-serialisable data stored in config.json under
+        `run_info` (e.g. the env config).
 
-  Returns:
-    The final policy, state and metrics.
+    Returns:
+      The final policy, state and metrics.
 
-  Raises:
-    ValueError: invalid config, or `resume` without `run_dir`.
-    FileExistsError: `run_dir` holds a run and `resume` is False.
-    NonFiniteLossError: a loss became non-finite; the newest checkpoint is the
-      last one before that chunk.
-  """
-  config = config_lib.default_config() if config is None else config
-  _check_config(config)
-  if resume and run_dir is None:
-    raise ValueError('resume=True needs a run_dir')
-  trainer = sac.SACTrainer(env, config, eval_env=eval_env)
-  spec = policy_lib.PolicySpec(
-      observation_size=trainer.observation_size,
-      action_size=trainer.action_size,
-      hidden_sizes=tuple(int(size) for size in config.hidden_sizes.policy),
-      normalize_observations=bool(config.normalize_observations),
-  )
-  run_info = _run_info(config, extra_run_info)
-  state = trainer.init()
-  wall_time_offset = 0.0
-  store = None
-  log = None
-  if run_dir is not None:
-    run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    store = checkpoint.CheckpointStore(
-        run_dir / 'checkpoints', keep=config.keep_checkpoints
+    Raises:
+      ValueError: invalid config, or `resume` without `run_dir`.
+      FileExistsError: `run_dir` holds a run and `resume` is False.
+      NonFiniteLossError: a loss became non-finite; the newest checkpoint is the
+        last one before that chunk.
+    """
+    config = config_lib.default_config() if config is None else config
+    _check_config(config)
+    if resume and run_dir is None:
+        raise ValueError("resume=True needs a run_dir")
+    trainer = sac.SACTrainer(env, config, eval_env=eval_env)
+    spec = policy_lib.PolicySpec(
+        observation_size=trainer.observation_size,
+        action_size=trainer.action_size,
+        hidden_sizes=tuple(int(size) for size in config.hidden_sizes.policy),
+        normalize_observations=bool(config.normalize_observations),
     )
-    keep_rows_up_to = None
-    if resume:
-      restored = store.restore_latest(state)
-      if restored is None:
-        logger.warning('no checkpoint in %s; starting a new run', store.directory)
-      else:
-        state = restored.state
-        wall_time_offset = restored.meta['wall_time_s']
-        keep_rows_up_to = restored.step
-        logger.info('resuming from %s', store.path(restored.step))
-    elif store.steps() or (run_dir / 'metrics.jsonl').exists():
-      raise FileExistsError(
-          f'{run_dir} already holds a run; pass resume=True or use another'
-          ' directory'
-      )
-    files.atomic_write_text(
-        run_dir / 'config.json', json.dumps(run_info, indent=2) + '\n'
+    run_info = _run_info(config, extra_run_info)
+    state = trainer.init()
+    wall_time_offset = 0.0
+    store = None
+    log = None
+    if run_dir is not None:
+        run_dir = Path(run_dir)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        store = checkpoint.CheckpointStore(run_dir / "checkpoints", keep=config.keep_checkpoints)
+        keep_rows_up_to = None
+        if resume:
+            restored = store.restore_latest(state)
+            if restored is None:
+                logger.warning("no checkpoint in %s; starting a new run", store.directory)
+            else:
+                state = restored.state
+                wall_time_offset = restored.meta["wall_time_s"]
+                keep_rows_up_to = restored.step
+                logger.info("resuming from %s", store.path(restored.step))
+        elif store.steps() or (run_dir / "metrics.jsonl").exists():
+            raise FileExistsError(
+                f"{run_dir} already holds a run; pass resume=True or use another directory"
+            )
+        files.atomic_write_text(run_dir / "config.json", json.dumps(run_info, indent=2) + "\n")
+        log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
+
+    try:
+        with _SignalStop() as stop:
+            state, history = _train_loop(
+                trainer,
+                state,
+                store,
+                log,
+                stop,
+                _Clock(wall_time_offset),
+                _Progress(config.num_timesteps, enabled=progress),
+            )
+    finally:
+        if log is not None:
+            log.close()
+        if store is not None:
+            store.close()
+
+    policy = policy_lib.Policy.from_training_state(state, spec, run_info)
+    if run_dir is not None:
+        policy_lib.save_policy(run_dir / "policy", policy)
+    return TrainResult(
+        policy=policy,
+        state=state,
+        metrics=history[-1] if history else {},
+        history=history,
+        env_steps=int(state.env_steps),
+        run_dir=run_dir,
+        stopped_by_signal=stop.signal_name,
+        chunk_traces=trainer.chunk_traces,
     )
-    log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
-
-  try:
-    with _SignalStop() as stop:
-      state, history = _train_loop(
-          trainer, state, store, log, stop, _Clock(wall_time_offset),
-          _Progress(config.num_timesteps, enabled=progress),
-      )
-  finally:
-    if log is not None:
-      log.close()
-    if store is not None:
-      store.close()
-
-  policy = policy_lib.Policy.from_training_state(state, spec, run_info)
-  if run_dir is not None:
-    policy_lib.save_policy(run_dir / 'policy', policy)
-  return TrainResult(
-      policy=policy,
-      state=state,
-      metrics=history[-1] if history else {},
-      history=history,
-      env_steps=int(state.env_steps),
-      run_dir=run_dir,
-      stopped_by_signal=stop.signal_name,
-      chunk_traces=trainer.chunk_traces,
-  )
 
 
 def _train_loop(
@@ -185,78 +192,78 @@ def _train_loop(
     state: sac.TrainingState,
     store: checkpoint.CheckpointStore | None,
     log: metrics_log.MetricsLog | None,
-    stop: '_SignalStop',
-    clock: '_Clock',
-    progress: '_Progress',
+    stop: "_SignalStop",
+    clock: "_Clock",
+    progress: "_Progress",
 ) -> tuple[sac.TrainingState, list[dict[str, Any]]]:
-  """Prefills if needed, then runs chunks until num_timesteps or a signal."""
-  config = trainer.config
-  history = list(log.rows) if log is not None else []
+    """Prefills if needed, then runs chunks until num_timesteps or a signal."""
+    config = trainer.config
+    history = list(log.rows) if log is not None else []
 
-  def record(row: dict[str, Any]) -> None:
-    history.append(row)
-    if log is not None:
-      log.append(row)
-    progress.log_row(row)
+    def record(row: dict[str, Any]) -> None:
+        history.append(row)
+        if log is not None:
+            log.append(row)
+        progress.log_row(row)
 
-  def evaluate(state: sac.TrainingState) -> dict[str, float]:
-    metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
-    return {name: float(value) for name, value in jax.device_get(metrics).items()}
+    def evaluate(state: sac.TrainingState) -> dict[str, float]:
+        metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
+        return {name: float(value) for name, value in jax.device_get(metrics).items()}
 
-  step = int(state.env_steps)
-  if step == 0:
-    record({'step': 0, 'wall_time_s': clock(), **evaluate(state)})
-  if int(state.replay.size) < config.min_replay_size:
-    state = trainer.prefill(state)
     step = int(state.env_steps)
+    if step == 0:
+        record({"step": 0, "wall_time_s": clock(), **evaluate(state)})
+    if int(state.replay.size) < config.min_replay_size:
+        state = trainer.prefill(state)
+        step = int(state.env_steps)
 
-  window = _Window()
-  try:
-    while step < config.num_timesteps:
-      start = time.monotonic()
-      state, chunk_metrics = trainer.train_chunk(state)
-      chunk_metrics = jax.device_get(chunk_metrics)
-      chunk_seconds = time.monotonic() - start
-      previous_step, step = step, int(state.env_steps)
-      window.add(chunk_metrics, step - previous_step, chunk_seconds)
-      _raise_if_non_finite(chunk_metrics, step, store)
+    window = _Window()
+    try:
+        while step < config.num_timesteps:
+            start = time.monotonic()
+            state, chunk_metrics = trainer.train_chunk(state)
+            chunk_metrics = jax.device_get(chunk_metrics)
+            chunk_seconds = time.monotonic() - start
+            previous_step, step = step, int(state.env_steps)
+            window.add(chunk_metrics, step - previous_step, chunk_seconds)
+            _raise_if_non_finite(chunk_metrics, step, store)
 
-      # Read once: a signal arriving later is served after the next chunk.
-      stopping = stop.signal_name is not None
-      finished = step >= config.num_timesteps
-      if finished or _crossed(previous_step, step, config.eval_interval):
-        record({
-            'step': step,
-            'wall_time_s': clock(),
-            'env_steps_per_s': window.steps_per_second(),
-            **window.means(),
-            'train/nan_resets': int(state.nan_resets),
-            'train/gradient_steps': int(state.gradient_steps),
-            'train/replay_size': int(state.replay.size),
-            **evaluate(state),
-        })
-        window = _Window()
-      if store is not None and (
-          finished
-          or stopping
-          or _crossed(previous_step, step, config.checkpoint_interval)
-      ):
-        store.save(step, state, {'wall_time_s': clock()}, config.save_replay)
-      progress.update(step, (step - previous_step) / chunk_seconds, history)
-      if stopping:
-        logger.warning(
-            'stopped by %s at env step %d after writing a checkpoint',
-            stop.signal_name,
-            step,
-        )
-        break
-  finally:
-    progress.close()
-  return state, history
+            # Read once: a signal arriving later is served after the next chunk.
+            stopping = stop.signal_name is not None
+            finished = step >= config.num_timesteps
+            if finished or _crossed(previous_step, step, config.eval_interval):
+                record(
+                    {
+                        "step": step,
+                        "wall_time_s": clock(),
+                        "env_steps_per_s": window.steps_per_second(),
+                        **window.means(),
+                        "train/nan_resets": int(state.nan_resets),
+                        "train/gradient_steps": int(state.gradient_steps),
+                        "train/replay_size": int(state.replay.size),
+                        **evaluate(state),
+                    }
+                )
+                window = _Window()
+            if store is not None and (
+                finished or stopping or _crossed(previous_step, step, config.checkpoint_interval)
+            ):
+                store.save(step, state, {"wall_time_s": clock()}, config.save_replay)
+            progress.update(step, (step - previous_step) / chunk_seconds, history)
+            if stopping:
+                logger.warning(
+                    "stopped by %s at env step %d after writing a checkpoint",
+                    stop.signal_name,
+                    step,
+                )
+                break
+    finally:
+        progress.close()
+    return state, history
 
 
 def _crossed(previous_step: int, step: int, interval: int) -> bool:
-  return step // interval > previous_step // interval
+    return step // interval > previous_step // interval
 
 
 def _raise_if_non_finite(
@@ -264,229 +271,238 @@ def _raise_if_non_finite(
     step: int,
     store: checkpoint.CheckpointStore | None,
 ) -> None:
-  bad = {
-      name: float(chunk_metrics[name])
-      for name in _LOSSES
-      if not math.isfinite(float(chunk_metrics[name]))
-  }
-  if not bad:
-    return
-  if store is not None and store.steps():
-    kept = f'the last good checkpoint is {store.path(store.steps()[-1])}'
-  else:
-    kept = 'no checkpoint was written'
-  raise NonFiniteLossError(
-      f'non-finite SAC loss in the chunk ending at env step {step}: {bad};'
-      f' training stopped, {kept}'
-  )
+    bad = {
+        name: float(chunk_metrics[name])
+        for name in _LOSSES
+        if not math.isfinite(float(chunk_metrics[name]))
+    }
+    if not bad:
+        return
+    if store is not None and store.steps():
+        kept = f"the last good checkpoint is {store.path(store.steps()[-1])}"
+    else:
+        kept = "no checkpoint was written"
+    raise NonFiniteLossError(
+        f"non-finite SAC loss in the chunk ending at env step {step}: {bad};"
+        f" training stopped, {kept}"
+    )
 
 
 def _check_config(config: ml_collections.ConfigDict) -> None:
-  """Raises ValueError naming the first inconsistent or unknown field."""
-  expected = _flat_keys(config_lib.default_config())
-  given = _flat_keys(config)
-  if unknown := sorted(given - expected):
-    raise ValueError(f'unknown config keys: {unknown}')
-  if missing := sorted(expected - given):
-    raise ValueError(f'missing config keys: {missing}')
-  positive = (
-      'num_envs', 'num_timesteps', 'episode_length', 'batch_size',
-      'updates_per_step', 'replay_size', 'steps_per_chunk', 'eval_interval',
-      'num_eval_envs', 'eval_episode_length', 'checkpoint_interval',
-      'keep_checkpoints',
-  )
-  for name in positive:
-    if config[name] < 1:
-      raise ValueError(f'config.{name} must be >= 1, got {config[name]}')
-  if config.replay_size < config.num_envs:
-    raise ValueError(
-        f'config.replay_size ({config.replay_size}) must hold one step of all'
-        f' envs (num_envs = {config.num_envs})'
+    """Raises ValueError naming the first inconsistent or unknown field."""
+    expected = _flat_keys(config_lib.default_config())
+    given = _flat_keys(config)
+    if unknown := sorted(given - expected):
+        raise ValueError(f"unknown config keys: {unknown}")
+    if missing := sorted(expected - given):
+        raise ValueError(f"missing config keys: {missing}")
+    positive = (
+        "num_envs",
+        "num_timesteps",
+        "episode_length",
+        "batch_size",
+        "updates_per_step",
+        "replay_size",
+        "steps_per_chunk",
+        "eval_interval",
+        "num_eval_envs",
+        "eval_episode_length",
+        "checkpoint_interval",
+        "keep_checkpoints",
     )
-  if not 0 <= config.min_replay_size <= config.replay_size:
-    raise ValueError(
-        f'config.min_replay_size ({config.min_replay_size}) must be in'
-        f' [0, replay_size = {config.replay_size}]'
-    )
-  prefill_steps = -(-config.min_replay_size // config.num_envs) * config.num_envs
-  if prefill_steps >= config.num_timesteps:
-    raise ValueError(
-        f'no training would happen: the prefill of min_replay_size'
-        f' ({config.min_replay_size}) takes {prefill_steps} env steps >='
-        f' num_timesteps ({config.num_timesteps})'
-    )
+    for name in positive:
+        if config[name] < 1:
+            raise ValueError(f"config.{name} must be >= 1, got {config[name]}")
+    if config.replay_size < config.num_envs:
+        raise ValueError(
+            f"config.replay_size ({config.replay_size}) must hold one step of all"
+            f" envs (num_envs = {config.num_envs})"
+        )
+    if not 0 <= config.min_replay_size <= config.replay_size:
+        raise ValueError(
+            f"config.min_replay_size ({config.min_replay_size}) must be in"
+            f" [0, replay_size = {config.replay_size}]"
+        )
+    prefill_steps = -(-config.min_replay_size // config.num_envs) * config.num_envs
+    if prefill_steps >= config.num_timesteps:
+        raise ValueError(
+            f"no training would happen: the prefill of min_replay_size"
+            f" ({config.min_replay_size}) takes {prefill_steps} env steps >="
+            f" num_timesteps ({config.num_timesteps})"
+        )
 
 
-def _flat_keys(config: ml_collections.ConfigDict, prefix: str = '') -> set[str]:
-  keys = set()
-  for name, value in config.items():
-    if isinstance(value, ml_collections.ConfigDict):
-      keys |= _flat_keys(value, f'{prefix}{name}.')
-    else:
-      keys.add(prefix + name)
-  return keys
+def _flat_keys(config: ml_collections.ConfigDict, prefix: str = "") -> set[str]:
+    keys = set()
+    for name, value in config.items():
+        if isinstance(value, ml_collections.ConfigDict):
+            keys |= _flat_keys(value, f"{prefix}{name}.")
+        else:
+            keys.add(prefix + name)
+    return keys
 
 
 def _run_info(
     config: ml_collections.ConfigDict, extra_run_info: dict[str, Any] | None
 ) -> dict[str, Any]:
-  versions = {}
-  for package in _VERSIONED_PACKAGES:
-    try:
-      versions[package] = importlib.metadata.version(package)
-    except importlib.metadata.PackageNotFoundError:
-      pass
-  return {
-      'config': json.loads(json.dumps(config.to_dict())),
-      'versions': versions,
-      'git_revision': _git_revision(),
-      'run_info': extra_run_info or {},
-  }
+    versions = {}
+    for package in _VERSIONED_PACKAGES:
+        try:
+            versions[package] = importlib.metadata.version(package)
+        except importlib.metadata.PackageNotFoundError:
+            pass
+    return {
+        "config": json.loads(json.dumps(config.to_dict())),
+        "versions": versions,
+        "git_revision": _git_revision(),
+        "run_info": extra_run_info or {},
+    }
 
 
 def _git_revision() -> str | None:
-  """HEAD of the repository holding this package, '+dirty' if modified."""
-  here = Path(__file__).parent
-  try:
-    revision = subprocess.run(
-        ['git', 'rev-parse', 'HEAD'], cwd=here, capture_output=True,
-        text=True, timeout=10, check=True,
-    ).stdout.strip()
-    status = subprocess.run(
-        ['git', 'status', '--porcelain', '--untracked-files=no'], cwd=here,
-        capture_output=True, text=True, timeout=10, check=True,
-    ).stdout.strip()
-  except (OSError, subprocess.SubprocessError):
-    return None
-  return revision + ('+dirty' if status else '')
+    """HEAD of the repository holding this package, '+dirty' if modified."""
+    here = Path(__file__).parent
+    try:
+        revision = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=here,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        ).stdout.strip()
+        status = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=here,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return revision + ("+dirty" if status else "")
 
 
 class _Window:
-  """Chunk metrics and training time since the last metrics row."""
+    """Chunk metrics and training time since the last metrics row."""
 
-  def __init__(self):
-    self._sums: dict[str, float] = {}
-    self._chunks = 0
-    self._steps = 0
-    self._seconds = 0.0
+    def __init__(self):
+        self._sums: dict[str, float] = {}
+        self._chunks = 0
+        self._steps = 0
+        self._seconds = 0.0
 
-  def add(self, chunk_metrics: dict[str, Any], steps: int, seconds: float):
-    for name, value in chunk_metrics.items():
-      self._sums[name] = self._sums.get(name, 0.0) + float(value)
-    self._chunks += 1
-    self._steps += steps
-    self._seconds += seconds
+    def add(self, chunk_metrics: dict[str, Any], steps: int, seconds: float):
+        for name, value in chunk_metrics.items():
+            self._sums[name] = self._sums.get(name, 0.0) + float(value)
+        self._chunks += 1
+        self._steps += steps
+        self._seconds += seconds
 
-  def means(self) -> dict[str, float]:
-    return {
-        f'train/{name}': total / self._chunks
-        for name, total in self._sums.items()
-    }
+    def means(self) -> dict[str, float]:
+        return {f"train/{name}": total / self._chunks for name, total in self._sums.items()}
 
-  def steps_per_second(self) -> float:
-    return self._steps / self._seconds if self._seconds > 0 else 0.0
+    def steps_per_second(self) -> float:
+        return self._steps / self._seconds if self._seconds > 0 else 0.0
 
 
 class _Clock:
-  """Wall time of the run in seconds, continued across resumes."""
+    """Wall time of the run in seconds, continued across resumes."""
 
-  def __init__(self, offset: float):
-    self._start = time.monotonic() - offset
+    def __init__(self, offset: float):
+        self._start = time.monotonic() - offset
 
-  def __call__(self) -> float:
-    return time.monotonic() - self._start
+    def __call__(self) -> float:
+        return time.monotonic() - self._start
 
 
 class _SignalStop:
-  """Turns SIGINT/SIGTERM into a request to stop after the current chunk.
+    """Turns SIGINT/SIGTERM into a request to stop after the current chunk.
 
-  A second SIGINT raises KeyboardInterrupt at once. Handlers can only be
-  installed from the main thread; elsewhere signals keep their handlers.
-  """
+    A second SIGINT raises KeyboardInterrupt at once. Handlers can only be
+    installed from the main thread; elsewhere signals keep their handlers.
+    """
 
-  def __init__(self):
-    self.signal_name: str | None = None
-    self._previous: dict[int, Any] = {}
+    def __init__(self):
+        self.signal_name: str | None = None
+        self._previous: dict[int, Any] = {}
 
-  def __enter__(self) -> '_SignalStop':
-    if threading.current_thread() is threading.main_thread():
-      for signum in (signal.SIGINT, signal.SIGTERM):
-        self._previous[signum] = signal.signal(signum, self._handle)
-    return self
+    def __enter__(self) -> "_SignalStop":
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self._previous[signum] = signal.signal(signum, self._handle)
+        return self
 
-  def __exit__(self, *exc_info) -> None:
-    for signum, handler in self._previous.items():
-      signal.signal(signum, handler)
+    def __exit__(self, *exc_info) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
 
-  def _handle(self, signum: int, frame: Any) -> None:
-    del frame
-    if self.signal_name is not None and signum == signal.SIGINT:
-      raise KeyboardInterrupt
-    self.signal_name = signal.Signals(signum).name
-    logger.warning(
-        '%s received: stopping after the current chunk (SIGINT again aborts)',
-        self.signal_name,
-    )
+    def _handle(self, signum: int, frame: Any) -> None:
+        del frame
+        if self.signal_name is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.signal_name = signal.Signals(signum).name
+        logger.warning(
+            "%s received: stopping after the current chunk (SIGINT again aborts)",
+            self.signal_name,
+        )
 
 
 class _Progress:
-  """One redrawn status line on a terminal, one line per row otherwise."""
+    """One redrawn status line on a terminal, one line per row otherwise."""
 
-  _REDRAW_SECONDS = 0.2
+    _REDRAW_SECONDS = 0.2
 
-  def __init__(
-      self, total_steps: int, enabled: bool, stream: TextIO | None = None
-  ):
-    self._total = total_steps
-    self._stream = stream or sys.stderr
-    self._enabled = enabled
-    self._tty = enabled and self._stream.isatty()
-    self._last_redraw = -math.inf
+    def __init__(self, total_steps: int, enabled: bool, stream: TextIO | None = None):
+        self._total = total_steps
+        self._stream = stream or sys.stderr
+        self._enabled = enabled
+        self._tty = enabled and self._stream.isatty()
+        self._last_redraw = -math.inf
 
-  def update(
-      self, step: int, steps_per_second: float, history: list[dict[str, Any]]
-  ) -> None:
-    now = time.monotonic()
-    if not self._tty or now - self._last_redraw < self._REDRAW_SECONDS:
-      return
-    self._last_redraw = now
-    fraction = min(step / self._total, 1.0)
-    bar = '#' * int(24 * fraction)
-    self._stream.write(
-        f'\r[{bar:<24}] {step:,}/{self._total:,} env steps'
-        f'  {steps_per_second:,.0f}/s'
-        f'  eval reward {_last_reward(history)}'
-        f'  ETA {_eta(step, self._total, steps_per_second)}\033[K'
-    )
-    self._stream.flush()
+    def update(self, step: int, steps_per_second: float, history: list[dict[str, Any]]) -> None:
+        now = time.monotonic()
+        if not self._tty or now - self._last_redraw < self._REDRAW_SECONDS:
+            return
+        self._last_redraw = now
+        fraction = min(step / self._total, 1.0)
+        bar = "#" * int(24 * fraction)
+        self._stream.write(
+            f"\r[{bar:<24}] {step:,}/{self._total:,} env steps"
+            f"  {steps_per_second:,.0f}/s"
+            f"  eval reward {_last_reward(history)}"
+            f"  ETA {_eta(step, self._total, steps_per_second)}\033[K"
+        )
+        self._stream.flush()
 
-  def log_row(self, row: dict[str, Any]) -> None:
-    if not self._enabled or self._tty:
-      return
-    steps_per_second = row.get('env_steps_per_s', 0.0)
-    self._stream.write(
-        f'step {row["step"]:,}/{self._total:,}'
-        f'  {steps_per_second:,.0f} env steps/s'
-        f'  eval reward {_last_reward([row])}'
-        f'  fall rate {row["eval/fall_rate"]:.2f}'
-        f'  ETA {_eta(row["step"], self._total, steps_per_second)}\n'
-    )
-    self._stream.flush()
+    def log_row(self, row: dict[str, Any]) -> None:
+        if not self._enabled or self._tty:
+            return
+        steps_per_second = row.get("env_steps_per_s", 0.0)
+        self._stream.write(
+            f"step {row['step']:,}/{self._total:,}"
+            f"  {steps_per_second:,.0f} env steps/s"
+            f"  eval reward {_last_reward([row])}"
+            f"  fall rate {row['eval/fall_rate']:.2f}"
+            f"  ETA {_eta(row['step'], self._total, steps_per_second)}\n"
+        )
+        self._stream.flush()
 
-  def close(self) -> None:
-    if self._tty:
-      self._stream.write('\n')
-      self._stream.flush()
+    def close(self) -> None:
+        if self._tty:
+            self._stream.write("\n")
+            self._stream.flush()
 
 
 def _last_reward(history: list[dict[str, Any]]) -> str:
-  if not history:
-    return '-'
-  return f'{history[-1]["eval/episode_reward"]:.4g}'
+    if not history:
+        return "-"
+    return f"{history[-1]['eval/episode_reward']:.4g}"
 
 
 def _eta(step: int, total: int, steps_per_second: float) -> str:
-  if steps_per_second <= 0:
-    return '-'
-  seconds = int(max(total - step, 0) / steps_per_second)
-  return f'{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}'
+    if steps_per_second <= 0:
+        return "-"
+    seconds = int(max(total - step, 0) / steps_per_second)
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"

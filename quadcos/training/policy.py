@@ -22,20 +22,20 @@ import numpy as np
 from quadcos.training import files
 from quadcos.training import sac
 
-_FORMAT = 'quadcos.sac_policy'
+_FORMAT = "quadcos.sac_policy"
 _FORMAT_VERSION = 1
-_PARAMS_FILE = 'params.msgpack'
-_SPEC_FILE = 'policy.json'
+_PARAMS_FILE = "params.msgpack"
+_SPEC_FILE = "policy.json"
 
 
 @dataclasses.dataclass(frozen=True)
 class PolicySpec:
-  """What it takes to rebuild the policy network."""
+    """What it takes to rebuild the policy network."""
 
-  observation_size: int
-  action_size: int
-  hidden_sizes: tuple[int, ...]
-  normalize_observations: bool
+    observation_size: int
+    action_size: int
+    hidden_sizes: tuple[int, ...]
+    normalize_observations: bool
 
 
 def _deterministic_action(
@@ -43,34 +43,106 @@ def _deterministic_action(
     params: dict[str, Any],
     observation: jax.Array,
 ) -> jax.Array:
-  normalizer = running_statistics.NestedMeanStd(
-      mean=params['normalizer']['mean'], std=params['normalizer']['std']
-  )
-  logits = networks.policy_network.apply(
-      normalizer, params['policy'], observation
-  )
-  return networks.parametric_action_distribution.mode(logits)
+    normalizer = running_statistics.NestedMeanStd(
+        mean=params["normalizer"]["mean"], std=params["normalizer"]["std"]
+    )
+    logits = networks.policy_network.apply(normalizer, params["policy"], observation)
+    return networks.parametric_action_distribution.mode(logits)
 
 
 class Policy:
-  """Deterministic SAC policy: the tanh of the Gaussian mean."""
+    """Deterministic SAC policy: the tanh of the Gaussian mean."""
 
-  def __init__(
-      self,
-      spec: PolicySpec,
-      params: dict[str, Any],
-      config: dict[str, Any] | None = None,
-  ):
-    """Wraps trained parameters.
+    def __init__(
+        self,
+        spec: PolicySpec,
+        params: dict[str, Any],
+        config: dict[str, Any] | None = None,
+    ):
+        """Wraps trained parameters.
 
-    Args:
-      spec: sizes and options of the network.
-      params: {'normalizer': {'mean', 'std'}, 'policy': flax params}.
-      config: the run config to keep with the policy (JSON-serialisable).
-    """
-    self.spec = spec
-    self.params = jax.device_put(params)
-    self.config = dict(config or {})
+        Args:
+          spec: sizes and options of the network.
+          params: {'normalizer': {'mean', 'std'}, 'policy': flax params}.
+          config: the run config to keep with the policy (JSON-serialisable).
+        """
+        self.spec = spec
+        self.params = jax.device_put(params)
+        self.config = dict(config or {})
+        networks = sac.make_networks(
+            spec.observation_size,
+            spec.action_size,
+            spec.hidden_sizes,
+            spec.hidden_sizes,
+            spec.normalize_observations,
+        )
+        self._apply = jax.jit(functools.partial(_deterministic_action, networks))
+
+    @classmethod
+    def from_training_state(
+        cls,
+        state: sac.TrainingState,
+        spec: PolicySpec,
+        config: dict[str, Any] | None = None,
+    ) -> "Policy":
+        """Copies the policy part of a training state to the host."""
+        params = jax.device_get(
+            {
+                "normalizer": {
+                    "mean": state.normalizer_params.mean,
+                    "std": state.normalizer_params.std,
+                },
+                "policy": state.policy_params,
+            }
+        )
+        return cls(spec, params, config)
+
+    def act(self, observation: jax.Array) -> jax.Array:
+        """Actions in [-1, 1] for observations of shape (..., observation_size)."""
+        return self._apply(self.params, jnp.asarray(observation))
+
+
+def save_policy(path: str | os.PathLike[str], policy: Policy) -> Path:
+    """Writes `policy` to the directory `path` (replaced atomically)."""
+    spec_json = {
+        "format": _FORMAT,
+        "format_version": _FORMAT_VERSION,
+        **dataclasses.asdict(policy.spec),
+        "distribution": "tanh_normal",
+        "activation": "relu",
+        "config": policy.config,
+    }
+
+    def fill(directory: Path) -> None:
+        (directory / _PARAMS_FILE).write_bytes(flax.serialization.to_bytes(policy.params))
+        (directory / _SPEC_FILE).write_text(json.dumps(spec_json, indent=2), encoding="utf-8")
+
+    files.atomic_replace_dir(path, fill)
+    return Path(path)
+
+
+def load_policy(path: str | os.PathLike[str]) -> Policy:
+    """Loads a policy from a policy directory or a run directory."""
+    path = Path(path)
+    if not (path / _SPEC_FILE).exists() and (path / "policy" / _SPEC_FILE).exists():
+        path = path / "policy"
+    if not (path / _SPEC_FILE).exists():
+        raise FileNotFoundError(f"no policy in {path}: expected {_SPEC_FILE} there or in policy/")
+    spec_json = json.loads((path / _SPEC_FILE).read_text(encoding="utf-8"))
+    if spec_json.get("format") != _FORMAT:
+        raise ValueError(f"{path / _SPEC_FILE} is not a {_FORMAT} file")
+    spec = PolicySpec(
+        observation_size=spec_json["observation_size"],
+        action_size=spec_json["action_size"],
+        hidden_sizes=tuple(spec_json["hidden_sizes"]),
+        normalize_observations=spec_json["normalize_observations"],
+    )
+    template = _params_template(spec)
+    params = flax.serialization.from_bytes(template, (path / _PARAMS_FILE).read_bytes())
+    return Policy(spec, params, spec_json["config"])
+
+
+def _params_template(spec: PolicySpec) -> dict[str, Any]:
     networks = sac.make_networks(
         spec.observation_size,
         spec.action_size,
@@ -78,94 +150,12 @@ class Policy:
         spec.hidden_sizes,
         spec.normalize_observations,
     )
-    self._apply = jax.jit(functools.partial(_deterministic_action, networks))
-
-  @classmethod
-  def from_training_state(
-      cls,
-      state: sac.TrainingState,
-      spec: PolicySpec,
-      config: dict[str, Any] | None = None,
-  ) -> 'Policy':
-    """Copies the policy part of a training state to the host."""
-    params = jax.device_get({
-        'normalizer': {
-            'mean': state.normalizer_params.mean,
-            'std': state.normalizer_params.std,
+    policy_params = jax.eval_shape(networks.policy_network.init, jax.random.PRNGKey(0))
+    zeros = lambda x: np.zeros(x.shape, x.dtype)
+    return {
+        "normalizer": {
+            "mean": np.zeros((spec.observation_size,), np.float32),
+            "std": np.ones((spec.observation_size,), np.float32),
         },
-        'policy': state.policy_params,
-    })
-    return cls(spec, params, config)
-
-  def act(self, observation: jax.Array) -> jax.Array:
-    """Actions in [-1, 1] for observations of shape (..., observation_size)."""
-    return self._apply(self.params, jnp.asarray(observation))
-
-
-def save_policy(path: str | os.PathLike[str], policy: Policy) -> Path:
-  """Writes `policy` to the directory `path` (replaced atomically)."""
-  spec_json = {
-      'format': _FORMAT,
-      'format_version': _FORMAT_VERSION,
-      **dataclasses.asdict(policy.spec),
-      'distribution': 'tanh_normal',
-      'activation': 'relu',
-      'config': policy.config,
-  }
-
-  def fill(directory: Path) -> None:
-    (directory / _PARAMS_FILE).write_bytes(
-        flax.serialization.to_bytes(policy.params)
-    )
-    (directory / _SPEC_FILE).write_text(
-        json.dumps(spec_json, indent=2), encoding='utf-8'
-    )
-
-  files.atomic_replace_dir(path, fill)
-  return Path(path)
-
-
-def load_policy(path: str | os.PathLike[str]) -> Policy:
-  """Loads a policy from a policy directory or a run directory."""
-  path = Path(path)
-  if not (path / _SPEC_FILE).exists() and (path / 'policy' / _SPEC_FILE).exists():
-    path = path / 'policy'
-  if not (path / _SPEC_FILE).exists():
-    raise FileNotFoundError(
-        f'no policy in {path}: expected {_SPEC_FILE} there or in policy/'
-    )
-  spec_json = json.loads((path / _SPEC_FILE).read_text(encoding='utf-8'))
-  if spec_json.get('format') != _FORMAT:
-    raise ValueError(f'{path / _SPEC_FILE} is not a {_FORMAT} file')
-  spec = PolicySpec(
-      observation_size=spec_json['observation_size'],
-      action_size=spec_json['action_size'],
-      hidden_sizes=tuple(spec_json['hidden_sizes']),
-      normalize_observations=spec_json['normalize_observations'],
-  )
-  template = _params_template(spec)
-  params = flax.serialization.from_bytes(
-      template, (path / _PARAMS_FILE).read_bytes()
-  )
-  return Policy(spec, params, spec_json['config'])
-
-
-def _params_template(spec: PolicySpec) -> dict[str, Any]:
-  networks = sac.make_networks(
-      spec.observation_size,
-      spec.action_size,
-      spec.hidden_sizes,
-      spec.hidden_sizes,
-      spec.normalize_observations,
-  )
-  policy_params = jax.eval_shape(
-      networks.policy_network.init, jax.random.PRNGKey(0)
-  )
-  zeros = lambda x: np.zeros(x.shape, x.dtype)
-  return {
-      'normalizer': {
-          'mean': np.zeros((spec.observation_size,), np.float32),
-          'std': np.ones((spec.observation_size,), np.float32),
-      },
-      'policy': jax.tree.map(zeros, policy_params),
-  }
+        "policy": jax.tree.map(zeros, policy_params),
+    }

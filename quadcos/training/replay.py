@@ -17,67 +17,63 @@ import jax
 import jax.numpy as jnp
 from jax import flatten_util
 
-Sample = TypeVar('Sample')
+Sample = TypeVar("Sample")
 
 
 @flax.struct.dataclass
 class ReplayState:
-  """Contents of the ring buffer.
+    """Contents of the ring buffer.
 
-  Attributes:
-    data: (capacity, row_size) flattened transitions.
-    insert_position: () int32, row written next (the oldest once full).
-    size: () int32, number of valid rows, at most capacity.
-  """
+    Attributes:
+      data: (capacity, row_size) flattened transitions.
+      insert_position: () int32, row written next (the oldest once full).
+      size: () int32, number of valid rows, at most capacity.
+    """
 
-  data: jax.Array
-  insert_position: jax.Array
-  size: jax.Array
+    data: jax.Array
+    insert_position: jax.Array
+    size: jax.Array
 
 
 class RingReplay(Generic[Sample]):
-  """Fixed-capacity FIFO of transitions with uniform sampling."""
+    """Fixed-capacity FIFO of transitions with uniform sampling."""
 
-  def __init__(self, capacity: int, dummy_sample: Sample):
-    """Derives the row layout from one unbatched `dummy_sample`."""
-    flat, unflatten = flatten_util.ravel_pytree(dummy_sample)
-    self.capacity = capacity
-    self._row_size = flat.shape[0]
-    self._dtype = flat.dtype
-    self._flatten = jax.vmap(lambda sample: flatten_util.ravel_pytree(sample)[0])
-    self._unflatten = jax.vmap(unflatten)
+    def __init__(self, capacity: int, dummy_sample: Sample):
+        """Derives the row layout from one unbatched `dummy_sample`."""
+        flat, unflatten = flatten_util.ravel_pytree(dummy_sample)
+        self.capacity = capacity
+        self._row_size = flat.shape[0]
+        self._dtype = flat.dtype
+        self._flatten = jax.vmap(lambda sample: flatten_util.ravel_pytree(sample)[0])
+        self._unflatten = jax.vmap(unflatten)
 
-  def init(self) -> ReplayState:
-    """Returns an empty buffer."""
-    return ReplayState(
-        data=jnp.zeros((self.capacity, self._row_size), self._dtype),
-        insert_position=jnp.zeros((), jnp.int32),
-        size=jnp.zeros((), jnp.int32),
-    )
+    def init(self) -> ReplayState:
+        """Returns an empty buffer."""
+        return ReplayState(
+            data=jnp.zeros((self.capacity, self._row_size), self._dtype),
+            insert_position=jnp.zeros((), jnp.int32),
+            size=jnp.zeros((), jnp.int32),
+        )
 
-  def insert(
-      self, state: ReplayState, samples: Sample, valid: jax.Array
-  ) -> ReplayState:
-    """Appends the rows of `samples` whose `valid` (batch,) bool is set.
+    def insert(self, state: ReplayState, samples: Sample, valid: jax.Array) -> ReplayState:
+        """Appends the rows of `samples` whose `valid` (batch,) bool is set.
 
-    Valid rows keep their order and are packed next to each other; invalid
-    rows get the out-of-range index `capacity` and are dropped by the scatter.
-    """
-    rows = self._flatten(samples)
-    valid = valid.astype(jnp.int32)
-    offsets = jnp.cumsum(valid) - valid
-    index = (state.insert_position + offsets) % self.capacity
-    index = jnp.where(valid > 0, index, self.capacity)
-    num_valid = jnp.sum(valid)
-    return ReplayState(
-        data=state.data.at[index].set(rows, mode='drop'),
-        insert_position=(state.insert_position + num_valid) % self.capacity,
-        size=jnp.minimum(state.size + num_valid, self.capacity),
-    )
+        Valid rows keep their order and are packed next to each other; invalid
+        rows get the out-of-range index `capacity` and are dropped by the scatter.
+        """
+        rows = self._flatten(samples)
+        valid = valid.astype(jnp.int32)
+        offsets = jnp.cumsum(valid) - valid
+        index = (state.insert_position + offsets) % self.capacity
+        index = jnp.where(valid > 0, index, self.capacity)
+        num_valid = jnp.sum(valid)
+        return ReplayState(
+            data=state.data.at[index].set(rows, mode="drop"),
+            insert_position=(state.insert_position + num_valid) % self.capacity,
+            size=jnp.minimum(state.size + num_valid, self.capacity),
+        )
 
-  def sample(
-      self, state: ReplayState, key: jax.Array, batch_size: int
-  ) -> Sample:
-    """Draws `batch_size` transitions uniformly, with replacement."""
-    index = jax.random.randint(key, (batch_size,), 0, state.size)
-    return self._unflatten(state.data[index])
+    def sample(self, state: ReplayState, key: jax.Array, batch_size: int) -> Sample:
+        """Draws `batch_size` transitions uniformly, with replacement."""
+        index = jax.random.randint(key, (batch_size,), 0, state.size)
+        return self._unflatten(state.data[index])

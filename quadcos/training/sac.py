@@ -33,30 +33,30 @@ Metrics = dict[str, jax.Array]
 
 @flax.struct.dataclass
 class TrainingState:
-  """Everything that changes during training; a checkpoint stores all of it.
+    """Everything that changes during training; a checkpoint stores all of it.
 
-  Parameters are flax param dicts; `log_alpha` is the log of the SAC
-  temperature; `env_state` is the batched state of the wrapped training envs;
-  `key` is the PRNG key of the next chunk. The counters are 64-bit (two
-  uint32 halves) so that they do not wrap in long GPU runs: `env_steps`
-  counts transitions (prefill included), `gradient_steps` SAC updates and
-  `nan_resets` envs reset by the NaN guard.
-  """
+    Parameters are flax param dicts; `log_alpha` is the log of the SAC
+    temperature; `env_state` is the batched state of the wrapped training envs;
+    `key` is the PRNG key of the next chunk. The counters are 64-bit (two
+    uint32 halves) so that they do not wrap in long GPU runs: `env_steps`
+    counts transitions (prefill included), `gradient_steps` SAC updates and
+    `nan_resets` envs reset by the NaN guard.
+    """
 
-  policy_params: types.Params
-  policy_optimizer_state: optax.OptState
-  q_params: types.Params
-  q_optimizer_state: optax.OptState
-  target_q_params: types.Params
-  log_alpha: jax.Array
-  alpha_optimizer_state: optax.OptState
-  normalizer_params: running_statistics.RunningStatisticsState
-  env_state: envs.State
-  replay: replay_lib.ReplayState
-  key: jax.Array
-  env_steps: types.UInt64
-  gradient_steps: types.UInt64
-  nan_resets: types.UInt64
+    policy_params: types.Params
+    policy_optimizer_state: optax.OptState
+    q_params: types.Params
+    q_optimizer_state: optax.OptState
+    target_q_params: types.Params
+    log_alpha: jax.Array
+    alpha_optimizer_state: optax.OptState
+    normalizer_params: running_statistics.RunningStatisticsState
+    env_state: envs.State
+    replay: replay_lib.ReplayState
+    key: jax.Array
+    env_steps: types.UInt64
+    gradient_steps: types.UInt64
+    nan_resets: types.UInt64
 
 
 def make_networks(
@@ -66,445 +66,409 @@ def make_networks(
     q_hidden_sizes: Sequence[int],
     normalize_observations: bool,
 ) -> sac_networks.SACNetworks:
-  """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths."""
-  preprocess = (
-      running_statistics.normalize
-      if normalize_observations
-      else types.identity_observation_preprocessor
-  )
-  policy_side = sac_networks.make_sac_networks(
-      observation_size,
-      action_size,
-      preprocess_observations_fn=preprocess,
-      hidden_layer_sizes=tuple(policy_hidden_sizes),
-  )
-  q_side = sac_networks.make_sac_networks(
-      observation_size,
-      action_size,
-      preprocess_observations_fn=preprocess,
-      hidden_layer_sizes=tuple(q_hidden_sizes),
-  )
-  return sac_networks.SACNetworks(
-      policy_network=policy_side.policy_network,
-      q_network=q_side.q_network,
-      parametric_action_distribution=policy_side.parametric_action_distribution,
-  )
+    """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths."""
+    preprocess = (
+        running_statistics.normalize
+        if normalize_observations
+        else types.identity_observation_preprocessor
+    )
+    policy_side = sac_networks.make_sac_networks(
+        observation_size,
+        action_size,
+        preprocess_observations_fn=preprocess,
+        hidden_layer_sizes=tuple(policy_hidden_sizes),
+    )
+    q_side = sac_networks.make_sac_networks(
+        observation_size,
+        action_size,
+        preprocess_observations_fn=preprocess,
+        hidden_layer_sizes=tuple(q_hidden_sizes),
+    )
+    return sac_networks.SACNetworks(
+        policy_network=policy_side.policy_network,
+        q_network=q_side.q_network,
+        parametric_action_distribution=policy_side.parametric_action_distribution,
+    )
 
 
 def observation_size(env: envs.Env) -> int:
-  """Length of the flat observation vector of an unbatched env."""
-  obs = jax.eval_shape(env.reset, jax.random.PRNGKey(0)).obs
-  if not hasattr(obs, 'shape') or len(obs.shape) != 1:
-    raise ValueError(f'SAC needs a flat observation vector; got {obs}')
-  return obs.shape[0]
+    """Length of the flat observation vector of an unbatched env."""
+    obs = jax.eval_shape(env.reset, jax.random.PRNGKey(0)).obs
+    if not hasattr(obs, "shape") or len(obs.shape) != 1:
+        raise ValueError(f"SAC needs a flat observation vector; got {obs}")
+    return obs.shape[0]
 
 
-def _optimizer(
-    learning_rate: float, max_grad_norm: float | None
-) -> optax.GradientTransformation:
-  adam = optax.adam(learning_rate)
-  if max_grad_norm is None:
-    return adam
-  return optax.chain(optax.clip_by_global_norm(max_grad_norm), adam)
+def _optimizer(learning_rate: float, max_grad_norm: float | None) -> optax.GradientTransformation:
+    adam = optax.adam(learning_rate)
+    if max_grad_norm is None:
+        return adam
+    return optax.chain(optax.clip_by_global_norm(max_grad_norm), adam)
 
 
 def _strongly_typed(tree: Any) -> Any:
-  """Drops weak types so a jitted function's outputs match its inputs.
+    """Drops weak types so a jitted function's outputs match its inputs.
 
-  A leaf that enters weakly typed (e.g. a Python float from `reset`) and
-  leaves strongly typed would make the next call retrace.
-  """
-  return jax.tree.map(
-      lambda x: jax.lax.convert_element_type(x, jnp.asarray(x).dtype), tree
-  )
+    A leaf that enters weakly typed (e.g. a Python float from `reset`) and
+    leaves strongly typed would make the next call retrace.
+    """
+    return jax.tree.map(lambda x: jax.lax.convert_element_type(x, jnp.asarray(x).dtype), tree)
 
 
 def _per_env(mask: jax.Array, leaf: jax.Array) -> jax.Array:
-  """Broadcasts a (num_envs,) mask against a (num_envs, ...) leaf."""
-  return jnp.reshape(mask, mask.shape + (1,) * (leaf.ndim - mask.ndim))
+    """Broadcasts a (num_envs,) mask against a (num_envs, ...) leaf."""
+    return jnp.reshape(mask, mask.shape + (1,) * (leaf.ndim - mask.ndim))
 
 
 @flax.struct.dataclass
 class EvalTotals:
-  """Per-episode sums over the alive steps of evaluation episodes."""
+    """Per-episode sums over the alive steps of evaluation episodes."""
 
-  reward: jax.Array
-  length: jax.Array
-  metrics: dict[str, jax.Array]
-  alive: jax.Array
+    reward: jax.Array
+    length: jax.Array
+    metrics: dict[str, jax.Array]
+    alive: jax.Array
 
 
 class SACTrainer:
-  """The compiled pieces of SAC training for one env and one config.
+    """The compiled pieces of SAC training for one env and one config.
 
-  `init`, `prefill`, `train_chunk` and `evaluate` are jitted; `prefill` and
-  `train_chunk` donate the training state passed to them. `chunk_traces`
-  counts how often `train_chunk` was traced (it should be once).
-  """
-
-  def __init__(
-      self,
-      env: envs.Env,
-      config: ml_collections.ConfigDict,
-      eval_env: envs.Env | None = None,
-  ):
-    """Builds networks, losses and wrapped envs.
-
-    Args:
-      env: unbatched, unwrapped Brax env; wrapped here with Vmap, Episode
-        (time limit `episode_length`) and AutoReset wrappers.
-      config: see `quadcos.training.config.default_config`.
-      eval_env: unbatched env for evaluation; `env` when None.
+    `init`, `prefill`, `train_chunk` and `evaluate` are jitted; `prefill` and
+    `train_chunk` donate the training state passed to them. `chunk_traces`
+    counts how often `train_chunk` was traced (it should be once).
     """
-    # A private copy: the traced functions read it when they are compiled.
-    self.config = config.copy_and_resolve_references()
-    self.env = training_wrappers.wrap(env, episode_length=config.episode_length)
-    self.eval_env = training_wrappers.VmapWrapper(eval_env or env)
-    self.observation_size = observation_size(env)
-    self.action_size = env.action_size
-    self.networks = make_networks(
-        self.observation_size,
-        self.action_size,
-        config.hidden_sizes.policy,
-        config.hidden_sizes.q,
-        config.normalize_observations,
-    )
-    self._make_policy = sac_networks.make_inference_fn(self.networks)
 
-    self._policy_optimizer = _optimizer(
-        config.learning_rate.actor, config.max_grad_norm
-    )
-    self._q_optimizer = _optimizer(
-        config.learning_rate.critic, config.max_grad_norm
-    )
-    self._alpha_optimizer = optax.adam(config.learning_rate.alpha)
-    alpha_loss, critic_loss, actor_loss = sac_losses.make_losses(
-        sac_network=self.networks,
-        reward_scaling=config.reward_scaling,
-        discounting=config.discount,
-        action_size=self.action_size,
-    )
-    self._alpha_update = gradients.gradient_update_fn(
-        alpha_loss, self._alpha_optimizer, pmap_axis_name=None
-    )
-    self._critic_update = gradients.gradient_update_fn(
-        critic_loss, self._q_optimizer, pmap_axis_name=None
-    )
-    self._actor_update = gradients.gradient_update_fn(
-        actor_loss, self._policy_optimizer, pmap_axis_name=None
-    )
+    def __init__(
+        self,
+        env: envs.Env,
+        config: ml_collections.ConfigDict,
+        eval_env: envs.Env | None = None,
+    ):
+        """Builds networks, losses and wrapped envs.
 
-    dummy_obs = jnp.zeros((self.observation_size,))
-    dummy_transition = types.Transition(
-        observation=dummy_obs,
-        action=jnp.zeros((self.action_size,)),
-        reward=jnp.zeros(()),
-        discount=jnp.zeros(()),
-        next_observation=dummy_obs,
-        extras={'state_extras': {'truncation': jnp.zeros(())},
-                'policy_extras': {}},
-    )
-    self.replay = replay_lib.RingReplay(config.replay_size, dummy_transition)
-    self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
+        Args:
+          env: unbatched, unwrapped Brax env; wrapped here with Vmap, Episode
+            (time limit `episode_length`) and AutoReset wrappers.
+          config: see `quadcos.training.config.default_config`.
+          eval_env: unbatched env for evaluation; `env` when None.
+        """
+        # A private copy: the traced functions read it when they are compiled.
+        self.config = config.copy_and_resolve_references()
+        self.env = training_wrappers.wrap(env, episode_length=config.episode_length)
+        self.eval_env = training_wrappers.VmapWrapper(eval_env or env)
+        self.observation_size = observation_size(env)
+        self.action_size = env.action_size
+        self.networks = make_networks(
+            self.observation_size,
+            self.action_size,
+            config.hidden_sizes.policy,
+            config.hidden_sizes.q,
+            config.normalize_observations,
+        )
+        self._make_policy = sac_networks.make_inference_fn(self.networks)
 
-    self._key_init, self._eval_key = jax.random.split(
-        jax.random.PRNGKey(config.seed)
-    )
-    self.chunk_traces = 0
-    self._init = jax.jit(self._init_state)
-    self.prefill = jax.jit(self._prefill, donate_argnums=0)
-    self.train_chunk = jax.jit(self._train_chunk, donate_argnums=0)
-    self.evaluate = jax.jit(self._evaluate)
+        self._policy_optimizer = _optimizer(config.learning_rate.actor, config.max_grad_norm)
+        self._q_optimizer = _optimizer(config.learning_rate.critic, config.max_grad_norm)
+        self._alpha_optimizer = optax.adam(config.learning_rate.alpha)
+        alpha_loss, critic_loss, actor_loss = sac_losses.make_losses(
+            sac_network=self.networks,
+            reward_scaling=config.reward_scaling,
+            discounting=config.discount,
+            action_size=self.action_size,
+        )
+        self._alpha_update = gradients.gradient_update_fn(
+            alpha_loss, self._alpha_optimizer, pmap_axis_name=None
+        )
+        self._critic_update = gradients.gradient_update_fn(
+            critic_loss, self._q_optimizer, pmap_axis_name=None
+        )
+        self._actor_update = gradients.gradient_update_fn(
+            actor_loss, self._policy_optimizer, pmap_axis_name=None
+        )
 
-  def init(self) -> TrainingState:
-    """Returns the initial training state (empty replay buffer)."""
-    return self._init(self._key_init)
+        dummy_obs = jnp.zeros((self.observation_size,))
+        dummy_transition = types.Transition(
+            observation=dummy_obs,
+            action=jnp.zeros((self.action_size,)),
+            reward=jnp.zeros(()),
+            discount=jnp.zeros(()),
+            next_observation=dummy_obs,
+            extras={"state_extras": {"truncation": jnp.zeros(())}, "policy_extras": {}},
+        )
+        self.replay = replay_lib.RingReplay(config.replay_size, dummy_transition)
+        self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
 
-  def _init_state(self, key: jax.Array) -> TrainingState:
-    key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
-    policy_params = self.networks.policy_network.init(key_policy)
-    q_params = self.networks.q_network.init(key_q)
-    # log alpha = 0, i.e. temperature 1, as in Brax.
-    log_alpha = jnp.zeros((), jnp.float32)
-    state = TrainingState(
-        policy_params=policy_params,
-        policy_optimizer_state=self._policy_optimizer.init(policy_params),
-        q_params=q_params,
-        q_optimizer_state=self._q_optimizer.init(q_params),
-        target_q_params=q_params,
-        log_alpha=log_alpha,
-        alpha_optimizer_state=self._alpha_optimizer.init(log_alpha),
-        normalizer_params=running_statistics.init_state(
-            specs.Array((self.observation_size,), jnp.dtype('float32'))
-        ),
-        env_state=self.env.reset(
-            jax.random.split(key_env, self.config.num_envs)
-        ),
-        replay=self.replay.init(),
-        key=key_train,
-        env_steps=types.UInt64(hi=0, lo=0),
-        gradient_steps=types.UInt64(hi=0, lo=0),
-        nan_resets=types.UInt64(hi=0, lo=0),
-    )
-    return _strongly_typed(state)
+        self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
+        self.chunk_traces = 0
+        self._init = jax.jit(self._init_state)
+        self.prefill = jax.jit(self._prefill, donate_argnums=0)
+        self.train_chunk = jax.jit(self._train_chunk, donate_argnums=0)
+        self.evaluate = jax.jit(self._evaluate)
 
-  # --- Acting ----------------------------------------------------------------
+    def init(self) -> TrainingState:
+        """Returns the initial training state (empty replay buffer)."""
+        return self._init(self._key_init)
 
-  def _env_step(
-      self, state: TrainingState, actions: jax.Array, key_reset: jax.Array
-  ) -> tuple[TrainingState, Metrics]:
-    """Steps all training envs, stores the finite transitions.
+    def _init_state(self, key: jax.Array) -> TrainingState:
+        key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
+        policy_params = self.networks.policy_network.init(key_policy)
+        q_params = self.networks.q_network.init(key_q)
+        # log alpha = 0, i.e. temperature 1, as in Brax.
+        log_alpha = jnp.zeros((), jnp.float32)
+        state = TrainingState(
+            policy_params=policy_params,
+            policy_optimizer_state=self._policy_optimizer.init(policy_params),
+            q_params=q_params,
+            q_optimizer_state=self._q_optimizer.init(q_params),
+            target_q_params=q_params,
+            log_alpha=log_alpha,
+            alpha_optimizer_state=self._alpha_optimizer.init(log_alpha),
+            normalizer_params=running_statistics.init_state(
+                specs.Array((self.observation_size,), jnp.dtype("float32"))
+            ),
+            env_state=self.env.reset(jax.random.split(key_env, self.config.num_envs)),
+            replay=self.replay.init(),
+            key=key_train,
+            env_steps=types.UInt64(hi=0, lo=0),
+            gradient_steps=types.UInt64(hi=0, lo=0),
+            nan_resets=types.UInt64(hi=0, lo=0),
+        )
+        return _strongly_typed(state)
 
-    An env whose observation or reward is non-finite is replaced by a freshly
-    reset one (done = 1), its transition is neither stored nor counted in the
-    observation statistics, and `nan_resets` counts it.
-    """
-    env_state = state.env_state
-    next_env_state = self.env.step(env_state, actions)
-    transitions = types.Transition(
-        observation=env_state.obs,
-        action=actions,
-        reward=next_env_state.reward,
-        discount=1 - next_env_state.done,
-        next_observation=next_env_state.obs,
-        extras={
-            'state_extras': {'truncation': next_env_state.info['truncation']},
-            'policy_extras': {},
-        },
-    )
-    finite = (
-        jnp.all(jnp.isfinite(transitions.observation), axis=-1)
-        & jnp.all(jnp.isfinite(transitions.next_observation), axis=-1)
-        & jnp.isfinite(transitions.reward)
-    )
-    next_env_state = self._reset_where(~finite, next_env_state, key_reset)
+    # --- Acting ----------------------------------------------------------------
 
-    clean_obs = jnp.where(finite[:, None], transitions.observation, 0.0)
-    updated_normalizer = running_statistics.update(
-        state.normalizer_params, clean_obs, weights=finite.astype(jnp.float32)
-    )
-    # With no valid row Welford would divide 0 by a zero count.
-    normalizer_params = jax.tree.map(
-        lambda new, old: jnp.where(jnp.any(finite), new, old),
-        updated_normalizer,
-        state.normalizer_params,
-    )
-    num_finite = jnp.sum(finite)
-    state = state.replace(
-        env_state=_strongly_typed(next_env_state),
-        replay=self.replay.insert(state.replay, transitions, finite),
-        normalizer_params=normalizer_params,
-        env_steps=state.env_steps + self.config.num_envs,
-        nan_resets=state.nan_resets
-        + (self.config.num_envs - num_finite).astype(jnp.uint32),
-    )
-    reward = jnp.sum(jnp.where(finite, transitions.reward, 0.0)) / jnp.maximum(
-        num_finite, 1
-    )
-    return state, {'reward': reward}
+    def _env_step(
+        self, state: TrainingState, actions: jax.Array, key_reset: jax.Array
+    ) -> tuple[TrainingState, Metrics]:
+        """Steps all training envs, stores the finite transitions.
 
-  def _reset_where(
-      self, mask: jax.Array, env_state: envs.State, key: jax.Array
-  ) -> envs.State:
-    """Replaces the whole state of the masked envs by a fresh reset state."""
+        An env whose observation or reward is non-finite is replaced by a freshly
+        reset one (done = 1), its transition is neither stored nor counted in the
+        observation statistics, and `nan_resets` counts it.
+        """
+        env_state = state.env_state
+        next_env_state = self.env.step(env_state, actions)
+        transitions = types.Transition(
+            observation=env_state.obs,
+            action=actions,
+            reward=next_env_state.reward,
+            discount=1 - next_env_state.done,
+            next_observation=next_env_state.obs,
+            extras={
+                "state_extras": {"truncation": next_env_state.info["truncation"]},
+                "policy_extras": {},
+            },
+        )
+        finite = (
+            jnp.all(jnp.isfinite(transitions.observation), axis=-1)
+            & jnp.all(jnp.isfinite(transitions.next_observation), axis=-1)
+            & jnp.isfinite(transitions.reward)
+        )
+        next_env_state = self._reset_where(~finite, next_env_state, key_reset)
 
-    def reset_masked() -> envs.State:
-      fresh = self.env.reset(jax.random.split(key, self.config.num_envs))
-      fresh = fresh.replace(done=jnp.ones_like(fresh.done))
-      return jax.tree.map(
-          lambda new, old: jnp.where(_per_env(mask, old), new, old).astype(
-              old.dtype
-          ),
-          fresh,
-          env_state,
-      )
+        clean_obs = jnp.where(finite[:, None], transitions.observation, 0.0)
+        updated_normalizer = running_statistics.update(
+            state.normalizer_params, clean_obs, weights=finite.astype(jnp.float32)
+        )
+        # With no valid row Welford would divide 0 by a zero count.
+        normalizer_params = jax.tree.map(
+            lambda new, old: jnp.where(jnp.any(finite), new, old),
+            updated_normalizer,
+            state.normalizer_params,
+        )
+        num_finite = jnp.sum(finite)
+        state = state.replace(
+            env_state=_strongly_typed(next_env_state),
+            replay=self.replay.insert(state.replay, transitions, finite),
+            normalizer_params=normalizer_params,
+            env_steps=state.env_steps + self.config.num_envs,
+            nan_resets=state.nan_resets + (self.config.num_envs - num_finite).astype(jnp.uint32),
+        )
+        reward = jnp.sum(jnp.where(finite, transitions.reward, 0.0)) / jnp.maximum(num_finite, 1)
+        return state, {"reward": reward}
 
-    # Resetting is as costly as a step, so only do it when an env needs it.
-    return jax.lax.cond(jnp.any(mask), reset_masked, lambda: env_state)
+    def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:
+        """Replaces the whole state of the masked envs by a fresh reset state."""
 
-  def _prefill(self, state: TrainingState) -> TrainingState:
-    """Fills the replay buffer with `min_replay_size` uniform random steps."""
+        def reset_masked() -> envs.State:
+            fresh = self.env.reset(jax.random.split(key, self.config.num_envs))
+            fresh = fresh.replace(done=jnp.ones_like(fresh.done))
+            return jax.tree.map(
+                lambda new, old: jnp.where(_per_env(mask, old), new, old).astype(old.dtype),
+                fresh,
+                env_state,
+            )
 
-    def step(state: TrainingState, _) -> tuple[TrainingState, None]:
-      key, key_action, key_reset = jax.random.split(state.key, 3)
-      actions = jax.random.uniform(
-          key_action,
-          (self.config.num_envs, self.action_size),
-          minval=-1.0,
-          maxval=1.0,
-      )
-      state, _ = self._env_step(state.replace(key=key), actions, key_reset)
-      return state, None
+        # Resetting is as costly as a step, so only do it when an env needs it.
+        return jax.lax.cond(jnp.any(mask), reset_masked, lambda: env_state)
 
-    state, _ = jax.lax.scan(step, state, None, length=self.num_prefill_steps)
-    return _strongly_typed(state)
+    def _prefill(self, state: TrainingState) -> TrainingState:
+        """Fills the replay buffer with `min_replay_size` uniform random steps."""
 
-  # --- Learning --------------------------------------------------------------
+        def step(state: TrainingState, _) -> tuple[TrainingState, None]:
+            key, key_action, key_reset = jax.random.split(state.key, 3)
+            actions = jax.random.uniform(
+                key_action,
+                (self.config.num_envs, self.action_size),
+                minval=-1.0,
+                maxval=1.0,
+            )
+            state, _ = self._env_step(state.replace(key=key), actions, key_reset)
+            return state, None
 
-  def _sgd_step(
-      self,
-      state: TrainingState,
-      batch: tuple[types.Transition, jax.Array],
-  ) -> tuple[TrainingState, Metrics]:
-    """One SAC update of temperature, critics, actor and target critics."""
-    transitions, key = batch
-    key_alpha, key_critic, key_actor = jax.random.split(key, 3)
-    alpha_loss, log_alpha, alpha_optimizer_state = self._alpha_update(
-        state.log_alpha,
-        state.policy_params,
-        state.normalizer_params,
-        transitions,
-        key_alpha,
-        optimizer_state=state.alpha_optimizer_state,
-    )
-    alpha = jnp.exp(state.log_alpha)
-    critic_loss, q_params, q_optimizer_state = self._critic_update(
-        state.q_params,
-        state.policy_params,
-        state.normalizer_params,
-        state.target_q_params,
-        alpha,
-        transitions,
-        key_critic,
-        optimizer_state=state.q_optimizer_state,
-    )
-    actor_loss, policy_params, policy_optimizer_state = self._actor_update(
-        state.policy_params,
-        state.normalizer_params,
-        state.q_params,
-        alpha,
-        transitions,
-        key_actor,
-        optimizer_state=state.policy_optimizer_state,
-    )
-    tau = self.config.tau
-    target_q_params = jax.tree.map(
-        lambda target, q: (1 - tau) * target + tau * q,
-        state.target_q_params,
-        q_params,
-    )
-    state = state.replace(
-        policy_params=policy_params,
-        policy_optimizer_state=policy_optimizer_state,
-        q_params=q_params,
-        q_optimizer_state=q_optimizer_state,
-        target_q_params=target_q_params,
-        log_alpha=log_alpha,
-        alpha_optimizer_state=alpha_optimizer_state,
-        gradient_steps=state.gradient_steps + 1,
-    )
-    metrics = {
-        'critic_loss': critic_loss,
-        'actor_loss': actor_loss,
-        'alpha_loss': alpha_loss,
-        'alpha': jnp.exp(log_alpha),
-    }
-    return state, metrics
+        state, _ = jax.lax.scan(step, state, None, length=self.num_prefill_steps)
+        return _strongly_typed(state)
 
-  def _train_chunk(self, state: TrainingState) -> tuple[TrainingState, Metrics]:
-    """`steps_per_chunk` x (one env step of all envs + SAC updates).
+    # --- Learning --------------------------------------------------------------
 
-    Returns the new state and the chunk's metrics, each averaged over the
-    chunk: critic_loss, actor_loss, alpha_loss, alpha, reward (mean reward per
-    stored transition).
-    """
-    self.chunk_traces += 1
-    config = self.config
+    def _sgd_step(
+        self,
+        state: TrainingState,
+        batch: tuple[types.Transition, jax.Array],
+    ) -> tuple[TrainingState, Metrics]:
+        """One SAC update of temperature, critics, actor and target critics."""
+        transitions, key = batch
+        key_alpha, key_critic, key_actor = jax.random.split(key, 3)
+        alpha_loss, log_alpha, alpha_optimizer_state = self._alpha_update(
+            state.log_alpha,
+            state.policy_params,
+            state.normalizer_params,
+            transitions,
+            key_alpha,
+            optimizer_state=state.alpha_optimizer_state,
+        )
+        alpha = jnp.exp(state.log_alpha)
+        critic_loss, q_params, q_optimizer_state = self._critic_update(
+            state.q_params,
+            state.policy_params,
+            state.normalizer_params,
+            state.target_q_params,
+            alpha,
+            transitions,
+            key_critic,
+            optimizer_state=state.q_optimizer_state,
+        )
+        actor_loss, policy_params, policy_optimizer_state = self._actor_update(
+            state.policy_params,
+            state.normalizer_params,
+            state.q_params,
+            alpha,
+            transitions,
+            key_actor,
+            optimizer_state=state.policy_optimizer_state,
+        )
+        tau = self.config.tau
+        target_q_params = jax.tree.map(
+            lambda target, q: (1 - tau) * target + tau * q,
+            state.target_q_params,
+            q_params,
+        )
+        state = state.replace(
+            policy_params=policy_params,
+            policy_optimizer_state=policy_optimizer_state,
+            q_params=q_params,
+            q_optimizer_state=q_optimizer_state,
+            target_q_params=target_q_params,
+            log_alpha=log_alpha,
+            alpha_optimizer_state=alpha_optimizer_state,
+            gradient_steps=state.gradient_steps + 1,
+        )
+        metrics = {
+            "critic_loss": critic_loss,
+            "actor_loss": actor_loss,
+            "alpha_loss": alpha_loss,
+            "alpha": jnp.exp(log_alpha),
+        }
+        return state, metrics
 
-    def step(state: TrainingState, _) -> tuple[TrainingState, Metrics]:
-      key, key_action, key_reset, key_sample, key_sgd = jax.random.split(
-          state.key, 5
-      )
-      policy = self._make_policy((state.normalizer_params, state.policy_params))
-      actions, _ = policy(state.env_state.obs, key_action)
-      state, env_metrics = self._env_step(
-          state.replace(key=key), actions, key_reset
-      )
+    def _train_chunk(self, state: TrainingState) -> tuple[TrainingState, Metrics]:
+        """`steps_per_chunk` x (one env step of all envs + SAC updates).
 
-      transitions = self.replay.sample(
-          state.replay, key_sample, config.updates_per_step * config.batch_size
-      )
-      transitions = jax.tree.map(
-          lambda x: jnp.reshape(
-              x, (config.updates_per_step, config.batch_size) + x.shape[1:]
-          ),
-          transitions,
-      )
-      keys_sgd = jax.random.split(key_sgd, config.updates_per_step)
-      state, sgd_metrics = jax.lax.scan(
-          self._sgd_step, state, (transitions, keys_sgd)
-      )
-      sgd_metrics = jax.tree.map(jnp.mean, sgd_metrics)
-      return state, {**env_metrics, **sgd_metrics}
+        Returns the new state and the chunk's metrics, each averaged over the
+        chunk: critic_loss, actor_loss, alpha_loss, alpha, reward (mean reward per
+        stored transition).
+        """
+        self.chunk_traces += 1
+        config = self.config
 
-    state, metrics = jax.lax.scan(
-        step, state, None, length=config.steps_per_chunk
-    )
-    return _strongly_typed(state), jax.tree.map(jnp.mean, metrics)
+        def step(state: TrainingState, _) -> tuple[TrainingState, Metrics]:
+            key, key_action, key_reset, key_sample, key_sgd = jax.random.split(state.key, 5)
+            policy = self._make_policy((state.normalizer_params, state.policy_params))
+            actions, _ = policy(state.env_state.obs, key_action)
+            state, env_metrics = self._env_step(state.replace(key=key), actions, key_reset)
 
-  # --- Evaluation ------------------------------------------------------------
+            transitions = self.replay.sample(
+                state.replay, key_sample, config.updates_per_step * config.batch_size
+            )
+            transitions = jax.tree.map(
+                lambda x: jnp.reshape(
+                    x, (config.updates_per_step, config.batch_size) + x.shape[1:]
+                ),
+                transitions,
+            )
+            keys_sgd = jax.random.split(key_sgd, config.updates_per_step)
+            state, sgd_metrics = jax.lax.scan(self._sgd_step, state, (transitions, keys_sgd))
+            sgd_metrics = jax.tree.map(jnp.mean, sgd_metrics)
+            return state, {**env_metrics, **sgd_metrics}
 
-  def _evaluate(
-      self,
-      normalizer_params: running_statistics.RunningStatisticsState,
-      policy_params: types.Params,
-  ) -> Metrics:
-    """Deterministic episodes (tanh of the Gaussian mean) on the eval env.
+        state, metrics = jax.lax.scan(step, state, None, length=config.steps_per_chunk)
+        return _strongly_typed(state), jax.tree.map(jnp.mean, metrics)
 
-    Runs `num_eval_envs` episodes for `eval_episode_length` steps each, from
-    the same initial states every time. An episode is alive until the env
-    reports done; steps after that are ignored.
+    # --- Evaluation ------------------------------------------------------------
 
-    Returns:
-      Averages over episodes of: `eval/episode_reward` (sum of rewards),
-      `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode
-      ended with done before the time limit), and for each key of the env's
-      `state.metrics`, `eval/<key>`: the per-episode sum for keys starting
-      with `reward/`, else the per-episode mean over alive steps.
-    """
-    config = self.config
-    policy = self._make_policy(
-        (normalizer_params, policy_params), deterministic=True
-    )
-    env_state = self.eval_env.reset(
-        jax.random.split(self._eval_key, config.num_eval_envs)
-    )
-    zeros = jnp.zeros((config.num_eval_envs,))
-    totals = EvalTotals(
-        reward=zeros,
-        length=zeros,
-        metrics={name: zeros for name in env_state.metrics},
-        alive=jnp.ones((config.num_eval_envs,), bool),
-    )
+    def _evaluate(
+        self,
+        normalizer_params: running_statistics.RunningStatisticsState,
+        policy_params: types.Params,
+    ) -> Metrics:
+        """Deterministic episodes (tanh of the Gaussian mean) on the eval env.
 
-    def step(carry, _):
-      env_state, totals = carry
-      actions, _ = policy(env_state.obs, self._eval_key)
-      next_env_state = self.eval_env.step(env_state, actions)
-      # `where`, not multiplication: a fallen env may produce NaN.
-      alive_sum = lambda total, value: total + jnp.where(
-          totals.alive, value, 0.0
-      )
-      totals = EvalTotals(
-          reward=alive_sum(totals.reward, next_env_state.reward),
-          length=alive_sum(totals.length, 1.0),
-          metrics=jax.tree.map(
-              alive_sum, totals.metrics, next_env_state.metrics
-          ),
-          alive=totals.alive & (next_env_state.done == 0),
-      )
-      return (next_env_state, totals), None
+        Runs `num_eval_envs` episodes for `eval_episode_length` steps each, from
+        the same initial states every time. An episode is alive until the env
+        reports done; steps after that are ignored.
 
-    (_, totals), _ = jax.lax.scan(
-        step, (env_state, totals), None, length=config.eval_episode_length
-    )
-    metrics = {
-        'eval/episode_reward': jnp.mean(totals.reward),
-        'eval/episode_length': jnp.mean(totals.length),
-        'eval/fall_rate': jnp.mean(~totals.alive),
-    }
-    for name, per_episode in totals.metrics.items():
-      if not name.startswith('reward/'):
-        per_episode = per_episode / jnp.maximum(totals.length, 1.0)
-      metrics[f'eval/{name}'] = jnp.mean(per_episode)
-    return metrics
+        Returns:
+          Averages over episodes of: `eval/episode_reward` (sum of rewards),
+          `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode
+          ended with done before the time limit), and for each key of the env's
+          `state.metrics`, `eval/<key>`: the per-episode sum for keys starting
+          with `reward/`, else the per-episode mean over alive steps.
+        """
+        config = self.config
+        policy = self._make_policy((normalizer_params, policy_params), deterministic=True)
+        env_state = self.eval_env.reset(jax.random.split(self._eval_key, config.num_eval_envs))
+        zeros = jnp.zeros((config.num_eval_envs,))
+        totals = EvalTotals(
+            reward=zeros,
+            length=zeros,
+            metrics={name: zeros for name in env_state.metrics},
+            alive=jnp.ones((config.num_eval_envs,), bool),
+        )
+
+        def step(carry, _):
+            env_state, totals = carry
+            actions, _ = policy(env_state.obs, self._eval_key)
+            next_env_state = self.eval_env.step(env_state, actions)
+            # `where`, not multiplication: a fallen env may produce NaN.
+            alive_sum = lambda total, value: total + jnp.where(totals.alive, value, 0.0)
+            totals = EvalTotals(
+                reward=alive_sum(totals.reward, next_env_state.reward),
+                length=alive_sum(totals.length, 1.0),
+                metrics=jax.tree.map(alive_sum, totals.metrics, next_env_state.metrics),
+                alive=totals.alive & (next_env_state.done == 0),
+            )
+            return (next_env_state, totals), None
+
+        (_, totals), _ = jax.lax.scan(
+            step, (env_state, totals), None, length=config.eval_episode_length
+        )
+        metrics = {
+            "eval/episode_reward": jnp.mean(totals.reward),
+            "eval/episode_length": jnp.mean(totals.length),
+            "eval/fall_rate": jnp.mean(~totals.alive),
+        }
+        for name, per_episode in totals.metrics.items():
+            if not name.startswith("reward/"):
+                per_episode = per_episode / jnp.maximum(totals.length, 1.0)
+            metrics[f"eval/{name}"] = jnp.mean(per_episode)
+        return metrics
