@@ -20,6 +20,7 @@ from quadcos.config import apply_overrides
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")
+ACTION_CENTRES = {"trot": oscillator.FIXED_TROT, "midpoint": None}
 JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
 
 
@@ -50,6 +51,10 @@ def default_config() -> ml_collections.ConfigDict:
     # evaluates Eq. 3 at 2πt/T. Equal while T is constant; see quadcos.oscillator.
     config.oscillator_form = "phase"
     config.period_min = oscillator.PERIOD_MIN  # s: lower end of T's range (0, 2]
+    # What the zero action means: "trot" = oscillator.FIXED_TROT (a fresh policy starts from a
+    # walking gait; all of §3.3's ranges stay reachable), "midpoint" = the middle of each range
+    # (a plain linear map: the zero action stands still). See oscillator.action_to_parameters.
+    config.action_centre = "trot"
     config.reward_variant = "full"  # "full" (Eq. 13) or "xy" (Fig. 9's r_xy)
     config.reward = ml_collections.ConfigDict(reward.RewardWeights()._asdict())
     config.observe_slope = False  # append the slope estimate to the paper's 14-d state
@@ -89,6 +94,7 @@ class QuadrupedEnv(base.Env):
         self.model = mjx.put_model(self.mj_model, impl=config.impl)
         self.substeps = round(config.control_dt / config.physics_dt)
         self.weights = reward.RewardWeights(**config.reward.to_dict())
+        self.action_centre = ACTION_CENTRES[config.action_centre]
         orientation_sensor = self.mj_model.sensor(constants.IMU_ORIENTATION_SENSOR)
         self._orientation_slice = slice(orientation_sensor.adr[0], orientation_sensor.adr[0] + 4)
         self._torso_body = self.mj_model.body(constants.TORSO_BODY).id
@@ -186,13 +192,17 @@ class QuadrupedEnv(base.Env):
             info={**state.info, "phase": phase},
         )
 
+    def action_for(self, params: oscillator.RhythmParameters) -> jax.Array:
+        """The (..., 5) action that commands rhythm parameters `params` in this env."""
+        return oscillator.parameters_to_action(params, self.config.period_min, self.action_centre)
+
     # --- pieces of a step ---------------------------------------------------------------------
 
     def joint_targets(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
         """(8,) joint targets (rad) that `action` commands at oscillator phase ψ / time t."""
         if self.config.controller == "joint":
             return JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
-        params = oscillator.action_to_parameters(action, self.config.period_min)
+        params = oscillator.action_to_parameters(action, self.config.period_min, self.action_centre)
         phases = oscillator.trot_phases(params.phi1, params.phi3)
         if self.config.oscillator_form == "literal":
             return oscillator.cosine_rhythm(
@@ -205,7 +215,9 @@ class QuadrupedEnv(base.Env):
     def _actuate(
         self, data: mjx.Data, phase: jax.Array, action: jax.Array
     ) -> tuple[mjx.Data, jax.Array]:
-        period = oscillator.action_to_parameters(action, self.config.period_min).period
+        period = oscillator.action_to_parameters(
+            action, self.config.period_min, self.action_centre
+        ).period
         dt = self.config.physics_dt
 
         def substep(carry, _):
@@ -265,6 +277,10 @@ def _validate(config: ml_collections.ConfigDict) -> None:
     if config.oscillator_form not in OSCILLATOR_FORMS:
         raise ValueError(
             f"unknown oscillator_form {config.oscillator_form!r}; known: {', '.join(OSCILLATOR_FORMS)}"
+        )
+    if config.action_centre not in ACTION_CENTRES:
+        raise ValueError(
+            f"unknown action_centre {config.action_centre!r}; known: {', '.join(ACTION_CENTRES)}"
         )
     if config.reward_variant not in reward.VARIANTS:
         raise ValueError(

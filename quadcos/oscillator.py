@@ -127,42 +127,61 @@ def gait_phases(gait: str, knee_lead: float = np.pi / 2) -> jnp.ndarray:
     return jnp.stack([hips, knees], axis=-1).reshape(8)
 
 
-def action_to_parameters(action: jnp.ndarray, period_min: float = PERIOD_MIN) -> RhythmParameters:
-    """Map a policy action in [−1, 1]^5 to the controller parameters of §3.3.
+def parameter_bounds(period_min: float = PERIOD_MIN) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of a = [A_k, A_h, T, φ1, φ3] (§3.3), each (5,).
 
-    a = [A_k, A_h, T, φ1, φ3] with A_k, A_h ∈ [−0.5, 0.5] rad, T ∈ [period_min, 2] s
-    (the paper's (0, 2] needs a positive floor: T → 0 is an infinitely fast oscillator),
-    φ1, φ3 ∈ [−2π, 2π] rad. Linear in each component; actions outside [−1, 1] are clipped.
+    A_k, A_h ∈ [−0.5, 0.5] rad, T ∈ [period_min, 2] s (the paper's (0, 2] needs a positive floor:
+    T → 0 is an infinitely fast oscillator), φ1, φ3 ∈ [−2π, 2π] rad.
+    """
+    lower = np.array([-AMPLITUDE_BOUND, -AMPLITUDE_BOUND, period_min, -PHASE_BOUND, -PHASE_BOUND])
+    upper = np.array([AMPLITUDE_BOUND, AMPLITUDE_BOUND, PERIOD_MAX, PHASE_BOUND, PHASE_BOUND])
+    return lower, upper
+
+
+def _centre_and_spans(period_min: float, centre: RhythmParameters | None):
+    lower, upper = parameter_bounds(period_min)
+    mid = (lower + upper) / 2 if centre is None else np.asarray(centre, dtype=np.float64)
+    if np.any(mid <= lower) or np.any(mid >= upper):
+        raise ValueError(f"action centre {tuple(mid)} must lie strictly inside {tuple(lower)}..{tuple(upper)}")
+    return mid, upper - mid, mid - lower
+
+
+def action_to_parameters(
+    action: jnp.ndarray,
+    period_min: float = PERIOD_MIN,
+    centre: RhythmParameters | None = None,
+) -> RhythmParameters:
+    """Map a policy action in [−1, 1]^5 onto the controller parameters' ranges (§3.3).
+
+    Each component is piecewise linear: −1 ↦ its lower bound, 0 ↦ its centre, +1 ↦ its upper
+    bound (`parameter_bounds`). With `centre=None` the centre is the middle of the range and the
+    map is the plain linear one. A centre such as `FIXED_TROT` keeps every bound reachable but
+    makes the zero action (where a fresh SAC policy starts) a walking trot. Actions outside
+    [−1, 1] are clipped.
 
     Args:
       action: (..., 5).
     """
+    mid, above, below = _centre_and_spans(period_min, centre)
     action = jnp.clip(action, -1.0, 1.0)
-    return RhythmParameters(
-        amplitude_knee=AMPLITUDE_BOUND * action[..., 0],
-        amplitude_hip=AMPLITUDE_BOUND * action[..., 1],
-        period=period_min + (PERIOD_MAX - period_min) * 0.5 * (action[..., 2] + 1.0),
-        phi1=PHASE_BOUND * action[..., 3],
-        phi3=PHASE_BOUND * action[..., 4],
-    )
+    values = mid + jnp.where(action >= 0, action * above, action * below)
+    return RhythmParameters(*(values[..., i] for i in range(5)))
 
 
-def parameters_to_action(params: RhythmParameters, period_min: float = PERIOD_MIN) -> jnp.ndarray:
+def parameters_to_action(
+    params: RhythmParameters,
+    period_min: float = PERIOD_MIN,
+    centre: RhythmParameters | None = None,
+) -> jnp.ndarray:
     """Inverse of `action_to_parameters` (for fixed-parameter baselines and tests). Returns (..., 5)."""
-    return jnp.stack(
-        [
-            jnp.asarray(params.amplitude_knee) / AMPLITUDE_BOUND,
-            jnp.asarray(params.amplitude_hip) / AMPLITUDE_BOUND,
-            2.0 * (jnp.asarray(params.period) - period_min) / (PERIOD_MAX - period_min) - 1.0,
-            jnp.asarray(params.phi1) / PHASE_BOUND,
-            jnp.asarray(params.phi3) / PHASE_BOUND,
-        ],
-        axis=-1,
-    )
+    mid, above, below = _centre_and_spans(period_min, centre)
+    values = jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(p, jnp.float32) for p in params)), axis=-1)
+    offset = values - mid
+    return jnp.where(offset >= 0, offset / above, offset / below)
 
 
-# A fixed trot that walks on flat ground (~0.5 m/s) with the quadcos robot: the Fig. 15 baseline's
-# starting point, found by a grid search over A_h, A_k, T with plain MuJoCo.
+# A fixed trot that walks on flat ground (~0.6 m/s) with the quadcos robot: the Fig. 15 baseline
+# and the env's default action centre, found by a grid search over A_h, A_k, T with plain MuJoCo.
 FIXED_TROT = RhythmParameters(
-    amplitude_knee=0.5, amplitude_hip=0.15, period=0.6, phi1=np.pi / 2, phi3=-np.pi / 2
+    amplitude_knee=0.4, amplitude_hip=0.15, period=0.6, phi1=np.pi / 2, phi3=-np.pi / 2
 )

@@ -45,8 +45,16 @@ def flat_reset(flat_env):
 def fixed_trot_run(flat_env, flat_reset):
     """Four robots trotting with fixed paper-style parameters for 10 s on flat ground."""
     state = flat_reset(jax.random.split(jax.random.PRNGKey(0), 4))
-    action = jnp.broadcast_to(oscillator.parameters_to_action(oscillator.FIXED_TROT), (4, 5))
+    action = jnp.broadcast_to(flat_env.action_for(oscillator.FIXED_TROT), (4, 5))
     return rollout(flat_env, CONTROL_STEPS_10_S)(state, action)
+
+
+def test_zero_action_is_the_fixed_trot_by_default(flat_env):
+    np.testing.assert_allclose(flat_env.action_for(oscillator.FIXED_TROT), np.zeros(5), atol=1e-6)
+    midpoint = quadcos.make_env("flat", action_centre="midpoint")
+    np.testing.assert_allclose(
+        midpoint.action_for(oscillator.RhythmParameters(0.0, 0.0, 1.1, 0.0, 0.0)), np.zeros(5), atol=1e-6
+    )
 
 
 def test_sizes(flat_env):
@@ -132,7 +140,8 @@ def test_estimator_on_ramps_within_one_degree():
     ys = RAMP_BAND * (np.arange(len(RAMP_DEGREES)) - len(RAMP_DEGREES) // 2)
     keys = jax.random.split(jax.random.PRNGKey(3), len(ys))
     state = jax.jit(jax.vmap(env.reset_at))(keys, jnp.zeros(len(ys)), jnp.asarray(ys, jnp.float32))
-    stand = jnp.zeros((len(ys), 5))  # A_h = A_k = 0: every joint target stays 0
+    still = oscillator.RhythmParameters(0.0, 0.0, 1.0, 0.0, 0.0)  # A_k = A_h = 0: targets stay 0
+    stand = jnp.broadcast_to(env.action_for(still), (len(ys), 5))
     final, trace = rollout(env, 30)(state, stand)  # 1.5 s to settle
     assert not np.asarray(trace.done).any()
     estimate = np.rad2deg(np.asarray(final.metrics["slope_estimate"]))
@@ -147,6 +156,7 @@ def test_estimator_on_ramps_within_one_degree():
         ({"controller": "cpg"}, "unknown controller 'cpg'"),
         ({"oscillator_form": "x"}, "unknown oscillator_form 'x'"),
         ({"reward_variant": "yx"}, "unknown reward_variant 'yx'"),
+        ({"action_centre": "gallop"}, "unknown action_centre 'gallop'"),
         ({"control_dt": 0.052}, "whole multiple of physics_dt"),
         ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
     ],

@@ -134,3 +134,19 @@ def test_phase_form_is_continuous_when_period_changes():
     ) - oscillator.rhythm_at_phase(phase, 0.5, 0.5, phases)
     assert float(np.abs(jump).max()) > 0.2  # the literal form jumps
     assert float(np.abs(step).max()) < 0.05  # the integrated one does not
+
+
+def test_centred_action_map_keeps_the_bounds():
+    centre = oscillator.FIXED_TROT
+    lower, upper = oscillator.parameter_bounds()
+    np.testing.assert_allclose(oscillator.action_to_parameters(np.zeros(5), centre=centre), centre, atol=1e-6)
+    np.testing.assert_allclose(oscillator.action_to_parameters(-np.ones(5), centre=centre), lower, rtol=1e-6)
+    np.testing.assert_allclose(oscillator.action_to_parameters(np.ones(5), centre=centre), upper, rtol=1e-6)
+    action = np.random.default_rng(2).uniform(-1, 1, (32, 5))
+    back = oscillator.parameters_to_action(oscillator.action_to_parameters(action, centre=centre), centre=centre)
+    np.testing.assert_allclose(back, action, atol=1e-5)
+
+
+def test_centre_on_a_bound_is_refused():
+    with pytest.raises(ValueError, match="strictly inside"):
+        oscillator.action_to_parameters(np.zeros(5), centre=oscillator.RhythmParameters(0.5, 0.1, 1.0, 0.0, 0.0))
