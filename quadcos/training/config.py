@@ -25,6 +25,9 @@ def default_config() -> ml_collections.ConfigDict:
     # --- SAC (Haarnoja et al. 2018, arXiv:1812.05905) --------------------------
     # Transitions per gradient update.
     config.batch_size = 256
+    # Initial entropy temperature α (then tuned automatically, as in Brax's SAC). A small value
+    # keeps early exploration near the action centre.
+    config.init_alpha = 1.0
     # Gradient updates per vectorised env step, i.e. per `num_envs` new
     # transitions (replay ratio = updates_per_step * batch_size / num_envs).
     config.updates_per_step = 1

@@ -213,8 +213,8 @@ class SACTrainer:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
         policy_params = self.networks.policy_network.init(key_policy)
         q_params = self.networks.q_network.init(key_q)
-        # log alpha = 0, i.e. temperature 1, as in Brax.
-        log_alpha = jnp.zeros((), jnp.float32)
+        # Temperature α starts at config.init_alpha (Brax: 1).
+        log_alpha = jnp.log(jnp.asarray(self.config.init_alpha, jnp.float32))
         state = TrainingState(
             policy_params=policy_params,
             policy_optimizer_state=self._policy_optimizer.init(policy_params),
