@@ -142,7 +142,9 @@ def _centre_and_spans(period_min: float, centre: RhythmParameters | None):
     lower, upper = parameter_bounds(period_min)
     mid = (lower + upper) / 2 if centre is None else np.asarray(centre, dtype=np.float64)
     if np.any(mid <= lower) or np.any(mid >= upper):
-        raise ValueError(f"action centre {tuple(mid)} must lie strictly inside {tuple(lower)}..{tuple(upper)}")
+        raise ValueError(
+            f"action centre {tuple(mid)} must lie strictly inside {tuple(lower)}..{tuple(upper)}"
+        )
     return mid, upper - mid, mid - lower
 
 
@@ -175,7 +177,9 @@ def parameters_to_action(
 ) -> jnp.ndarray:
     """Inverse of `action_to_parameters` (for fixed-parameter baselines and tests). Returns (..., 5)."""
     mid, above, below = _centre_and_spans(period_min, centre)
-    values = jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(p, jnp.float32) for p in params)), axis=-1)
+    values = jnp.stack(
+        jnp.broadcast_arrays(*(jnp.asarray(p, jnp.float32) for p in params)), axis=-1
+    )
     offset = values - mid
     return jnp.where(offset >= 0, offset / above, offset / below)
 

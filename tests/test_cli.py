@@ -79,7 +79,7 @@ def test_resume_extends_a_finished_run(smoke_run):
         json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()
     ]
     assert steps[: len(before)] == before
-    assert steps[-1] >= 2048 and steps == sorted(steps)
+    assert steps[-1] >= 2048 and steps == sorted(steps), (steps, result.stderr[-3000:])
     config = json.loads((smoke_run / "config.json").read_text())
     assert config["config"]["num_envs"] == 4  # the run's own preset survived the resume
 

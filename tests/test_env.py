@@ -53,7 +53,9 @@ def test_zero_action_is_the_fixed_trot_by_default(flat_env):
     np.testing.assert_allclose(flat_env.action_for(oscillator.FIXED_TROT), np.zeros(5), atol=1e-6)
     midpoint = quadcos.make_env("flat", action_centre="midpoint")
     np.testing.assert_allclose(
-        midpoint.action_for(oscillator.RhythmParameters(0.0, 0.0, 1.1, 0.0, 0.0)), np.zeros(5), atol=1e-6
+        midpoint.action_for(oscillator.RhythmParameters(0.0, 0.0, 1.1, 0.0, 0.0)),
+        np.zeros(5),
+        atol=1e-6,
     )
 
 

@@ -139,14 +139,24 @@ def test_phase_form_is_continuous_when_period_changes():
 def test_centred_action_map_keeps_the_bounds():
     centre = oscillator.FIXED_TROT
     lower, upper = oscillator.parameter_bounds()
-    np.testing.assert_allclose(oscillator.action_to_parameters(np.zeros(5), centre=centre), centre, atol=1e-6)
-    np.testing.assert_allclose(oscillator.action_to_parameters(-np.ones(5), centre=centre), lower, rtol=1e-6)
-    np.testing.assert_allclose(oscillator.action_to_parameters(np.ones(5), centre=centre), upper, rtol=1e-6)
+    np.testing.assert_allclose(
+        oscillator.action_to_parameters(np.zeros(5), centre=centre), centre, atol=1e-6
+    )
+    np.testing.assert_allclose(
+        oscillator.action_to_parameters(-np.ones(5), centre=centre), lower, rtol=1e-6
+    )
+    np.testing.assert_allclose(
+        oscillator.action_to_parameters(np.ones(5), centre=centre), upper, rtol=1e-6
+    )
     action = np.random.default_rng(2).uniform(-1, 1, (32, 5))
-    back = oscillator.parameters_to_action(oscillator.action_to_parameters(action, centre=centre), centre=centre)
+    back = oscillator.parameters_to_action(
+        oscillator.action_to_parameters(action, centre=centre), centre=centre
+    )
     np.testing.assert_allclose(back, action, atol=1e-5)
 
 
 def test_centre_on_a_bound_is_refused():
     with pytest.raises(ValueError, match="strictly inside"):
-        oscillator.action_to_parameters(np.zeros(5), centre=oscillator.RhythmParameters(0.5, 0.1, 1.0, 0.0, 0.0))
+        oscillator.action_to_parameters(
+            np.zeros(5), centre=oscillator.RhythmParameters(0.5, 0.1, 1.0, 0.0, 0.0)
+        )

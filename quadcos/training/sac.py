@@ -211,7 +211,9 @@ class SACTrainer:
 
     def _init_state(self, key: jax.Array) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
-        policy_params = self.networks.policy_network.init(key_policy)
+        policy_params = _scale_output_layer(
+            self.networks.policy_network.init(key_policy), self.config.policy_output_scale
+        )
         q_params = self.networks.q_network.init(key_q)
         # Temperature α starts at config.init_alpha (Brax: 1).
         log_alpha = jnp.log(jnp.asarray(self.config.init_alpha, jnp.float32))
@@ -472,3 +474,12 @@ class SACTrainer:
                 per_episode = per_episode / jnp.maximum(totals.length, 1.0)
             metrics[f"eval/{name}"] = jnp.mean(per_episode)
         return metrics
+
+
+def _scale_output_layer(params: Any, scale: float) -> Any:
+    """Multiply the last Dense layer's kernel by `scale`: with scale << 1 a fresh policy's mean
+    action is ~0 (the env's action centre) instead of a random offset."""
+    layers = params["params"]
+    last = max(layers, key=lambda name: int(name.rsplit("_", 1)[1]))
+    scaled = {**layers[last], "kernel": layers[last]["kernel"] * scale}
+    return {**params, "params": {**layers, last: scaled}}
