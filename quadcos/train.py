@@ -220,6 +220,8 @@ def _check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    # Read when JAX starts its backend (building the env), so it is set before anything else.
+    os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
     try:
         args, overrides = resolve(argv)
         run_dir = pathlib.Path(args.output_dir) if args.output_dir else None
@@ -238,7 +240,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"quadcos.train: error: {error}", file=sys.stderr)
         return 2
 
-    os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
     from quadcos import training
 
     try:
