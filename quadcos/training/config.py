@@ -28,6 +28,9 @@ def default_config() -> ml_collections.ConfigDict:
     # Initial entropy temperature α (then tuned automatically, as in Brax's SAC). A small value
     # keeps early exploration near the action centre.
     config.init_alpha = 1.0
+    # Target entropy of the temperature tuning; None: Brax's −0.5 · action_size. Lower values
+    # make the exploring policy's actions stay closer to its mean.
+    config.target_entropy = config_dict.placeholder(float)
     # Scale of the policy's output layer at initialisation (1: Brax's init); < 1 starts the
     # policy's mean action near 0, the env's action centre.
     config.policy_output_scale = 1.0

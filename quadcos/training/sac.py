@@ -174,7 +174,11 @@ class SACTrainer:
             sac_network=self.networks,
             reward_scaling=config.reward_scaling,
             discounting=config.discount,
-            action_size=self.action_size,
+            # Brax's losses use action_size only for the temperature's target entropy,
+            # −0.5·action_size; passing −2·target_entropy sets that target.
+            action_size=self.action_size
+            if config.target_entropy is None
+            else -2.0 * config.target_entropy,
         )
         self._alpha_update = gradients.gradient_update_fn(
             alpha_loss, self._alpha_optimizer, pmap_axis_name=None
