@@ -69,13 +69,7 @@ class Policy:
         self.spec = spec
         self.params = jax.device_put(params)
         self.config = dict(config or {})
-        networks = sac.make_networks(
-            spec.observation_size,
-            spec.action_size,
-            spec.hidden_sizes,
-            spec.hidden_sizes,
-            spec.normalize_observations,
-        )
+        networks = _networks(spec)
         self._apply = jax.jit(functools.partial(_deterministic_action, networks))
 
     @classmethod
@@ -142,14 +136,19 @@ def load_policy(path: str | os.PathLike[str]) -> Policy:
     return Policy(spec, params, spec_json["config"])
 
 
-def _params_template(spec: PolicySpec) -> dict[str, Any]:
-    networks = sac.make_networks(
+def _networks(spec: PolicySpec) -> sac_networks.SACNetworks:
+    """The SAC networks a policy of `spec` was trained with (only the policy is used)."""
+    return sac.make_networks(
         spec.observation_size,
         spec.action_size,
         spec.hidden_sizes,
         spec.hidden_sizes,
         spec.normalize_observations,
     )
+
+
+def _params_template(spec: PolicySpec) -> dict[str, Any]:
+    networks = _networks(spec)
     policy_params = jax.eval_shape(networks.policy_network.init, jax.random.PRNGKey(0))
     zeros = lambda x: np.zeros(x.shape, x.dtype)
     return {
