@@ -1,6 +1,8 @@
 """Dotted-key overrides for ml_collections configs; an unknown key is an error."""
 
+import copy
 import difflib
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -13,10 +15,13 @@ def apply_overrides(
     """Return a copy of `config` with `overrides` ({"sac.batch_size": 256, ...}) applied.
 
     Raises:
-      ValueError: a key that is not in the config (with the nearest known keys), or a value whose
-        type does not fit the field.
+      ValueError: a key that is not in the config (with the nearest known keys), a value whose
+        type does not fit the field (None fits only fields that default to None), or a float
+        that is not finite.
     """
-    config = ml_collections.ConfigDict(config.to_dict(), type_safe=True)
+    # A deep copy keeps placeholders (`config_dict.placeholder(float)`) typed; a copy through
+    # to_dict() would turn them into plain None fields that accept any value.
+    config = copy.deepcopy(config)
     known = flat_keys(config)
     for key, value in overrides.items():
         if key not in known:
@@ -27,11 +32,20 @@ def apply_overrides(
         node = config
         for parent in parents:
             node = node[parent]
+        if value is None and not _nullable(node, leaf):
+            raise ValueError(f"bad value None for config key {key!r}: it needs a value")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"bad value {value!r} for config key {key!r}: not finite")
         try:
             node[leaf] = value
         except (TypeError, ValueError) as error:
             raise ValueError(f"bad value {value!r} for config key {key!r}: {error}") from None
     return config
+
+
+def _nullable(node: ml_collections.ConfigDict, leaf: str) -> bool:
+    field = node.to_dict(preserve_field_references=True)[leaf]
+    return field is None or isinstance(field, ml_collections.FieldReference)
 
 
 def flat_keys(config: ml_collections.ConfigDict, prefix: str = "") -> list[str]:

@@ -287,6 +287,10 @@ def _finite(label: str, value: object) -> float:
         number = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         raise ValueError(f"{label} must be a number, got {value!r}") from None
+    except OverflowError:  # an int beyond float's range
+        raise ValueError(
+            f"{label} must be finite, got an integer of {len(str(value))} digits"
+        ) from None
     if not math.isfinite(number):
         raise ValueError(f"{label} must be finite, got {number}")
     return number

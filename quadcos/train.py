@@ -25,6 +25,17 @@ from quadcos import terrain as terrain_lib
 from quadcos.config import apply_overrides, flat_keys
 
 # Presets: overrides of the default config, applied before the flags.
+# SAC set up to start from the env's action centre (the fixed trot) and explore around it: a fresh
+# policy's mean is the centre with a small exploration std, the prefill acts with it, and the
+# actor waits until the critics have seen its data (experiments/README.md, "learning to walk").
+_START_FROM_THE_TROT: dict[str, Any] = {
+    "sac.policy_output_scale": 0.01,
+    "sac.init_std": 0.15,
+    "sac.init_alpha": 0.01,
+    "sac.prefill_actions": "policy",
+    "sac.actor_warmup_steps": 2_000,
+}
+
 PRESETS: dict[str, dict[str, Any]] = {
     # A complete, tiny run (a few minutes on two CPU cores, mostly compilation); used by tests.
     "smoke": {
@@ -45,7 +56,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     # The paper's flat experiment at CPU scale: `make train`.
     "cpu": {
         "sac.num_envs": 32,
-        "sac.num_timesteps": 150_000,
+        "sac.num_timesteps": 200_000,
         "sac.episode_length": 500,
         "sac.batch_size": 256,
         "sac.updates_per_step": 4,
@@ -53,8 +64,9 @@ PRESETS: dict[str, dict[str, Any]] = {
         "sac.min_replay_size": 4_096,
         "sac.hidden_sizes.policy": (128, 128),
         "sac.hidden_sizes.q": (128, 128),
+        **_START_FROM_THE_TROT,
         "sac.reward_scaling": 0.1,
-        "sac.learning_rate.actor": 1e-3,
+        "sac.learning_rate.actor": 3e-4,
         "sac.learning_rate.critic": 1e-3,
         "sac.learning_rate.alpha": 1e-3,
         "sac.steps_per_chunk": 100,
@@ -69,19 +81,22 @@ PRESETS: dict[str, dict[str, Any]] = {
         "sac.num_timesteps": 10_000_000,
         "sac.episode_length": 1_000,
         "sac.batch_size": 8_192,
-        "sac.updates_per_step": 1,
+        # 1 update per step loses the trot at the actor's first updates; 8 learns
+        # (experiments/flat_gpu).
+        "sac.updates_per_step": 8,
         "sac.replay_size": 4_000_000,
         "sac.min_replay_size": 65_536,
         "sac.hidden_sizes.policy": (256, 256),
         "sac.hidden_sizes.q": (256, 256),
+        **_START_FROM_THE_TROT,
         "sac.reward_scaling": 0.1,
-        "sac.learning_rate.actor": 1e-3,
+        "sac.learning_rate.actor": 3e-4,
         "sac.learning_rate.critic": 1e-3,
         "sac.learning_rate.alpha": 1e-3,
         "sac.steps_per_chunk": 50,
-        "sac.eval_interval": 500_000,
+        "sac.eval_interval": 2_000_000,
         "sac.num_eval_envs": 1_024,
-        "sac.eval_episode_length": 1_000,
+        "sac.eval_episode_length": 400,
         "sac.checkpoint_interval": 2_000_000,
     },
 }
@@ -199,10 +214,15 @@ def _raise_usage_error(message: str):
 
 
 def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collections.ConfigDict:
-    """default_config() with `base` then `overrides` applied; checks the terrain spec too."""
+    """default_config() with `base` then `overrides` applied, then checked (terrain spec, env and
+    trainer values) so that a bad value is reported before anything is built or written."""
+    from quadcos import training
+
     try:
         config = apply_overrides(apply_overrides(default_config(), base), overrides)
         terrain_lib.parse(config.env.terrain)
+        env_lib.validate_config(config.env)
+        training.check_config(config.sac)
     except ValueError as error:
         raise UsageError(str(error)) from None
     return config
@@ -211,9 +231,18 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
 def _check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
     if run_dir is None:
         raise UsageError("--output_dir is required")
+    if run_dir.exists() and not run_dir.is_dir():
+        raise UsageError(f"--output_dir {run_dir} is not a directory")
     if not resume and run_dir.exists() and any(run_dir.iterdir()):
         raise UsageError(
             f"--output_dir {run_dir} already holds files; pass --resume to continue that run, or choose another directory"
+        )
+    existing = next(
+        path for path in (run_dir.absolute(), *run_dir.absolute().parents) if path.exists()
+    )
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(
+            f"--output_dir {run_dir} cannot be created: {existing} is not a writable directory"
         )
 
 
@@ -237,7 +266,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
         )
     except (UsageError, ValueError, FileNotFoundError) as error:
-        print(f"quadcos.train: error: {error}", file=sys.stderr)
+        _print_error(error)
         return 2
 
     from quadcos import training
@@ -251,10 +280,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             progress=not args.no_progress,
             extra_run_info={"env": config.env.to_dict(), "argv": argv},
         )
+    except training.ConfigError as error:  # raised before anything is written
+        _print_error(error)
+        return 2
     except training.NonFiniteLossError as error:
-        print(f"quadcos.train: error: {error}", file=sys.stderr)
+        _print_error(error)
         return 1
     return 0
+
+
+def _print_error(error: Exception) -> None:
+    """One line on stderr, even when the message (e.g. MuJoCo's XML parser's) has several."""
+    lines = (line.strip() for line in str(error).splitlines())
+    print(f"quadcos.train: error: {'; '.join(filter(None, lines))}", file=sys.stderr)
 
 
 def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:

@@ -60,20 +60,23 @@ def test_zero_action_is_the_fixed_trot_by_default(flat_env):
 
 
 def test_sizes(flat_env):
-    assert flat_env.observation_size == 14  # v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8
+    # v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8, then the filtered command (5)
+    assert flat_env.observation_size == 19
+    assert quadcos.make_env("flat", action_filter_tau=0.0).observation_size == 14  # the paper's
     assert flat_env.action_size == 5
     assert flat_env.dt == pytest.approx(0.05)
 
 
 def test_optional_observations_and_joint_controller():
     env = quadcos.make_env("flat", observe_slope=True, observe_phase=True, controller="joint")
-    assert env.observation_size == 17
+    assert env.observation_size == 14 + 1 + 2 + 8
     assert env.action_size == 8
 
 
 def test_reset_is_finite_and_standing(flat_env, flat_reset):
     state = flat_reset(jax.random.split(jax.random.PRNGKey(1), 3))
-    assert state.obs.shape == (3, 14)
+    assert state.obs.shape == (3, 19)
+    np.testing.assert_array_equal(state.obs[:, 14:], 0.0)  # the command starts at the centre
     assert np.isfinite(state.obs).all()
     np.testing.assert_allclose(
         state.pipeline_state.qpos[:, 2], constants.STANDING_HEIGHT, atol=0.01
@@ -124,6 +127,16 @@ def test_a_fall_ends_the_episode_with_the_penalty(flat_env, flat_reset):
     assert float(state.reward[1]) > 0
 
 
+def test_command_follows_the_action_with_the_filter_time_constant(flat_env, flat_reset):
+    """From the centre, one control step of a constant action a moves the command (the last 5
+    observations) to a·(1 − exp(−control_dt/τ)), clipped to [−1, 1] first."""
+    state = flat_reset(jax.random.split(jax.random.PRNGKey(3), 2))
+    action = jnp.array([[0.2, -0.1, 0.05, 0.1, -0.3], [3.0, 0.0, 0.0, 0.0, 0.0]])
+    state = jax.jit(jax.vmap(flat_env.step))(state, action)
+    reached = 1.0 - np.exp(-flat_env.dt / flat_env.config.action_filter_tau)
+    np.testing.assert_allclose(state.obs[:, 14:], np.clip(action, -1, 1) * reached, atol=1e-5)
+
+
 def _ramps(x, y):
     """Side-by-side planes through the origin, one per slope, each RAMP_BAND wide in y."""
     band = np.clip(
@@ -160,6 +173,7 @@ def test_estimator_on_ramps_within_one_degree():
         ({"reward_variant": "yx"}, "unknown reward_variant 'yx'"),
         ({"action_centre": "gallop"}, "unknown action_centre 'gallop'"),
         ({"control_dt": 0.052}, "whole multiple of physics_dt"),
+        ({"action_filter_tau": -0.1}, "action_filter_tau must be >= 0"),
         ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
     ],
 )

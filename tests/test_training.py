@@ -331,3 +331,43 @@ def copy_run(run_dir: Path, tmp_path: Path) -> Path:
     target = tmp_path / "run"
     shutil.copytree(run_dir, target)
     return target
+
+
+# --- Starting from the action centre -------------------------------------------
+
+
+def _trees_equal(a, b) -> bool:
+    return all(jax.tree.leaves(jax.tree.map(lambda x, y: bool(jnp.array_equal(x, y)), a, b)))
+
+
+def test_fresh_policy_explores_around_the_centre_with_init_std():
+    """policy_output_scale + init_std: mean ≈ 0 (the env's action centre), std = init_std; the
+    "policy" prefill stores that policy's actions, not uniform ones."""
+    config = toy_config(policy_output_scale=0.01, init_std=0.05, prefill_actions="policy")
+    trainer = training.SACTrainer(PointEnv(), config)
+    state = trainer.init()
+    params = trainer.networks.policy_network.apply(
+        state.normalizer_params, state.policy_params, state.env_state.obs
+    )
+    dist = trainer.networks.parametric_action_distribution.create_dist(params)
+    np.testing.assert_allclose(dist.scale, 0.05, rtol=5e-3)
+    assert np.abs(np.asarray(dist.loc)).max() < 0.01
+
+    state = trainer.prefill(state)
+    actions = trainer.replay.sample(state.replay, jax.random.PRNGKey(0), 2048).action
+    # Uniform actions on [-1, 1] have std 0.58; these are tanh(N(≈0, 0.05)).
+    assert 0.03 < float(jnp.std(actions)) < 0.07
+
+
+@pytest.mark.parametrize("warmup, actor_moves", [(10**6, False), (0, True)])
+def test_actor_waits_for_the_critic_warmup(warmup, actor_moves):
+    config = toy_config(actor_warmup_steps=warmup)
+    trainer = training.SACTrainer(PointEnv(), config)
+    start = trainer.prefill(trainer.init())
+    policy, log_alpha, q = start.policy_params, start.log_alpha, start.q_params
+    policy, q = jax.tree.map(jnp.copy, (policy, q))  # train_chunk donates `start`
+    log_alpha = jnp.copy(log_alpha)
+    state, _ = trainer.train_chunk(start)
+    assert not _trees_equal(q, state.q_params)
+    assert _trees_equal(policy, state.policy_params) is not actor_moves
+    assert bool(jnp.array_equal(log_alpha, state.log_alpha)) is not actor_moves

@@ -5,8 +5,10 @@ the compiled pieces; `load_policy` reads back a trained policy.
 """
 
 from quadcos.training.config import default_config
+from quadcos.training.loop import ConfigError
 from quadcos.training.loop import NonFiniteLossError
 from quadcos.training.loop import TrainResult
+from quadcos.training.loop import check_config
 from quadcos.training.loop import train
 from quadcos.training.policy import Policy
 from quadcos.training.policy import load_policy
@@ -15,11 +17,13 @@ from quadcos.training.sac import SACTrainer
 from quadcos.training.sac import TrainingState
 
 __all__ = [
+    "ConfigError",
     "NonFiniteLossError",
     "Policy",
     "SACTrainer",
     "TrainResult",
     "TrainingState",
+    "check_config",
     "default_config",
     "load_policy",
     "save_policy",

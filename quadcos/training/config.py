@@ -34,13 +34,23 @@ def default_config() -> ml_collections.ConfigDict:
     # Scale of the policy's output layer at initialisation (1: Brax's init); < 1 starts the
     # policy's mean action near 0, the env's action centre.
     config.policy_output_scale = 1.0
+    # Exploration std (pre-tanh) of a fresh policy; None: Brax's init (softplus(0) ≈ 0.69). A
+    # gait that noise of ~0.1 on its phases already topples needs a small start (see
+    # experiments/README.md); the temperature tuning then moves it towards `target_entropy`.
+    config.init_std = config_dict.placeholder(float)
+    # Gradient updates (after the prefill) in which only the critics learn; the actor and the
+    # temperature start afterwards.
+    config.actor_warmup_steps = 0
     # Gradient updates per vectorised env step, i.e. per `num_envs` new
     # transitions (replay ratio = updates_per_step * batch_size / num_envs).
     config.updates_per_step = 1
     # Replay capacity in transitions; the oldest are overwritten first.
     # Memory: replay_size * (2 * obs_size + action_size + 3) * 4 bytes.
     config.replay_size = 1_000_000
-    # Transitions collected with uniform random actions before learning starts
+    # How the prefill acts: "uniform" random actions in [-1, 1] (Brax) or "policy", the fresh
+    # policy's own exploration (with an action centre and a small init_std: the centre's gait).
+    config.prefill_actions = "uniform"
+    # Transitions collected with `prefill_actions` before learning starts
     # (again after resuming from a checkpoint saved without its replay buffer).
     config.min_replay_size = 8192
     # Hidden layer widths of the policy and of each of the two Q networks.

@@ -29,6 +29,8 @@ import optax
 from quadcos.training import replay as replay_lib
 
 Metrics = dict[str, jax.Array]
+PREFILL_ACTIONS = ("uniform", "policy")
+MIN_STD = 0.001  # Brax's NormalTanhDistribution: std = softplus(raw) + min_std
 
 
 @flax.struct.dataclass
@@ -215,8 +217,10 @@ class SACTrainer:
 
     def _init_state(self, key: jax.Array) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
-        policy_params = _scale_output_layer(
-            self.networks.policy_network.init(key_policy), self.config.policy_output_scale
+        policy_params = _initial_output_layer(
+            self.networks.policy_network.init(key_policy),
+            self.config.policy_output_scale,
+            self.config.init_std,
         )
         q_params = self.networks.q_network.init(key_q)
         # Temperature α starts at config.init_alpha (Brax: 1).
@@ -309,16 +313,20 @@ class SACTrainer:
         return jax.lax.cond(jnp.any(mask), reset_masked, lambda: env_state)
 
     def _prefill(self, state: TrainingState) -> TrainingState:
-        """Fills the replay buffer with `min_replay_size` uniform random steps."""
+        """Fills the replay buffer with `min_replay_size` steps of `config.prefill_actions`."""
 
         def step(state: TrainingState, _) -> tuple[TrainingState, None]:
             key, key_action, key_reset = jax.random.split(state.key, 3)
-            actions = jax.random.uniform(
-                key_action,
-                (self.config.num_envs, self.action_size),
-                minval=-1.0,
-                maxval=1.0,
-            )
+            if self.config.prefill_actions == "policy":
+                policy = self._make_policy((state.normalizer_params, state.policy_params))
+                actions, _ = policy(state.env_state.obs, key_action)
+            else:
+                actions = jax.random.uniform(
+                    key_action,
+                    (self.config.num_envs, self.action_size),
+                    minval=-1.0,
+                    maxval=1.0,
+                )
             state, _ = self._env_step(state.replace(key=key), actions, key_reset)
             return state, None
 
@@ -362,6 +370,21 @@ class SACTrainer:
             transitions,
             key_actor,
             optimizer_state=state.policy_optimizer_state,
+        )
+        # During the warm-up only the critics learn: an actor that climbs an untrained Q
+        # walks away from the action centre's gait before the critic can value it.
+        warm = (state.gradient_steps.hi > 0) | (
+            state.gradient_steps.lo >= self.config.actor_warmup_steps
+        )
+        (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state) = jax.tree.map(
+            lambda new, old: jnp.where(warm, new, old),
+            (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state),
+            (
+                state.log_alpha,
+                state.alpha_optimizer_state,
+                state.policy_params,
+                state.policy_optimizer_state,
+            ),
         )
         tau = self.config.tau
         target_q_params = jax.tree.map(
@@ -480,10 +503,16 @@ class SACTrainer:
         return metrics
 
 
-def _scale_output_layer(params: Any, scale: float) -> Any:
-    """Multiply the last Dense layer's kernel by `scale`: with scale << 1 a fresh policy's mean
-    action is ~0 (the env's action centre) instead of a random offset."""
+def _initial_output_layer(params: Any, scale: float, init_std: float | None) -> Any:
+    """The fresh policy's last Dense layer: kernel × `scale` (with scale << 1 the mean action is
+    ~0, the env's action centre, instead of a random offset); with `init_std`, the std half of
+    the bias set so that Brax's softplus(·) + min_std gives that std everywhere."""
     layers = params["params"]
     last = max(layers, key=lambda name: int(name.rsplit("_", 1)[1]))
-    scaled = {**layers[last], "kernel": layers[last]["kernel"] * scale}
-    return {**params, "params": {**layers, last: scaled}}
+    layer = {**layers[last], "kernel": layers[last]["kernel"] * scale}
+    if init_std is not None:
+        bias = layer["bias"]
+        action_size = bias.shape[-1] // 2
+        raw_std = jnp.log(jnp.expm1(jnp.asarray(init_std - MIN_STD, bias.dtype)))
+        layer["bias"] = bias.at[action_size:].set(raw_std)
+    return {**params, "params": {**layers, last: layer}}
