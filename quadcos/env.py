@@ -239,9 +239,7 @@ class QuadrupedEnv(base.Env):
             command = command + blend * (action - command)
             data = data.replace(ctrl=self.joint_targets(command, phase, data.time))
             data = mjx.step(self.model, data)
-            period = oscillator.action_to_parameters(
-                command, self.config.period_min, self.action_centre
-            ).period
+            period = self._period(command)
             return (data, oscillator.advance_phase(phase, period, dt), command), period
 
         (data, phase, command), periods = jax.lax.scan(
@@ -250,6 +248,15 @@ class QuadrupedEnv(base.Env):
         if self.config.oscillator_form == "literal":
             phase = jnp.mod(oscillator.TWO_PI * data.time / periods[-1], oscillator.TWO_PI)
         return data, phase, command
+
+    def _period(self, command: jax.Array) -> jax.Array:
+        """The oscillator period T (s) that `command` sets; the joint controller has none, so its
+        phase runs at the fixed trot's period (it is observable with `observe_phase` only)."""
+        if self.config.controller == "joint":
+            return jnp.asarray(oscillator.FIXED_TROT.period, jnp.float32)
+        return oscillator.action_to_parameters(
+            command, self.config.period_min, self.action_centre
+        ).period
 
     def _observe(self, data: mjx.Data, phase: jax.Array, command: jax.Array) -> _Observed:
         quaternion = data.sensordata[self._orientation_slice]

@@ -71,6 +71,12 @@ def test_optional_observations_and_joint_controller():
     env = quadcos.make_env("flat", observe_slope=True, observe_phase=True, controller="joint")
     assert env.observation_size == 14 + 1 + 2 + 8
     assert env.action_size == 8
+    state = jax.jit(env.reset)(jax.random.PRNGKey(0))
+    state = jax.jit(env.step)(state, jnp.full(8, 0.1))
+    assert np.isfinite(np.asarray(state.obs)).all()
+    np.testing.assert_allclose(  # the filtered command, then the joints follow it
+        state.obs[-8:], 0.1 * (1 - np.exp(-env.dt / env.config.action_filter_tau)), rtol=1e-4
+    )
 
 
 def test_reset_is_finite_and_standing(flat_env, flat_reset):
