@@ -1,0 +1,322 @@
+"""`quadcos.evaluate` and `quadcos.plots`: the JSON, the trace, fixed parameters, the search, bad
+input, video, figures.
+
+Compiling a rollout costs tens of seconds on two cores, so there are two: the fixed trot on flat
+(4 robots; also the search's and notebook fallbacks') and the stand-in policy on flat (4 robots;
+also notebook (a)'s). Every evaluation here has those shapes, so the rest are persistent-cache hits.
+"""
+
+import json
+import math
+import pathlib
+import types
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from quadcos import constants, evaluate, oscillator, plots, video
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+# A trained run (it does not walk well), standing in for the pretrained policies to come.
+STAND_IN_RUN = ROOT / "experiments" / "flat_gpu" / "out" / "u1"
+LEGACY_POLICY = ROOT / "experiments" / "flat_gpu" / "out" / "paper_20hz" / "policy"
+NUM_ENVS, SECONDS = 4, 2.0
+
+
+def _video_supported() -> bool:
+    try:
+        video.check_video_support()
+    except video.VideoError:
+        return False
+    return True
+
+
+@pytest.fixture(scope="session")
+def fixed_trot_files(tmp_path_factory):
+    """`python -m quadcos.evaluate --policy=fixed:trot` (in-process): its JSON, trace and video."""
+    out = tmp_path_factory.mktemp("evaluate")
+    files = {"out": out / "trot.json", "trace": out / "trot_trace.json", "video": out / "trot.mp4"}
+    args = [
+        "--policy=fixed:trot",
+        "--terrain=flat",
+        f"--num_envs={NUM_ENVS}",
+        f"--seconds={SECONDS}",
+        f"--out={files['out']}",
+        f"--trace={files['trace']}",
+        "--video_size=96x64",
+        "--no_progress",
+    ]
+    if _video_supported():
+        args.append(f"--video={files['video']}")
+    assert evaluate.main(args) == 0
+    return files
+
+
+@pytest.fixture(scope="session")
+def fixed_trot_result(fixed_trot_files):
+    return json.loads(fixed_trot_files["out"].read_text())
+
+
+@pytest.fixture(scope="session")
+def policy_evaluation():
+    """The stand-in trained run evaluated through the library on its training terrain (flat)."""
+    return evaluate.evaluate(str(STAND_IN_RUN), num_envs=NUM_ENVS, seconds=SECONDS, trace_episode=1)
+
+
+REQUIRED_KEYS = (
+    "num_episodes",
+    "success_rate",
+    "fall_rate",
+    "mean_forward_speed",
+    "mean_max_abs_roll",
+    "mean_max_abs_yaw",
+    "mean_max_abs_pitch_error",
+    "mean_lateral_drift",
+    "slope_error_rms",
+)
+
+
+def test_evaluation_json_has_the_aggregates_and_episodes(fixed_trot_result):
+    result = fixed_trot_result
+    for key in REQUIRED_KEYS:
+        assert key in result, key
+    assert result["num_episodes"] == NUM_ENVS == len(result["episodes"])
+    assert result["setup"]["terrain"] == "flat" and result["setup"]["course_end_x"] is None
+    assert result["setup"]["num_steps"] == 40 and result["setup"]["seconds"] == pytest.approx(2.0)
+    for key in ("success_rate", "fall_rate"):
+        assert 0.0 <= result[key] <= 1.0
+    for key in REQUIRED_KEYS[4:]:
+        assert math.isfinite(result[key]) and result[key] >= 0.0, key
+    speeds = [episode["forward_speed"] for episode in result["episodes"]]
+    assert result["mean_forward_speed"] == pytest.approx(np.mean(speeds))
+    # slope_error_rms pools the steps of all episodes; here all episodes ran all 40 steps
+    per_episode = [episode["slope_error_rms"] for episode in result["episodes"]]
+    assert result["slope_error_rms"] == pytest.approx(math.sqrt(np.mean(np.square(per_episode))))
+
+
+def test_fixed_trot_walks_on_flat(fixed_trot_result):
+    result = fixed_trot_result
+    assert result["success_rate"] == 1.0 and result["fall_rate"] == 0.0
+    assert result["setup"]["fixed_parameters"]["period"] == pytest.approx(0.6)
+    assert 0.3 < result["mean_forward_speed"] < 1.0  # oscillator.FIXED_TROT: ~0.5 m/s
+    assert result["mean_max_abs_roll"] < 0.3 and result["mean_max_abs_pitch_error"] < 0.3
+    assert result["slope_error_rms"] < math.radians(3)  # the estimator on level ground
+    for episode in result["episodes"]:
+        assert episode["success"] and episode["timed_out"] and episode["fall_time_s"] is None
+        assert episode["seconds"] == pytest.approx(2.0)
+        assert episode["distance"] == pytest.approx(episode["final_x"], abs=1e-6)
+        assert sum(episode["reward_terms"].values()) == pytest.approx(
+            episode["episode_reward"], rel=1e-4
+        )
+
+
+def test_trace_has_every_series_at_one_length(fixed_trot_files):
+    trace = json.loads(fixed_trot_files["trace"].read_text())
+    series = trace["series"]
+    expected = {
+        *evaluate.TRACE_SERIES,
+        *(f"controller/{joint}" for joint in constants.JOINTS),
+        *(f"joint/{joint}" for joint in constants.JOINTS),
+        *(f"parameter/{name}" for name in oscillator.RhythmParameters._fields),
+        *(f"action/{i}" for i in range(5)),
+    }
+    assert expected <= set(series)
+    assert {len(values) for values in series.values()} == {40}
+    np.testing.assert_allclose(series["time"], np.arange(1, 41) * 0.05, atol=1e-5)
+    assert trace["success"] and not trace["fell"]
+    # fixed parameters: the parameters in force are FIXED_TROT at every step
+    for name, value in oscillator.FIXED_TROT._asdict().items():
+        np.testing.assert_allclose(series[f"parameter/{name}"], value, atol=1e-4)
+    # the controller outputs are Eq. 3 of those parameters: knees half-wave, hips within ±A_h
+    knees = np.array([series[f"controller/{leg}_knee"] for leg in constants.LEGS])
+    hips = np.array([series[f"controller/{leg}_hip"] for leg in constants.LEGS])
+    assert knees.min() >= 0.0 and knees.max() <= 0.4 + 1e-5
+    assert np.abs(hips).max() <= 0.15 + 1e-5 and np.abs(hips).max() > 0.1
+    np.testing.assert_allclose(series["expected_pitch"], 0.0)
+    qpos = np.array(trace["qpos"])  # from reset on: one row more than the series
+    assert qpos.shape == (41, 15)
+    np.testing.assert_allclose(qpos[1:, 0], series["cog_x"], atol=1e-6)
+    assert trace["env"]["terrain"] == "flat" and trace["env"]["action_filter_tau"] == 0.25
+
+
+def test_policy_run_is_evaluated_in_its_training_env(policy_evaluation):
+    evaluation = policy_evaluation
+    setup = evaluation.summary["setup"]
+    assert setup["policy_kind"] == "sac" and setup["terrain"] == "flat"
+    saved = json.loads((STAND_IN_RUN / "config.json").read_text())["run_info"]["env"]
+    assert setup["env"]["action_filter_tau"] == saved["action_filter_tau"]
+    assert evaluation.summary["num_episodes"] == NUM_ENVS
+    trace = evaluation.trace
+    assert trace["episode"] == 1
+    steps = round(evaluation.episodes[1]["seconds"] / 0.05)
+    assert {len(values) for values in trace["series"].values()} == {steps}
+    assert len(evaluation.qpos) == len(trace["series"]["time"]) + 1  # the reset pose first
+    periods = np.array(trace["series"]["parameter/period"])
+    assert np.all((periods >= 0.2 - 1e-6) & (periods <= 2.0 + 1e-6))
+
+
+def test_legacy_policy_gets_the_env_of_its_time():
+    controller = evaluate.resolve_controller(str(LEGACY_POLICY))
+    assert controller.env_overrides["action_filter_tau"] == 0.0
+    assert controller.env_overrides["action_centre"] == "midpoint"
+    assert evaluate.build_env(controller).observation_size == controller.observation_size == 14
+
+
+def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
+    def state(x, done):
+        n = len(x)
+        qpos = np.zeros((n, 15), np.float32)
+        qpos[:, 0], qpos[:, 3] = x, 1.0
+        metrics = {f"reward/{term}": jnp.ones(n) for term in evaluate.REWARD_TERMS}
+        metrics |= {"slope_estimate": jnp.full(n, 0.1), "slope_truth": jnp.zeros(n)}
+        return types.SimpleNamespace(
+            pipeline_state=types.SimpleNamespace(qpos=jnp.asarray(qpos)),
+            metrics=metrics,
+            done=jnp.asarray(done, jnp.float32),
+            reward=jnp.full(n, 5.0),
+        )
+
+    start = state([0.0, 0.0, 0.0], [0, 0, 0])
+    stats = evaluate._initial_stats(start, 3)
+    # robot 0 walks on, robot 1 falls, robot 2 crosses the course end at x = 1
+    stats = evaluate._update_stats(stats, state([0.5, 0.5, 1.2], [0, 1, 0]), stats.running, 1.0)
+    stats = evaluate._update_stats(stats, state([0.9, 0.7, 1.5], [0, 1, 0]), stats.running, 1.0)
+    np.testing.assert_array_equal(stats.running, [True, False, False])
+    np.testing.assert_array_equal(stats.fell, [False, True, False])
+    np.testing.assert_array_equal(stats.finished, [False, False, True])
+    np.testing.assert_array_equal(stats.steps, [2, 1, 1])
+    np.testing.assert_allclose(stats.x, [0.9, 0.5, 1.2])
+    np.testing.assert_allclose(stats.episode_reward, [10.0, 5.0, 5.0])
+    np.testing.assert_allclose(stats.slope_sq_error, [0.02, 0.01, 0.01], rtol=1e-5)
+
+
+def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
+    out = tmp_path / "search.json"
+    args = ["--search_fixed", "--terrain=flat", "--num_candidates=2", "--robots_per_candidate=2"]
+    args += ["--rounds=2", "--seconds=1", "--seed=1", f"--out={out}", "--no_progress"]
+    assert evaluate.main(args) == 0
+    result = json.loads(out.read_text())
+    ranking = result["ranking"]
+    assert result["num_evaluated"] == 4 and len(ranking) == 4
+    scores = [entry["score"] for entry in ranking]
+    finite = [score for score in scores if score is not None]
+    assert finite == sorted(finite, reverse=True) and scores[: len(finite)] == finite
+    for entry in ranking:
+        assert (entry["score"] is None) == (entry["fall_rate"] > 0)
+    trot = next(
+        e for e in ranking if e["round"] == 1 and e["policy"].startswith("fixed:0.4,0.15,0.6")
+    )
+    assert trot["fall_rate"] == 0.0 and ranking[0]["score"] >= trot["score"]
+    best = evaluate.parse_fixed(ranking[0]["policy"].removeprefix("fixed:"))
+    assert best == pytest.approx(tuple(ranking[0]["parameters"].values()), abs=1e-5)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--policy=/no/such/run"], "no policy at /no/such/run"),
+        (["--policy=fixed:trot", "--terrain=s5"], "unknown terrain 's5'"),
+        (["--policy=fixed:trot", "--terrain=sections:5@x"], "bad section"),
+        (["--policy=fixed:0.4,0.15,0.6"], "five numbers"),
+        (["--policy=fixed:0.4,0.15,5,0,0"], "period=5 is outside"),
+        (["--policy=fixed:0.4,0.15,0.6,pi/2,exit()"], "'exit()' is not a number"),
+        ([f"--policy={STAND_IN_RUN}", "--env.observe_slope=True"], "observations of size 19"),
+        (["--policy=fixed:trot", "--env.no_such_option=1"], "unknown config key"),
+        (["--policy=fixed:trot", "--num_envs=0"], "--num_envs must be >= 1"),
+        (
+            ["--policy=fixed:trot", "--num_envs=4", "--trace_episode=4"],
+            "--trace_episode must be in 0..3",
+        ),
+        (["--policy=fixed:trot", "--video=v.avi"], "--video must end in .mp4"),
+        (
+            ["--search_fixed", "--policy=fixed:trot"],
+            "exactly one of --policy, --search_fixed and --render",
+        ),
+    ],
+)
+def test_bad_input_is_one_line_and_status_2(args, message, tmp_path, capsys):
+    out = tmp_path / "result.json"
+    status = evaluate.main([*args, f"--out={out}", "--no_progress"])
+    error = capsys.readouterr().err.strip()
+    assert status == 2
+    assert error.startswith("quadcos.evaluate: error:") and "\n" not in error
+    assert message in error
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_out_in_a_missing_directory_is_refused(tmp_path, capsys):
+    status = evaluate.main(["--policy=fixed:trot", f"--out={tmp_path / 'no' / 'r.json'}"])
+    assert status == 2 and "is not a writable directory" in capsys.readouterr().err
+
+
+def test_video_without_headless_opengl_names_the_missing_library(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.setattr(video.ctypes.util, "find_library", lambda name: None)
+    args = ["--policy=fixed:trot", f"--out={tmp_path / 'r.json'}", f"--video={tmp_path / 'v.mp4'}"]
+    assert evaluate.main(args) == 2
+    error = capsys.readouterr().err.strip()
+    assert "libOSMesa" in error and "\n" not in error
+    assert list(tmp_path.iterdir()) == []
+
+
+def _frames(path: pathlib.Path) -> np.ndarray:
+    import imageio_ffmpeg
+
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    assert meta["fps"] == pytest.approx(20.0)
+    width, height = meta["size"]
+    return np.stack([np.frombuffer(frame, np.uint8).reshape(height, width, 3) for frame in reader])
+
+
+@pytest.mark.filterwarnings("ignore:os.fork")
+def test_video_shows_the_rollout_and_a_saved_trace_renders_the_same(fixed_trot_files, tmp_path):
+    if not _video_supported():
+        pytest.skip("no headless OpenGL here (libEGL / libOSMesa)")
+    frames = _frames(fixed_trot_files["video"])
+    assert frames.shape == (41, 64, 96, 3)  # the reset pose and 40 control steps
+    assert np.ptp(frames[0]) > 50  # not a blank frame: the robot stands out from the floor
+    assert np.abs(frames[-1].astype(int) - frames[0]).mean() > 1  # the legs moved
+    rendered = tmp_path / "from_trace.mp4"
+    args = [f"--render={fixed_trot_files['trace']}", f"--video={rendered}", "--video_size=96x64"]
+    assert evaluate.main(args) == 0
+    assert np.abs(_frames(rendered).astype(int) - frames).mean() < 1.0
+
+
+def test_plots_write_pngs(fixed_trot_files, policy_evaluation, tmp_path):
+    trace = fixed_trot_files["trace"]
+    figures = {
+        "cog": plots.plot_cog(trace, path=tmp_path / "cog.png"),
+        "attitude": plots.plot_attitude(
+            {"trot": trace, "policy": policy_evaluation.trace}, path=tmp_path / "attitude.png"
+        ),
+        "controller": plots.plot_controller(
+            trace, window=(0.5, 1.5), path=tmp_path / "controller.png"
+        ),
+        "parameters": plots.plot_parameters(policy_evaluation, path=tmp_path / "parameters.png"),
+        "course": plots.plot_course(policy_evaluation.env.terrain, path=tmp_path / "course.png"),
+        "learning": plots.plot_learning_curves(
+            [STAND_IN_RUN, STAND_IN_RUN.parent / "u8"], path=tmp_path / "learning.png"
+        ),
+    }
+    for name, figure in figures.items():
+        png = tmp_path / f"{name}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+        assert figure.axes, name
+    assert len(figures["cog"].axes) == 3 and len(figures["controller"].axes) == 4
+
+
+def test_learning_curve_band_is_the_t_interval_across_seeds():
+    runs = [
+        [{"step": 0, "m": 0.0}, {"step": 10, "m": 10.0}],
+        [{"step": 0, "m": 2.0}, {"step": 10, "m": 14.0}],
+        [{"step": 0, "m": 4.0}, {"step": 10, "m": 18.0}],
+    ]
+    curve = plots.learning_curve(runs, "m", points=3)
+    np.testing.assert_allclose(curve["step"], [0, 5, 10])
+    np.testing.assert_allclose(curve["mean"], [2.0, 8.0, 14.0])
+    half_width = 4.302652729911275 * 2.0 / math.sqrt(3)  # t_{0.975, 2} · sd / √n, sd = 2 at step 0
+    np.testing.assert_allclose(curve["high"][0] - curve["mean"][0], half_width, rtol=1e-6)
+    with pytest.raises(ValueError, match="has no 'other'"):
+        plots.learning_curve(runs, "other")
