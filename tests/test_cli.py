@@ -1,42 +1,13 @@
 """`python -m quadcos.train`: a smoke run end to end, resume, and one-line errors for bad input."""
 
 import json
-import os
-import pathlib
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import quadcos
 from quadcos import train
-
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-
-
-def run_cli(*args: str) -> subprocess.CompletedProcess:
-    env = {
-        **os.environ,
-        "PYTHONPATH": str(ROOT),
-        "JAX_COMPILATION_CACHE_DIR": str(ROOT / ".jax_cache"),
-    }
-    return subprocess.run(
-        [sys.executable, "-m", "quadcos.train", *args],
-        capture_output=True,
-        text=True,
-        env=env,
-        cwd=ROOT,
-        timeout=900,
-    )
-
-
-@pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory):
-    run_dir = tmp_path_factory.mktemp("runs") / "smoke"
-    result = run_cli("--preset=smoke", f"--output_dir={run_dir}", "--no_progress", "--seed=3")
-    assert result.returncode == 0, result.stderr[-3000:]
-    return run_dir
+from tests.cli_runs import run_cli
 
 
 @pytest.mark.slow
@@ -62,7 +33,9 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
     assert (smoke_run / "metrics.csv").is_file()
     assert any((smoke_run / "checkpoints").iterdir())
     policy = quadcos.load_policy(smoke_run)
-    action = np.asarray(policy.act(np.zeros(14, np.float32)))
+    # The paper's 14-d state and the filtered command (env.action_filter_tau > 0).
+    assert policy.spec.observation_size == 14 + 5
+    action = np.asarray(policy.act(np.zeros(policy.spec.observation_size, np.float32)))
     assert action.shape == (5,) and np.all(np.abs(action) <= 1)
 
 

@@ -271,6 +271,7 @@ def test_nan_guard(tmp_path):
         progress=False,
     )
     state = result.state
+    assert result.env_steps >= config.num_timesteps  # training went on to the end
     nan_resets = int(state.nan_resets)
     assert nan_resets > 0
     assert result.metrics["train/nan_resets"] == nan_resets

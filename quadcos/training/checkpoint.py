@@ -16,6 +16,11 @@ from quadcos.training.sac import TrainingState
 logger = logging.getLogger(__name__)
 
 
+class ShapeMismatchError(ValueError):
+    """A readable checkpoint holds arrays of other shapes than the state to restore into (a
+    resume with other sizes: envs, replay, networks, observations)."""
+
+
 @dataclasses.dataclass(frozen=True)
 class Restored:
     """A checkpoint read back: the state, its env step and its metadata."""
@@ -51,7 +56,8 @@ class CheckpointStore:
     complete, so an interrupted save never looks like a checkpoint. A
     checkpoint that exists but cannot be read back is moved to
     `<directory>_corrupt/<step>` (so a later save of that step does not clash)
-    and the previous one is used.
+    and the previous one is used. One that is readable but of other shapes is
+    left alone: `restore_latest` raises ShapeMismatchError.
     """
 
     def __init__(self, directory: str | os.PathLike[str], keep: int):
@@ -62,7 +68,12 @@ class CheckpointStore:
             options=ocp.CheckpointManagerOptions(
                 max_to_keep=keep, create=True, enable_async_checkpointing=False
             ),
-            item_names=("state", "meta"),
+            # Handlers named up front, so that item_metadata reads a checkpoint's shapes
+            # before anything was saved or restored through this manager.
+            item_handlers={
+                "state": ocp.StandardCheckpointHandler(),
+                "meta": ocp.JsonCheckpointHandler(),
+            },
         )
 
     def steps(self) -> list[int]:
@@ -97,6 +108,9 @@ class CheckpointStore:
           template: a state with the right structure, shapes and dtypes (e.g. a
             fresh initial state); it supplies the replay buffer when the
             checkpoint was saved without one.
+
+        Raises:
+          ShapeMismatchError: the newest readable checkpoint does not fit `template`.
         """
         for step in reversed(self.steps()):
             try:
@@ -107,11 +121,14 @@ class CheckpointStore:
                 abstract = [
                     ocp.utils.to_shape_dtype_struct(leaf) for leaf in _stored_leaves(template_tree)
                 ]
+                self._check_shapes(step, abstract)
                 stored = self._manager.restore(
                     step,
                     args=ocp.args.Composite(state=ocp.args.StandardRestore(abstract)),
                 ).state
                 restored = _refill(template_tree, list(stored))
+            except ShapeMismatchError:
+                raise
             except Exception as error:  # orbax/tensorstore raise many types
                 logger.warning(
                     "checkpoint %s cannot be read (%s: %s); falling back to the previous one",
@@ -123,6 +140,23 @@ class CheckpointStore:
                 continue
             return Restored(state=template.replace(**restored), step=step, meta=meta)
         return None
+
+    def _check_shapes(self, step: int, abstract: list[Any]) -> None:
+        stored = [tuple(leaf.shape) for leaf in self._manager.item_metadata(step)["state"]]
+        expected = [tuple(leaf.shape) for leaf in abstract]
+        if stored == expected:
+            return
+        differ = [(index, a, b) for index, (a, b) in enumerate(zip(stored, expected)) if a != b]
+        if differ:
+            index, stored_shape, expected_shape = differ[0]
+            detail = f"array {index}: {stored_shape} stored, {expected_shape} expected"
+        else:
+            detail = f"{len(stored)} arrays stored, {len(expected)} expected"
+        raise ShapeMismatchError(
+            f"checkpoint {self.path(step)} holds a training state of other shapes than this"
+            f" config and env make ({detail}); resume with the run's own sizes (num_envs,"
+            " replay_size, hidden_sizes, env observations)"
+        )
 
     def _quarantine(self, step: int) -> None:
         target = self.directory.with_name(self.directory.name + "_corrupt")

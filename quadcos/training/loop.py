@@ -131,8 +131,8 @@ def train(
       The final policy, state and metrics.
 
     Raises:
-      ConfigError: invalid config, or a training state (replay buffer, envs) larger than the
-        device's memory; nothing was written.
+      ConfigError: invalid config, a training state (replay buffer, envs) larger than the
+        device's memory, or (resuming) a checkpoint of other shapes; nothing was written.
       ValueError: `resume` without `run_dir`.
       FileExistsError: `run_dir` holds a run and `resume` is False.
       NonFiniteLossError: a loss became non-finite; the newest checkpoint is the
@@ -161,7 +161,11 @@ def train(
         store = checkpoint.CheckpointStore(run_dir / "checkpoints", keep=config.keep_checkpoints)
         keep_rows_up_to = None
         if resume:
-            restored = store.restore_latest(state)
+            try:
+                restored = store.restore_latest(state)
+            except checkpoint.ShapeMismatchError as error:
+                store.close()
+                raise ConfigError(str(error)) from None
             if restored is None:
                 logger.warning("no checkpoint in %s; starting a new run", store.directory)
             else:
@@ -234,7 +238,8 @@ def _train_loop(
     step = int(state.env_steps)
     if step == 0:
         record({"step": 0, "wall_time_s": clock(), **evaluate(state)})
-    if int(state.replay.size) < config.min_replay_size:
+    # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
+    if int(state.replay.size) < config.min_replay_size and step < config.num_timesteps:
         state = trainer.prefill(state)
         step = int(state.env_steps)
 
