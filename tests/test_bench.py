@@ -1,0 +1,289 @@
+"""`quadcos.bench`: the stock-Brax compatibility patch, the time-to-walk loop and the JSON schema.
+
+Benchmarks are not tests: these check that the bench runs, measures what it says and writes what
+the issue asks for, not what the numbers are.
+"""
+
+import json
+import math
+import os
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from quadcos import bench, evaluate, training
+from quadcos.config import apply_overrides
+from tests.toy_env import PointEnv
+
+_TOY_SAC = {
+    "num_envs": 8,
+    "batch_size": 16,
+    "replay_size": 1_024,
+    "min_replay_size": 64,
+    "hidden_sizes.policy": (16, 16),
+    "hidden_sizes.q": (16, 16),
+    "steps_per_chunk": 4,
+}
+
+
+def _toy_config(**overrides):
+    return apply_overrides(training.default_config(), {**_TOY_SAC, **overrides})
+
+
+def _finite_positive(value) -> bool:
+    return isinstance(value, (int, float)) and math.isfinite(value) and value > 0
+
+
+def test_device_put_replicated_patch_provides_and_removes_the_function():
+    assert "device_put_replicated" not in jax.__dict__  # removed in JAX 0.10
+    tree = {"a": jnp.arange(3.0), "b": (jnp.ones((2, 2), jnp.int32), jnp.float32(5))}
+    with bench.device_put_replicated_patch():
+        replicated = jax.device_put_replicated(tree, jax.local_devices()[:1])
+    assert "device_put_replicated" not in jax.__dict__
+    for original, copy in zip(jax.tree.leaves(tree), jax.tree.leaves(replicated)):
+        assert copy.shape == (1, *original.shape) and copy.dtype == original.dtype
+        np.testing.assert_array_equal(copy[0], original)
+        assert copy.addressable_shards[0].data.shape == (1, *original.shape)
+
+
+def test_device_put_replicated_patch_restores_an_existing_attribute_after_an_error(monkeypatch):
+    sentinel = object()
+    monkeypatch.setattr(jax, "device_put_replicated", sentinel, raising=False)
+    with pytest.raises(KeyError), bench.device_put_replicated_patch():
+        assert jax.device_put_replicated is not sentinel
+        raise KeyError("inside")
+    assert jax.device_put_replicated is sentinel
+
+
+@pytest.mark.slow
+def test_stock_brax_sac_runs_under_the_patch_and_reports_its_rate():
+    config = _toy_config()
+    start = time.perf_counter()
+    measured = bench.measure_stock_brax(
+        PointEnv(),
+        config,
+        train_seconds=0.0,
+        epoch_steps=4,
+        timeout_s=600.0,
+        section_start=start,
+        startup_s=1.5,
+    )
+    assert measured["timed_epochs"] == 2  # ended from the callback: first epoch + 2 timed
+    assert _finite_positive(measured["env_steps_per_s"])
+    assert 1.5 < measured["start_to_first_step_s"] < 1.5 + time.perf_counter() - start
+    assert measured["timed_out"] == 0.0
+    assert "device_put_replicated" not in jax.__dict__
+
+
+def test_time_to_success_stops_at_the_first_successful_evaluation_after_the_warm_up():
+    config = _toy_config(actor_warmup_steps=6)
+    evaluated = []
+
+    def evaluation(state):  # the untrained policy "walks"; later ones from the second on
+        evaluated.append(int(state.gradient_steps))
+        return {"success_rate": 1.0 if len(evaluated) in (1, 3) else 0.5}
+
+    start = time.perf_counter()
+    outcome = bench.time_to_success(
+        training.SACTrainer(PointEnv(), config),
+        evaluation,
+        timeout_s=600.0,
+        eval_interval=1,
+        section_start=start,
+        startup_s=0.25,
+    )
+    # Chunks of 4 updates: the warm-up (6) ends in the 2nd chunk; then one evaluation per chunk.
+    assert evaluated == [0, 8, 12]
+    assert outcome["reason"] is None and outcome["initial_success_rate"] == 1.0
+    assert [row["success_rate"] for row in outcome["evaluations"]] == [1.0, 0.5, 1.0]
+    assert outcome["seconds"] == outcome["evaluations"][-1]["seconds"]
+    assert 0.25 < outcome["seconds"] < 0.25 + time.perf_counter() - start
+
+
+def test_time_to_success_gives_up_at_the_timeout_with_a_reason():
+    outcome = bench.time_to_success(
+        training.SACTrainer(PointEnv(), _toy_config()),
+        lambda state: {"success_rate": 0.25},
+        timeout_s=0.0,
+        eval_interval=1,
+        section_start=time.perf_counter(),
+    )
+    assert outcome["seconds"] is None
+    # The prefill (64 env steps) and one chunk (4 steps of 8 envs), then the time is up.
+    assert outcome["reason"] == (
+        "not reached in 0 s (96 env steps); best success rate after the actor's warm-up: 0.25"
+    )
+
+
+def _stats(**values):
+    zeros = np.zeros(4)
+    fields = {
+        "running": zeros.astype(bool),
+        "fell": zeros.astype(bool),
+        "finished": zeros.astype(bool),
+        "steps": np.full(4, 400),
+        **{
+            name: zeros
+            for name in (
+                "start_x",
+                "start_y",
+                "x",
+                "y",
+                "max_lateral_deviation",
+                "max_abs_roll",
+                "max_abs_yaw",
+                "max_abs_pitch_error",
+                "slope_sq_error",
+                "episode_reward",
+            )
+        },
+        "reward_terms": {},
+    }
+    return evaluate.EpisodeStats(**{**fields, **{k: np.asarray(v) for k, v in values.items()}})
+
+
+def test_episode_success_walking_and_crossing():
+    walk = bench.Goal(num_steps=400, duration_s=20.0)
+    stats = _stats(
+        fell=[False, False, True, False],
+        steps=[400, 400, 120, 399],
+        start_x=[0.0, 0.0, 0.0, 1.0],
+        x=[6.0, 5.9, 9.0, 8.0],
+    )
+    np.testing.assert_array_equal(bench.episode_success(stats, walk), [True, False, False, False])
+    cross = bench.Goal(num_steps=734, duration_s=36.7, finish_x=11.0)
+    stats = _stats(finished=[True, False, False, True], fell=[False, True, False, False])
+    np.testing.assert_array_equal(bench.episode_success(stats, cross), [True, False, False, True])
+
+
+def test_goals_of_the_paper_terrains():
+    assert bench.terrain_goal(bench.make_bench_env("flat", "gpu")) == bench.Goal(400, 20.0)
+    slope5 = bench.terrain_goal(bench.make_bench_env("slope5", "gpu"))
+    assert slope5 == bench.Goal(734, pytest.approx(36.7), finish_x=11.0)  # 2 m lead-in + 3 x 3 m
+
+
+@pytest.mark.slow
+def test_rollout_evaluator_the_untrained_policy_trots_on_flat():
+    # With the gpu/cpu presets a fresh policy acts at the action centre: the fixed trot, which
+    # walks on flat (about 0.6-0.8 m/s).
+    env = bench.make_bench_env("flat", "cpu")
+    config = bench.trainer_config("cpu", bench.TrainRow(2, 8, 1))
+    trainer = training.SACTrainer(env, config)
+    evaluation = bench.rollout_evaluator(trainer, bench.terrain_goal(env), num_episodes=2)
+    result = evaluation(trainer.init())
+    assert result == {
+        "success_rate": 1.0,
+        "fall_rate": 0.0,
+        "mean_speed": pytest.approx(0.7, abs=0.3),
+    }
+
+
+@pytest.mark.slow
+def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))  # main() sets a default
+    out = tmp_path / "cpu.json"
+    argv = [
+        "--preset=cpu",
+        f"--out={out}",
+        "--env_counts=4",
+        "--train_rows=4x32x1",
+        "--training_preset=smoke",
+        "--steps=2",
+        "--train_seconds=0",
+        "--skip=stock,walk,slope5",
+    ]
+    assert bench.main(argv) == 0
+    results = json.loads(out.read_text())
+
+    for key in (
+        "device",
+        "substeps_per_env_step",
+        "physics_steps_per_s",
+        "env_steps_per_s",
+        "train",
+        "compile_s",
+        "time_to_walk_flat_s",
+        "time_to_cross_slope5_s",
+    ):
+        assert key in results, key
+    assert results["device"] == jax.devices()[0].device_kind
+    assert results["substeps_per_env_step"] == 10  # 20 Hz control, 200 Hz physics
+    assert set(results["physics_steps_per_s"]) == set(results["env_steps_per_s"]) == {"4"}
+    assert _finite_positive(results["physics_steps_per_s"]["4"])
+    assert _finite_positive(results["env_steps_per_s"]["4"])
+    (row,) = results["train"]
+    assert (row["num_envs"], row["batch_size"], row["updates_per_step"]) == (4, 32, 1)
+    assert _finite_positive(row["quadcos_env_steps_per_s"])
+    assert row["stock_brax_env_steps_per_s"] is None  # skipped
+    assert _finite_positive(results["compile_s"]["quadcos"])
+    assert results["compile_s"]["stock_brax"] is None
+    assert results["time_to_walk_flat_s"] is None and results["time_to_cross_slope5_s"] is None
+    assert set(results["versions"]) >= {"jax", "jaxlib", "mujoco", "mujoco-mjx", "brax"}
+
+    table = bench.markdown_table(results)
+    assert "| 4 |" in table and "| 4 | 32 | 1 |" in table
+    printed = capsys.readouterr().out
+    assert "physics 4 envs: " in printed and "train 4x32x1: " in printed
+    assert "FAILED" not in printed and "errors" not in results["details"]
+
+
+def test_merged_results_keep_the_earlier_numbers():
+    row = {"num_envs": 4, "batch_size": 8, "updates_per_step": 1}
+    earlier = {
+        "device": "cpu",
+        "physics_steps_per_s": {"4": 2.0},
+        "train": [{**row, "quadcos_env_steps_per_s": 3.0, "stock_brax_env_steps_per_s": None}],
+        "compile_s": {"quadcos": 5.0, "stock_brax": None},
+        "time_to_walk_flat_s": 7.0,
+        "command": "first",
+    }
+    later = {
+        "device": "cpu",
+        "physics_steps_per_s": {"8": 1.0},
+        "train": [
+            {**row, "quadcos_env_steps_per_s": None, "stock_brax_env_steps_per_s": 4.0},
+            {
+                **row,
+                "num_envs": 8,
+                "quadcos_env_steps_per_s": 6.0,
+                "stock_brax_env_steps_per_s": None,
+            },
+        ],
+        "compile_s": {"quadcos": None, "stock_brax": 9.0},
+        "time_to_walk_flat_s": None,
+        "command": "second",
+    }
+    merged = bench.merge_results(earlier, later)
+    assert merged["physics_steps_per_s"] == {"4": 2.0, "8": 1.0}
+    assert merged["train"] == [
+        {**row, "quadcos_env_steps_per_s": 3.0, "stock_brax_env_steps_per_s": 4.0},
+        later["train"][1],
+    ]
+    assert merged["compile_s"] == {"quadcos": 5.0, "stock_brax": 9.0}
+    assert merged["time_to_walk_flat_s"] == 7.0
+    assert merged["command"] == ["first", "second"]
+    with pytest.raises(ValueError, match="cannot merge"):
+        bench.merge_results(earlier, {**later, "device": "NVIDIA H100 80GB HBM3"})
+
+
+def test_a_failed_measurement_is_recorded_and_the_others_still_run(tmp_path, monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
+
+    def out_of_memory(row, *args):
+        if row.num_envs == 4:
+            raise MemoryError("RESOURCE_EXHAUSTED: 4 envs")
+        return {"env_steps_per_s": 10.0, "first_chunk_s": 1.0, "start_to_first_step_s": 2.0}
+
+    monkeypatch.setattr(bench, "measure_trainer", out_of_memory)
+    out = tmp_path / "bench.json"
+    argv = [f"--out={out}", "--only=train", "--train_rows=4x8x1,8x8x1"]
+    assert bench.main(argv) == 1
+    results = json.loads(out.read_text())
+    assert results["details"]["errors"] == {
+        "train 4x8x1": "MemoryError: RESOURCE_EXHAUSTED: 4 envs"
+    }
+    assert [row["quadcos_env_steps_per_s"] for row in results["train"]] == [10.0]
+    assert results["compile_s"]["quadcos"] == 2.0
