@@ -49,6 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from quadcos import constants, oscillator, slope, video
+from quadcos import config as config_lib
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
 
@@ -238,10 +239,10 @@ def env_overrides_from_saved(saved: Mapping[str, Any]) -> dict[str, Any]:
     Raises:
       ValueError: the saved config has options this version of the env does not know.
     """
-    from quadcos.config import flat_keys
-
-    saved_flat = {key: value for key, value in _flatten(saved).items() if key != "terrain"}
-    known = set(flat_keys(env_lib.default_config()))
+    saved_flat = {
+        key: value for key, value in config_lib.flatten(saved).items() if key != "terrain"
+    }
+    known = set(config_lib.flat_keys(env_lib.default_config()))
     unknown = sorted(set(saved_flat) - known)
     if unknown:
         raise ValueError(
@@ -249,16 +250,6 @@ def env_overrides_from_saved(saved: Mapping[str, Any]) -> dict[str, Any]:
         )
     overrides = {key: value for key, value in LEGACY_ENV_VALUES.items() if key not in saved_flat}
     return overrides | saved_flat
-
-
-def _flatten(tree: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    flat = {}
-    for key, value in tree.items():
-        if isinstance(value, Mapping):
-            flat |= _flatten(value, f"{prefix}{key}.")
-        else:
-            flat[f"{prefix}{key}"] = tuple(value) if isinstance(value, list) else value
-    return flat
 
 
 def build_env(
@@ -690,7 +681,7 @@ def render_trace(
             raise ValueError(f"cannot read trace {trace}: {error}") from None
     if trace.get("format") != TRACE_FORMAT or "qpos" not in trace or "env" not in trace:
         raise ValueError("not a quadcos trace with positions (qpos) and an env config")
-    overrides = _flatten(trace["env"])
+    overrides = config_lib.flatten(trace["env"])
     terrain = overrides.pop("terrain")
     env = env_lib.make_env(terrain, **overrides)
     qpos = np.asarray(trace["qpos"], dtype=np.float64)

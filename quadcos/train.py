@@ -22,7 +22,7 @@ import ml_collections
 
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
-from quadcos.config import apply_overrides, flat_keys
+from quadcos.config import apply_overrides, flat_keys, flatten
 
 # Presets: overrides of the default config, applied before the flags.
 # SAC set up to start from the env's action centre (the fixed trot) and explore around it: a fresh
@@ -306,17 +306,7 @@ def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
     except (ValueError, KeyError, TypeError) as error:
         raise UsageError(f"--resume: {path} is not a quadcos run config ({error})") from None
     known = set(flat_keys(default_config()))
-    return {key: value for key, value in _flatten(tree).items() if key in known}
-
-
-def _flatten(tree: dict, prefix: str = "") -> dict[str, Any]:
-    flat = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            flat |= _flatten(value, f"{prefix}{key}.")
-        else:
-            flat[f"{prefix}{key}"] = tuple(value) if isinstance(value, list) else value
-    return flat
+    return {key: value for key, value in flatten(tree).items() if key in known}
 
 
 if __name__ == "__main__":
