@@ -207,8 +207,8 @@ class Terrain:
         is linear over triangles: a kink between vertices is cut by at most
         |Δtan(angle)| · resolution / 4 (for the paper's courses every kink is on a vertex).
 
-        The ground has contype 0, conaffinity 1 (the robot's colliding geoms: contype 1,
-        conaffinity 0), friction GROUND_FRICTION and condim GROUND_CONDIM.
+        The ground has contype 0, conaffinity 1 (the robot's colliding geoms, its foot
+        spheres: contype 1, conaffinity 0), friction GROUND_FRICTION and condim GROUND_CONDIM.
 
         Args:
           spec: the robot's model spec; modified in place.

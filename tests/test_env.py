@@ -67,6 +67,14 @@ def test_sizes(flat_env):
     assert flat_env.dt == pytest.approx(0.05)
 
 
+def test_only_the_feet_touch_the_ground(flat_env):
+    # A torso contact only ever acts on a fallen robot (the env ends those episodes), and box vs
+    # heightfield collisions dominated MJX's cost on slopes.
+    model = flat_env.mj_model
+    colliding = {model.geom(g).name for g in range(model.ngeom) if model.geom_contype[g]}
+    assert colliding == {f"{leg}_foot" for leg in ("LF", "RF", "LH", "RH")}
+
+
 def test_optional_observations_and_joint_controller():
     env = quadcos.make_env("flat", observe_slope=True, observe_phase=True, controller="joint")
     assert env.observation_size == 14 + 1 + 2 + 8
