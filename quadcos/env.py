@@ -68,6 +68,11 @@ def default_config() -> ml_collections.ConfigDict:
     # > 0 the filtered action is appended to the observation (it is part of the state).
     config.action_filter_tau = 0.25
     config.reset_joint_noise = 0.02  # rad: uniform noise on the initial joint angles
+    # m: reset spawns each robot at x ~ U(0, spawn_x_max) (y = 0) instead of the spawn point, so
+    # that training sees a whole course, not only what its robots reach within an episode.
+    # Training's auto-reset returns each env to its own first spawn. Evaluation always starts at
+    # the spawn point (quadcos.evaluate sets 0).
+    config.spawn_x_max = 0.0
     config.fall_min_height = 0.35  # m: torso centre above the ground below it
     config.fall_max_roll = 0.8  # rad
     config.fall_max_pitch_error = 0.8  # rad: |pitch − true slope|
@@ -93,6 +98,12 @@ class QuadrupedEnv(base.Env):
         validate_config(config)
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.config = config
+        extent = self.terrain.extent
+        if extent is not None and config.spawn_x_max > extent[1] - _SPAWN_MARGIN:
+            raise ValueError(
+                f"spawn_x_max {config.spawn_x_max} m puts robots within {_SPAWN_MARGIN} m of the"
+                f" end of terrain {self.terrain.name!r} (x = {extent[1]:g} m)"
+            )
         self.mj_model = robot.build_model(
             self.terrain,
             config.mjcf_path or None,
@@ -129,8 +140,13 @@ class QuadrupedEnv(base.Env):
         return self.substeps * self.config.physics_dt
 
     def reset(self, rng: jax.Array) -> base.State:
-        """A standing robot at the spawn point (0, 0), joints perturbed by `reset_joint_noise`."""
-        return self.reset_at(rng, jnp.zeros(()), jnp.zeros(()))
+        """A standing robot at the spawn point (0, 0) — or at x ~ U(0, `spawn_x_max`) — joints
+        perturbed by `reset_joint_noise`."""
+        x = jnp.zeros(())
+        if self.config.spawn_x_max > 0:
+            rng, rng_x = jax.random.split(rng)
+            x = jax.random.uniform(rng_x, (), maxval=self.config.spawn_x_max)
+        return self.reset_at(rng, x, jnp.zeros(()))
 
     def reset_at(self, rng: jax.Array, x: jax.Array, y: jax.Array) -> base.State:
         """A standing robot at (x, y): feet on the ground, torso pitched with the ground's slope."""
@@ -294,6 +310,7 @@ class QuadrupedEnv(base.Env):
 
 
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
+_SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
 _REWARD_TERMS = ("fall", "survival", "forward", "lateral", "orientation")
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
 
@@ -329,6 +346,8 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         )
     if not config.action_filter_tau >= 0:
         raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")
+    if not 0.0 <= config.spawn_x_max < math.inf:
+        raise ValueError(f"spawn_x_max must be finite and >= 0 m; got {config.spawn_x_max}")
     if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
         raise ValueError(
             f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"

@@ -263,7 +263,8 @@ def build_env(
       ValueError: bad terrain or override, or an env whose observation / action sizes differ from
         the policy's.
     """
-    overrides = {**controller.env_overrides, **(env_overrides or {})}
+    # An evaluation episode starts at the spawn point, wherever training spawned.
+    overrides = {**controller.env_overrides, "spawn_x_max": 0.0, **(env_overrides or {})}
     overrides.pop("terrain", None)
     env = env_lib.make_env(
         terrain if terrain is not None else controller.training_terrain, **overrides

@@ -265,6 +265,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         env = env_lib.QuadrupedEnv(
             config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
         )
+        # Evaluations start at the spawn point (as quadcos.evaluate's do).
+        eval_env = env
+        if config.env.spawn_x_max > 0:
+            eval_env = env_lib.QuadrupedEnv(
+                config.env.terrain,
+                ml_collections.ConfigDict({**config.env.to_dict(), "spawn_x_max": 0.0}),
+            )
     except (UsageError, ValueError, FileNotFoundError) as error:
         _print_error(error)
         return 2
@@ -276,6 +283,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             env,
             config.sac,
             run_dir,
+            eval_env=eval_env,
             resume=args.resume,
             progress=not args.no_progress,
             extra_run_info={"env": config.env.to_dict(), "argv": argv},

@@ -72,7 +72,7 @@ def test_only_the_feet_touch_the_ground(flat_env):
     # heightfield collisions dominated MJX's cost on slopes.
     model = flat_env.mj_model
     colliding = {model.geom(g).name for g in range(model.ngeom) if model.geom_contype[g]}
-    assert colliding == {f"{leg}_foot" for leg in ("LF", "RF", "LH", "RH")}
+    assert colliding == {f"{leg}_foot" for leg in ("LF", "RF", "LB", "RB")}
 
 
 def test_optional_observations_and_joint_controller():
@@ -188,12 +188,31 @@ def test_estimator_on_ramps_within_one_degree():
         ({"action_centre": "gallop"}, "unknown action_centre 'gallop'"),
         ({"control_dt": 0.052}, "whole multiple of physics_dt"),
         ({"action_filter_tau": -0.1}, "action_filter_tau must be >= 0"),
+        ({"spawn_x_max": -1.0}, "spawn_x_max must be finite and >= 0"),
         ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
     ],
 )
 def test_bad_env_config_is_named(overrides, message):
     with pytest.raises(ValueError, match=message):
         quadcos.make_env("flat", **overrides)
+
+
+def test_random_spawns_cover_the_range():
+    keys = jax.random.split(jax.random.PRNGKey(0), 32)
+    spawn_x = {
+        spawn_x_max: np.asarray(jax.jit(jax.vmap(env.reset))(keys).pipeline_state.qpos[:, 0])
+        for spawn_x_max in (0.0, 5.0)
+        for env in [quadcos.make_env("flat", spawn_x_max=spawn_x_max)]
+    }
+    assert np.all(spawn_x[0.0] == 0)
+    assert np.all((spawn_x[5.0] >= 0) & (spawn_x[5.0] <= 5)) and np.ptp(spawn_x[5.0]) > 3
+
+
+def test_spawns_beyond_the_course_are_refused():
+    # slope5's heightfield ends 3 m after the course end (x = 11 m)
+    with pytest.raises(ValueError, match="spawn_x_max 13.5 m puts robots within 1.0 m of the end"):
+        quadcos.make_env("slope5", spawn_x_max=13.5)
+    assert quadcos.make_env("slope5", spawn_x_max=12.0).config.spawn_x_max == 12.0
 
 
 def test_unknown_terrain_is_named():

@@ -6,6 +6,7 @@ Compiling a rollout costs tens of seconds on two cores, so there are two: the fi
 also notebook (a)'s). Every evaluation here has those shapes, so the rest are persistent-cache hits.
 """
 
+import dataclasses
 import json
 import math
 import pathlib
@@ -163,6 +164,14 @@ def test_legacy_policy_gets_the_env_of_its_time():
     assert controller.env_overrides["action_filter_tau"] == 0.0
     assert controller.env_overrides["action_centre"] == "midpoint"
     assert evaluate.build_env(controller).observation_size == controller.observation_size == 14
+
+
+def test_evaluation_starts_at_the_spawn_point_wherever_training_spawned():
+    controller = evaluate.resolve_controller(str(LEGACY_POLICY))
+    trained_spread = dataclasses.replace(
+        controller, env_overrides={**controller.env_overrides, "spawn_x_max": 8.0}
+    )
+    assert evaluate.build_env(trained_spread, "slope5").config.spawn_x_max == 0.0
 
 
 def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():

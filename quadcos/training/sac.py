@@ -212,8 +212,10 @@ class SACTrainer:
         self.evaluate = jax.jit(self._evaluate)
 
     def init(self) -> TrainingState:
-        """Returns the initial training state (empty replay buffer)."""
-        return self._init(self._key_init)
+        """Returns the initial training state (empty replay buffer), committed to the default
+        device as a restored checkpoint is: a fresh and a resumed run then call the compiled
+        functions with the same signature and share the persistent compilation cache."""
+        return jax.device_put(self._init(self._key_init), jax.devices()[0])
 
     def _init_state(self, key: jax.Array) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
