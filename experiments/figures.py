@@ -35,9 +35,9 @@ def main() -> None:
         plots.plot_attitude(trace, title=f"{course}: attitude", path=slope5 / f"{course}_attitude.png")
         plots.plot_controller(trace, title=f"{course}: controller outputs (Figs. {figs})",
                               path=slope5 / f"{course}_controller.png")
-    plots.plot_cog(fixed / "trace_fixed_slope5.json", title="fixed trot on slope5 (Fig. 15)",
+    plots.plot_cog(fixed / "trace_slope5.json", title="best fixed parameters on slope5 (Fig. 15)",
                    path=fixed / "fig15_cog.png")
-    plots.plot_attitude(fixed / "trace_fixed_slope5.json", title="fixed trot on slope5: attitude",
+    plots.plot_attitude(fixed / "trace_slope5.json", title="best fixed parameters on slope5: attitude",
                         path=fixed / "fig15_attitude.png")
 
 
