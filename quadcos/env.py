@@ -1,4 +1,4 @@
-"""The quadruped env: Brax `Env` API over MuJoCo MJX (impl="jax").
+"""The quadruped env: Brax `Env` API over MuJoCo MJX (JAX or Warp physics, see quadcos.backends).
 
 One step (paper Fig. 3): action → (low-pass command filter) → rhythm-controller parameters
 (§3.3) → joint targets at every physics substep (Eq. 3) → MJX physics → proprioceptive slope
@@ -15,12 +15,11 @@ import ml_collections
 from brax.envs import base
 from mujoco import mjx
 
-from quadcos import constants, oscillator, reward, robot, slope
+from quadcos import backends, constants, oscillator, reward, robot, slope
 from quadcos import terrain as terrain_lib
 from quadcos.config import apply_overrides
 
 CONTROLLERS = ("oscillator", "joint")
-IMPLS = ("jax",)  # reset builds mjx.Data with the jax implementation
 OSCILLATOR_FORMS = ("phase", "literal")
 ACTION_CENTRES = {"trot": oscillator.FIXED_TROT, "midpoint": None}
 JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
@@ -39,7 +38,9 @@ def default_config() -> ml_collections.ConfigDict:
     config = ml_collections.ConfigDict()
     config.terrain = "flat"  # name or spec string, see quadcos.terrain.parse
     config.mjcf_path = ""  # "" = models/mjcf/quadruped.xml
-    config.impl = "jax"  # MJX implementation, pinned (Playground 0.2 defaults to Warp)
+    # MJX implementation: "auto" = Warp on a CUDA GPU with warp-lang installed, else "jax".
+    config.impl = "auto"
+    config.warp = backends.default_warp_config()
     # s: one env step = one SAC action (20 Hz; CoppeliaSim's default 50 ms step, the paper's
     # simulator). The paper's per-step rewards (r_s = 10, r_y = w1 Δy) only favour walking over
     # standing still when a step is long enough for Δy to matter: at 50 Hz a good trot scores
@@ -58,6 +59,11 @@ def default_config() -> ml_collections.ConfigDict:
     # (a plain linear map: the zero action stands still). See oscillator.action_to_parameters.
     config.action_centre = "trot"
     config.reward_variant = "full"  # "full" (Eq. 13) or "xy" (Fig. 9's r_xy)
+    # m/s: Eq. 9 pays r_s "for every step of movement". 0 reads that as every control step
+    # alive, standing still included; > 0 pays r_s only on steps whose forward speed reaches
+    # this, so that standing earns nothing and walking is the only way to score (see
+    # experiments/from_scratch: with 0, standing still is a strong optimum of Eq. 13).
+    config.survival_min_speed = 0.0
     config.reward = ml_collections.ConfigDict(reward.RewardWeights()._asdict())
     config.observe_slope = False  # append the slope estimate to the paper's 14-d state
     config.observe_phase = False  # append (cos ψ, sin ψ) of the oscillator
@@ -111,7 +117,8 @@ class QuadrupedEnv(base.Env):
             solver_iterations=config.solver_iterations or None,
             ls_iterations=config.ls_iterations or None,
         )
-        self.model = mjx.put_model(self.mj_model, impl=config.impl)
+        self.impl = backends.resolve_impl(config.impl)
+        self.model = backends.put_model(self.mj_model, self.impl)
         self.substeps = round(config.control_dt / config.physics_dt)
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         self.action_centre = ACTION_CENTRES[config.action_centre]
@@ -160,7 +167,8 @@ class QuadrupedEnv(base.Env):
         qpos = qpos.at[constants.QPOS_POSITION].set(jnp.stack([x, y, height + _SPAWN_CLEARANCE]))
         qpos = qpos.at[constants.QPOS_QUATERNION].set(nose_up)
         qpos = qpos.at[constants.QPOS_JOINTS].set(joints)
-        data = mjx.make_data(self.model).replace(qpos=qpos, ctrl=joints)
+        data = backends.make_data(self.mj_model, self.impl, self.config)
+        data = data.replace(qpos=qpos, ctrl=joints)
         data = mjx.forward(self.model, data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
@@ -192,6 +200,7 @@ class QuadrupedEnv(base.Env):
         slope_truth = self.terrain.slope_at(position[0], position[1])
         finite = jnp.isfinite(data.qpos).all() & jnp.isfinite(data.qvel).all()
         fell = self._fell(data, observed.attitude, slope_truth) | ~finite
+        forward_speed = (position[0] - before.qpos[0]) / self.dt
         terms = reward.reward_terms(
             x_now=position[0],
             x_last=before.qpos[0],
@@ -202,12 +211,13 @@ class QuadrupedEnv(base.Env):
             roll=observed.attitude.roll,
             slope=observed.slope_estimate,
             fell=fell,
+            moving=self._moving(forward_speed),
             weights=self.weights,
             variant=self.config.reward_variant,
         )
         metrics = {f"reward/{name}": value for name, value in terms.items()}
         metrics |= {
-            "forward_speed": (position[0] - before.qpos[0]) / self.dt,
+            "forward_speed": forward_speed,
             "slope_estimate": observed.slope_estimate,
             "slope_truth": slope_truth,
             "slope_error": jnp.abs(observed.slope_estimate - slope_truth),
@@ -265,6 +275,13 @@ class QuadrupedEnv(base.Env):
             phase = jnp.mod(oscillator.TWO_PI * data.time / periods[-1], oscillator.TWO_PI)
         return data, phase, command
 
+    def _moving(self, forward_speed: jax.Array) -> jax.Array | bool:
+        """Whether a step earns Eq. 9's r_s: every step (survival_min_speed 0) or a step moving
+        forward at least that fast."""
+        if self.config.survival_min_speed == 0:
+            return True
+        return forward_speed >= self.config.survival_min_speed
+
     def _period(self, command: jax.Array) -> jax.Array:
         """The oscillator period T (s) that `command` sets; the joint controller has none, so its
         phase runs at the fixed trot's period (it is observable with `observe_phase` only)."""
@@ -317,8 +334,12 @@ _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error"
 
 def validate_config(config: ml_collections.ConfigDict) -> None:
     """Raises ValueError naming the first env config value the env cannot run with."""
-    if config.impl not in IMPLS:
-        raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(IMPLS)}")
+    if config.impl not in backends.IMPLS:
+        raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
+    for key in ("max_envs", "contacts_per_env", "constraints_per_env"):
+        value = config.warp[key]
+        if not (isinstance(value, int) and 1 <= value <= 1 << 24):
+            raise ValueError(f"warp.{key} must be a whole number in [1, 2**24]; got {value!r}")
     if config.controller not in CONTROLLERS:
         raise ValueError(
             f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}"
@@ -346,6 +367,10 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         )
     if not config.action_filter_tau >= 0:
         raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")
+    if not 0.0 <= config.survival_min_speed < math.inf:
+        raise ValueError(
+            f"survival_min_speed must be finite and >= 0 m/s; got {config.survival_min_speed}"
+        )
     if not 0.0 <= config.spawn_x_max < math.inf:
         raise ValueError(f"spawn_x_max must be finite and >= 0 m; got {config.spawn_x_max}")
     if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:

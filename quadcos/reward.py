@@ -33,9 +33,10 @@ def fall_penalty(weights: RewardWeights) -> jnp.ndarray:
     return jnp.asarray(weights.fall_penalty)
 
 
-def survival(weights: RewardWeights) -> jnp.ndarray:
-    """Eq. 9: r_s = 10 for every step the robot moves without falling."""
-    return jnp.asarray(weights.survival)
+def survival(weights: RewardWeights, moving: jnp.ndarray = True) -> jnp.ndarray:
+    """Eq. 9: r_s = 10 "for every step of movement" without falling. `moving` says whether this
+    step counts as movement; the env decides (every step alive, or only steps moving forward)."""
+    return jnp.where(moving, weights.survival, 0.0)
 
 
 def forward_progress(
@@ -76,10 +77,12 @@ def reward_terms(
     roll: jnp.ndarray,
     slope: jnp.ndarray,
     fell: jnp.ndarray,
+    moving: jnp.ndarray = True,
     weights: RewardWeights = RewardWeights(),
     variant: str = "full",
 ) -> dict[str, jnp.ndarray]:
-    """Eq. 13's terms, each weighted by α or β; their sum is the step reward.
+    """Eq. 13's terms, each weighted by α or β; their sum is the step reward. `moving`: whether
+    this step earns Eq. 9's r_s (see `survival`).
 
     variant "full" is Eq. 13. variant "xy" is Fig. 9's r_xy: only r_y + r_x while walking (no r_s,
     no r_o); a fall still gives r_p and ends the episode, as in the full reward.
@@ -94,7 +97,7 @@ def reward_terms(
     walking = beta if variant == "full" else jnp.zeros_like(beta)
     return {
         "fall": alpha * fall_penalty(weights),
-        "survival": walking * survival(weights),
+        "survival": walking * survival(weights, moving),
         "forward": beta * forward_progress(x_now, x_last, weights),
         "lateral": beta * lateral_drift(y_now, y_last, weights),
         "orientation": walking * orientation(pitch, yaw, roll, slope, weights),

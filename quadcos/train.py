@@ -262,6 +262,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(json.dumps(config.to_dict(), indent=2))
             return 0
         _check_output_dir(run_dir, args.resume)
+        # Warp's contact buffer is shared by a batch's worlds: size it for the largest batch.
+        config.env.warp.max_envs = max(
+            config.env.warp.max_envs, config.sac.num_envs, config.sac.num_eval_envs
+        )
         env = env_lib.QuadrupedEnv(
             config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
         )

@@ -62,3 +62,13 @@ def test_batched_under_vmap():
 def test_unknown_variant():
     with pytest.raises(ValueError, match="unknown reward variant 'yx'"):
         reward.reward_terms(**WALK, fell=False, variant="yx")
+
+
+def test_survival_only_for_steps_of_movement():
+    """Eq. 9 read as "for every step of movement": a step that does not move pays no r_s."""
+    moving = reward.reward_terms(**WALK, fell=False, moving=True)
+    still = reward.reward_terms(**WALK, fell=False, moving=False)
+    assert float(moving["survival"]) == 10.0 and float(still["survival"]) == 0.0
+    assert float(still["forward"]) == float(moving["forward"])
+    fallen = reward.reward_terms(**WALK, fell=True, moving=True)
+    assert float(fallen["survival"]) == 0.0

@@ -117,9 +117,14 @@ def _strongly_typed(tree: Any) -> Any:
     return jax.tree.map(lambda x: jax.lax.convert_element_type(x, jnp.asarray(x).dtype), tree)
 
 
-def _per_env(mask: jax.Array, leaf: jax.Array) -> jax.Array:
-    """Broadcasts a (num_envs,) mask against a (num_envs, ...) leaf."""
-    return jnp.reshape(mask, mask.shape + (1,) * (leaf.ndim - mask.ndim))
+def where_per_env(mask: jax.Array, new: jax.Array, old: jax.Array) -> jax.Array:
+    """`new` for the envs where the (num_envs,) `mask` holds, `old` elsewhere, for one leaf of a
+    batched state. Leaves without the env axis (MJX-Warp's shared, often zero-size, buffers) are
+    kept as they are."""
+    if old.ndim < mask.ndim or old.shape[: mask.ndim] != mask.shape:
+        return old
+    mask = jnp.reshape(mask, mask.shape + (1,) * (old.ndim - mask.ndim))
+    return jnp.where(mask, new, old).astype(old.dtype)
 
 
 @flax.struct.dataclass
@@ -306,7 +311,7 @@ class SACTrainer:
             fresh = self.env.reset(jax.random.split(key, self.config.num_envs))
             fresh = fresh.replace(done=jnp.ones_like(fresh.done))
             return jax.tree.map(
-                lambda new, old: jnp.where(_per_env(mask, old), new, old).astype(old.dtype),
+                lambda new, old: where_per_env(mask, new, old),
                 fresh,
                 env_state,
             )

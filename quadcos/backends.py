@@ -1,0 +1,93 @@
+"""Which MJX implementation simulates the robots: MuJoCo's JAX port or MuJoCo Warp.
+
+`impl="warp"` runs MJX's physics as Warp kernels called from JAX (mujoco-mjx vendors MuJoCo Warp;
+it needs only the `warp-lang` package). On our robot it is 2.4–3.6× the JAX
+physics (BENCHMARKS.md). `impl="auto"` picks Warp where it can run and JAX elsewhere, so the CPU
+path (CI, `make train`) stays JAX.
+
+Warp preallocates its contact and constraint buffers: contacts for all worlds of a batch
+together (`naconmax`), constraint rows per world (`njmax`). `warp_sizes` derives them from the
+largest batch the env will be stepped in and a per-robot bound.
+"""
+
+import functools
+import importlib.util
+
+import jax
+import ml_collections
+from mujoco import mjx
+
+IMPLS = ("auto", "jax", "warp")
+INSTALL_HINT = "pip install 'quadcos[warp]'  (warp-lang; MJX's Warp backend needs a CUDA GPU)"
+
+
+@functools.cache
+def warp_installed() -> bool:
+    """Whether the `warp-lang` package can be imported (checked without importing it)."""
+    return importlib.util.find_spec("warp") is not None
+
+
+def cuda_available() -> bool:
+    """Whether JAX sees a CUDA GPU."""
+    try:
+        return bool(jax.devices("cuda"))
+    except RuntimeError:
+        return False
+
+
+def resolve_impl(impl: str) -> str:
+    """"jax" or "warp" for a configured `impl` ("auto" = Warp where a CUDA GPU and warp-lang
+    are present, else JAX; an explicit "warp" also runs on the CPU, slowly, as MJX allows).
+    Raises ValueError for an unknown name or "warp" without warp-lang."""
+    if impl not in IMPLS:
+        raise ValueError(f"unknown impl {impl!r}; known: {', '.join(IMPLS)}")
+    if impl == "auto":
+        impl = "warp" if warp_installed() and cuda_available() else "jax"
+    if impl == "warp":
+        if not warp_installed():
+            raise ValueError(f"impl 'warp' needs warp-lang, which is not installed: {INSTALL_HINT}")
+        import warp  # noqa: PLC0415 — only where Warp runs
+
+        warp.config.quiet = True  # no line per kernel module loaded
+    return impl
+
+
+def warp_sizes(config: ml_collections.ConfigDict) -> dict[str, int]:
+    """Warp's buffer sizes for an env config: `naconmax` (contacts, all worlds of the largest
+    batch together) and `njmax` (constraint rows per world)."""
+    return {
+        "naconmax": config.warp.max_envs * config.warp.contacts_per_env,
+        "njmax": config.warp.constraints_per_env,
+    }
+
+
+def default_warp_config() -> ml_collections.ConfigDict:
+    """Warp buffer bounds. Four foot spheres make ≤ 4 contacts on a plane and a few more on a
+    heightfield; a pyramidal cone of condim 3 gives 4 rows a contact. Playground's Go1 uses 4
+    contacts and 40 rows a world on flat ground, 8 and 60 on rough terrain."""
+    config = ml_collections.ConfigDict()
+    config.max_envs = 16384  # the largest batch stepped at once; the trainer raises it as needed
+    config.contacts_per_env = 8
+    config.constraints_per_env = 64
+    return config
+
+
+def put_model(mj_model, impl: str) -> mjx.Model:
+    """The device model for a resolved `impl`. With Warp, the per-step console warning that the
+    solver reached its iteration limit is off: our MJCF sets few iterations on purpose, and the
+    JAX physics stops there silently too. Buffer overflows (dropped contacts) still warn."""
+    model = mjx.put_model(mj_model, impl=impl)
+    if impl != "warp":
+        return model
+    from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType  # noqa: PLC0415
+
+    option = model.opt._impl  # noqa: SLF001 — Warp's own options live there
+    quiet = int(option.warn_overflow) & ~int(OverflowType.ITERATIONS | OverflowType.LS_ITERATIONS)
+    return model.replace(opt=model.opt.replace(_impl=option.replace(warn_overflow=quiet)))
+
+
+def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Data:
+    """A fresh `mjx.Data` for one robot (batch with `jax.vmap`)."""
+    if impl == "warp":
+        return mjx.make_data(mj_model, impl="warp", **warp_sizes(config))
+    return mjx.make_data(mj_model, impl="jax")
