@@ -56,6 +56,7 @@ from brax.envs import base
 from brax.training.agents.sac import networks as sac_networks
 from mujoco import mjx
 
+from quadcos import backends, caches
 from quadcos import env as env_lib
 from quadcos import evaluate, training
 from quadcos.config import apply_overrides
@@ -112,6 +113,8 @@ class Settings:
       walk_eval_interval: env steps between evaluations of the walk and slope5 sections.
       walk_eval_episodes: evaluation episodes per evaluation.
       sections: the sections to run, in order.
+      terrain: the terrain of the physics, env, train and stock sections.
+      impl: the MJX implementation ("auto", "jax" or "warp"; see quadcos.backends).
     """
 
     env_counts: tuple[int, ...]
@@ -126,6 +129,8 @@ class Settings:
     walk_eval_interval: int
     walk_eval_episodes: int
     sections: tuple[str, ...]
+    terrain: str = "flat"
+    impl: str = "auto"
 
 
 _GPU_ROWS = "4096x8192x1,4096x8192x8,16384x16384x4"
@@ -339,9 +344,9 @@ def _preset_overrides(preset: str, prefix: str) -> dict[str, Any]:
     }
 
 
-def make_bench_env(terrain: str, preset: str) -> env_lib.QuadrupedEnv:
+def make_bench_env(terrain: str, preset: str, impl: str = "auto") -> env_lib.QuadrupedEnv:
     """The env as `python -m quadcos.train --preset=PRESET --terrain=TERRAIN` builds it."""
-    return env_lib.make_env(terrain, **_preset_overrides(preset, "env."))
+    return env_lib.make_env(terrain, **{**_preset_overrides(preset, "env."), "impl": impl})
 
 
 def trainer_config(preset: str, row: TrainRow | None = None) -> ml_collections.ConfigDict:
@@ -361,7 +366,12 @@ def trainer_config(preset: str, row: TrainRow | None = None) -> ml_collections.C
 
 
 def measure_trainer(
-    row: TrainRow, preset: str, train_seconds: float, startup_s: float
+    row: TrainRow,
+    preset: str,
+    train_seconds: float,
+    startup_s: float,
+    terrain: str = "flat",
+    impl: str = "auto",
 ) -> dict[str, float]:
     """Our trainer's training throughput for one row, and its time to the first training step.
 
@@ -375,7 +385,7 @@ def measure_trainer(
     """
     section_start = time.perf_counter()
     config = trainer_config(preset, row)
-    trainer = training.SACTrainer(make_bench_env("flat", preset), config)
+    trainer = training.SACTrainer(make_bench_env(terrain, preset, impl), config)
     state = trainer.prefill(trainer.init())
     jax.block_until_ready(state)
     start = time.perf_counter()
@@ -687,6 +697,9 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "versions": _versions(),
         "xla_flags": os.environ.get("XLA_FLAGS", ""),
         "compilation_cache_dir": jax.config.jax_compilation_cache_dir,
+        "terrain": settings.terrain,
+        "impl": backends.resolve_impl(settings.impl),
+        "cache": caches.state(jax.config.jax_compilation_cache_dir),
         "settings": {
             **dataclasses.asdict(settings),
             "train_rows": [str(row) for row in settings.train_rows],
@@ -727,8 +740,10 @@ def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     return merged
 
 
-def _row_key(row: dict[str, Any]) -> tuple[int, int, int]:
-    return row["num_envs"], row["batch_size"], row["updates_per_step"]
+def _row_key(row: dict[str, Any]) -> tuple[Any, ...]:
+    # Rows measured before terrain, impl and cache were recorded: flat, JAX, no cache.
+    context = (row.get("terrain", "flat"), row.get("impl", "jax"), row.get("cache", "cold"))
+    return row["num_envs"], row["batch_size"], row["updates_per_step"], *context
 
 
 def _as_list(value: Any) -> list[Any]:
@@ -740,12 +755,16 @@ def _as_list(value: Any) -> list[Any]:
 def _train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
     """The results' entry for `row`, created (with every field None) if missing."""
     for entry in results["train"]:
-        if _row_key(entry) == (row.num_envs, row.batch_size, row.updates_per_step):
+        context = (results["terrain"], results["impl"], results["cache"])
+        if _row_key(entry) == (row.num_envs, row.batch_size, row.updates_per_step, *context):
             return entry
     entry = {
         "num_envs": row.num_envs,
         "batch_size": row.batch_size,
         "updates_per_step": row.updates_per_step,
+        "terrain": results["terrain"],
+        "impl": results["impl"],
+        "cache": results["cache"],
         "quadcos_env_steps_per_s": None,
         "stock_brax_env_steps_per_s": None,
     }
@@ -865,6 +884,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--stock_epoch_steps", type=int, help="vectorised steps per stock epoch")
     parser.add_argument("--stock_timeout_s", type=float, help="cap per stock row, compile included")
     parser.add_argument("--training_preset", choices=tuple(TRAIN_PRESETS))
+    parser.add_argument("--terrain", default="flat", help="terrain of physics/env/train/stock")
+    parser.add_argument("--impl", default="auto", choices=backends.IMPLS, help="MJX implementation")
     parser.add_argument("--walk_timeout_s", type=float, help="cap of the walk / slope5 sections")
     parser.add_argument("--walk_eval_interval", type=int, help="env steps between evaluations")
     parser.add_argument("--walk_eval_episodes", type=int, help="episodes per evaluation")
@@ -905,6 +926,8 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         walk_eval_interval=preset["walk_eval_interval"],
         walk_eval_episodes=preset["walk_eval_episodes"],
         sections=tuple(name for name in SECTIONS if name in chosen),
+        terrain=args.terrain,
+        impl=args.impl,
     )
 
 
@@ -943,7 +966,7 @@ def run(
     save()
     sections = settings.sections
     if "physics" in sections or "env" in sections:
-        env = make_bench_env("flat", settings.training_preset)
+        env = make_bench_env(settings.terrain, settings.training_preset, settings.impl)
         reset_batch = make_batch_reset(env)
 
         def simulation(section: str, count: int) -> str:
@@ -966,7 +989,14 @@ def run(
         del env, reset_batch
 
     def ours(row: TrainRow) -> str:
-        measured = measure_trainer(row, settings.training_preset, settings.train_seconds, startup_s)
+        measured = measure_trainer(
+            row,
+            settings.training_preset,
+            settings.train_seconds,
+            startup_s,
+            settings.terrain,
+            settings.impl,
+        )
         entry = _train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
         entry["quadcos_first_chunk_s"] = measured["first_chunk_s"]
@@ -983,7 +1013,7 @@ def run(
     def stock(row: TrainRow) -> str:
         section_start = time.perf_counter()
         measured = measure_stock_brax(
-            make_bench_env("flat", settings.training_preset),
+            make_bench_env(settings.terrain, settings.training_preset, settings.impl),
             trainer_config(settings.training_preset, row),
             settings.train_seconds,
             settings.stock_epoch_steps,
@@ -1043,6 +1073,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # The same XLA flags as `python -m quadcos.train`, set before the backend starts.
     os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
+    caches.enable()
     parser = _parser()
     args = parser.parse_args(argv)
     if args.table:

@@ -20,6 +20,7 @@ from typing import Any
 
 import ml_collections
 
+from quadcos import caches
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
 from quadcos.config import apply_overrides, flat_keys, flatten
@@ -251,6 +252,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # Read when JAX starts its backend (building the env), so it is set before anything else.
     os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
+    cache_dirs = caches.enable()
     try:
         args, overrides = resolve(argv)
         run_dir = pathlib.Path(args.output_dir) if args.output_dir else None
@@ -290,7 +292,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             eval_env=eval_env,
             resume=args.resume,
             progress=not args.no_progress,
-            extra_run_info={"env": config.env.to_dict(), "argv": argv},
+            extra_run_info={
+                "env": config.env.to_dict(),
+                "argv": argv,
+                "impl": env.impl,
+                "caches": cache_dirs,
+            },
         )
     except training.ConfigError as error:  # raised before anything is written
         _print_error(error)
