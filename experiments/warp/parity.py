@@ -1,0 +1,83 @@
+"""MJX-JAX vs MJX-Warp on the committed policies: the same deterministic evaluation with each
+physics implementation, then the differences and a figure of one episode's trajectory.
+
+    python experiments/warp/parity.py run --num_envs=1024     # on a GPU with warp-lang: eval_*.json, trace_*.json
+    python experiments/warp/parity.py report                   # anywhere: parity.json, parity.png
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+POLICIES = Path(__file__).resolve().parent.parent / "policies"
+CASES = {"flat": ("flat", 20.0), "slope5": ("slope5", 40.0)}  # policy -> (terrain, seconds)
+IMPLS = ("jax", "warp")
+SUCCESS_TOLERANCE = 0.02  # the issue's bounds
+SPEED_TOLERANCE = 0.03
+
+
+def run(num_envs: int) -> None:
+    from quadcos import caches, evaluate
+
+    caches.enable()
+    for policy, (terrain, seconds) in CASES.items():
+        for impl in IMPLS:
+            result = evaluate.evaluate(
+                str(POLICIES / policy),
+                terrain,
+                num_envs=num_envs,
+                seconds=seconds,
+                env_overrides={"impl": impl},
+            )
+            evaluate.write_json(HERE / f"eval_{policy}_{impl}.json", result.to_json())
+            evaluate.write_json(HERE / f"trace_{policy}_{impl}.json", result.trace)
+            print(policy, impl, json.dumps({k: result.summary[k] for k in ("success_rate", "mean_forward_speed")}))
+
+
+def report() -> None:
+    rows = {}
+    for policy in CASES:
+        summary = {impl: json.loads((HERE / f"eval_{policy}_{impl}.json").read_text()) for impl in IMPLS}
+        success = {impl: summary[impl]["success_rate"] for impl in IMPLS}
+        speed = {impl: summary[impl]["mean_forward_speed"] for impl in IMPLS}
+        rows[policy] = {
+            "episodes": summary["jax"]["setup"]["num_envs"],
+            "success": success,
+            "speed": speed,
+            "success_difference": success["warp"] - success["jax"],
+            "speed_ratio": speed["warp"] / speed["jax"],
+            "within_tolerance": abs(success["warp"] - success["jax"]) <= SUCCESS_TOLERANCE
+            and abs(speed["warp"] / speed["jax"] - 1) <= SPEED_TOLERANCE,
+        }
+    (HERE / "parity.json").write_text(json.dumps(rows, indent=1) + "\n")
+    print(json.dumps(rows, indent=1))
+    _figure()
+
+
+def _figure() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig, axes = plt.subplots(len(CASES), 2, figsize=(10, 6), constrained_layout=True)
+    for row, policy in enumerate(CASES):
+        for impl, style in zip(IMPLS, ("-", "--")):
+            series = json.loads((HERE / f"trace_{policy}_{impl}.json").read_text())["series"]
+            time = np.asarray(series["time"])
+            axes[row, 0].plot(time, series["cog_x"], style, label=f"impl={impl}")
+            axes[row, 1].plot(time, series["pitch"], style, label=f"impl={impl}")
+        axes[row, 0].set(title=f"{policy}: CoG x", xlabel="t (s)", ylabel="x (m)")
+        axes[row, 1].set(title=f"{policy}: pitch", xlabel="t (s)", ylabel="rad")
+        axes[row, 0].legend()
+    fig.savefig(HERE / "parity.png", dpi=120)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("mode", choices=("run", "report"))
+    parser.add_argument("--num_envs", type=int, default=1024)
+    args = parser.parse_args()
+    run(args.num_envs) if args.mode == "run" else report()
