@@ -64,6 +64,9 @@ def default_config() -> ml_collections.ConfigDict:
     # this, so that standing earns nothing and walking is the only way to score (see
     # experiments/from_scratch: with 0, standing still is a strong optimum of Eq. 13).
     config.survival_min_speed = 0.0
+    # s: "moving" is judged on the forward speed low-pass filtered with this time constant, so
+    # that rocking back and forth (forward half the time, no progress) does not count.
+    config.survival_speed_tau = 1.0
     config.reward = ml_collections.ConfigDict(reward.RewardWeights()._asdict())
     config.observe_slope = False  # append the slope estimate to the paper's 14-d state
     config.observe_phase = False  # append (cos ψ, sin ψ) of the oscillator
@@ -120,6 +123,8 @@ class QuadrupedEnv(base.Env):
         self.impl = backends.resolve_impl(config.impl)
         self.model = backends.put_model(self.mj_model, self.impl)
         self.substeps = round(config.control_dt / config.physics_dt)
+        tau = config.survival_speed_tau
+        self._speed_blend = 1.0 - math.exp(-self.dt / tau) if tau > 0 else 1.0
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         self.action_centre = ACTION_CENTRES[config.action_centre]
         orientation_sensor = self.mj_model.sensor(constants.IMU_ORIENTATION_SENSOR)
@@ -182,7 +187,7 @@ class QuadrupedEnv(base.Env):
             reward=zero,
             done=zero,
             metrics=metrics,
-            info={"phase": phase, "command": command},
+            info={"phase": phase, "command": command, "mean_speed": zero},
         )
 
     def step(self, state: base.State, action: jax.Array) -> base.State:
@@ -194,6 +199,7 @@ class QuadrupedEnv(base.Env):
         just_reset = before.time == 0.0
         phase = jnp.where(just_reset, 0.0, state.info["phase"])
         command = jnp.where(just_reset, 0.0, state.info["command"])
+        mean_speed = jnp.where(just_reset, 0.0, state.info["mean_speed"])
         data, phase, command = self._actuate(before, phase, command, action)
         observed = self._observe(data, phase, command)
         position = data.qpos[constants.QPOS_POSITION]
@@ -201,6 +207,7 @@ class QuadrupedEnv(base.Env):
         finite = jnp.isfinite(data.qpos).all() & jnp.isfinite(data.qvel).all()
         fell = self._fell(data, observed.attitude, slope_truth) | ~finite
         forward_speed = (position[0] - before.qpos[0]) / self.dt
+        mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
         terms = reward.reward_terms(
             x_now=position[0],
             x_last=before.qpos[0],
@@ -211,7 +218,7 @@ class QuadrupedEnv(base.Env):
             roll=observed.attitude.roll,
             slope=observed.slope_estimate,
             fell=fell,
-            moving=self._moving(forward_speed),
+            moving=self._moving(mean_speed),
             weights=self.weights,
             variant=self.config.reward_variant,
         )
@@ -228,7 +235,7 @@ class QuadrupedEnv(base.Env):
             reward=sum(terms.values()),
             done=fell.astype(jnp.float32),
             metrics=metrics,
-            info={**state.info, "phase": phase, "command": command},
+            info={**state.info, "phase": phase, "command": command, "mean_speed": mean_speed},
         )
 
     def action_for(self, params: oscillator.RhythmParameters) -> jax.Array:
@@ -275,12 +282,12 @@ class QuadrupedEnv(base.Env):
             phase = jnp.mod(oscillator.TWO_PI * data.time / periods[-1], oscillator.TWO_PI)
         return data, phase, command
 
-    def _moving(self, forward_speed: jax.Array) -> jax.Array | bool:
-        """Whether a step earns Eq. 9's r_s: every step (survival_min_speed 0) or a step moving
-        forward at least that fast."""
+    def _moving(self, mean_speed: jax.Array) -> jax.Array | bool:
+        """Whether a step earns Eq. 9's r_s: every step (survival_min_speed 0), or a step whose
+        low-passed forward speed (m/s) reaches survival_min_speed."""
         if self.config.survival_min_speed == 0:
             return True
-        return forward_speed >= self.config.survival_min_speed
+        return mean_speed >= self.config.survival_min_speed
 
     def _period(self, command: jax.Array) -> jax.Array:
         """The oscillator period T (s) that `command` sets; the joint controller has none, so its
@@ -370,6 +377,10 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
     if not 0.0 <= config.survival_min_speed < math.inf:
         raise ValueError(
             f"survival_min_speed must be finite and >= 0 m/s; got {config.survival_min_speed}"
+        )
+    if not 0.0 <= config.survival_speed_tau < math.inf:
+        raise ValueError(
+            f"survival_speed_tau must be finite and >= 0 s; got {config.survival_speed_tau}"
         )
     if not 0.0 <= config.spawn_x_max < math.inf:
         raise ValueError(f"spawn_x_max must be finite and >= 0 m; got {config.spawn_x_max}")

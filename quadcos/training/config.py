@@ -38,6 +38,10 @@ def default_config() -> ml_collections.ConfigDict:
     # gait that noise of ~0.1 on its phases already topples needs a small start (see
     # experiments/README.md); the temperature tuning then moves it towards `target_entropy`.
     config.init_std = config_dict.placeholder(float)
+    # Mean number of vectorised env steps an env holds its exploration draw (policy noise, and
+    # the prefill's uniform actions); 1 = a fresh draw every step (Brax). Held noise explores
+    # whole gaits of a rhythm controller rather than jitter (experiments/from_scratch).
+    config.noise_hold_steps = 1
     # Gradient updates (after the prefill) in which only the critics learn; the actor and the
     # temperature start afterwards.
     config.actor_warmup_steps = 0

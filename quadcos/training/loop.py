@@ -327,6 +327,10 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 raise ValueError(
                     f"config.hidden_sizes.{kind} must be layer widths >= 1, got {sizes}"
                 )
+        if not (isinstance(config.noise_hold_steps, int) and config.noise_hold_steps >= 1):
+            raise ValueError(
+                f"config.noise_hold_steps must be a whole number >= 1, got {config.noise_hold_steps}"
+            )
         if not -(2**63) <= config.seed < 2**63:
             raise ValueError(f"config.seed must fit in 64 bits, got {config.seed}")
         if not (0 <= config.discount <= 1 and 0 < config.tau <= 1):

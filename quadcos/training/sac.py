@@ -42,7 +42,8 @@ class TrainingState:
     `key` is the PRNG key of the next chunk. The counters are 64-bit (two
     uint32 halves) so that they do not wrap in long GPU runs: `env_steps`
     counts transitions (prefill included), `gradient_steps` SAC updates and
-    `nan_resets` envs reset by the NaN guard.
+    `nan_resets` envs reset by the NaN guard. `exploration_noise` (num_envs, action_size) is each
+    env's standard-normal exploration draw, held for `noise_hold_steps` steps on average.
     """
 
     policy_params: types.Params
@@ -59,6 +60,7 @@ class TrainingState:
     env_steps: types.UInt64
     gradient_steps: types.UInt64
     nan_resets: types.UInt64
+    exploration_noise: jax.Array
 
 
 def make_networks(
@@ -224,6 +226,7 @@ class SACTrainer:
 
     def _init_state(self, key: jax.Array) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
+        key_noise = jax.random.fold_in(key, 1)
         policy_params = _initial_output_layer(
             self.networks.policy_network.init(key_policy),
             self.config.policy_output_scale,
@@ -249,10 +252,47 @@ class SACTrainer:
             env_steps=types.UInt64(hi=0, lo=0),
             gradient_steps=types.UInt64(hi=0, lo=0),
             nan_resets=types.UInt64(hi=0, lo=0),
+            exploration_noise=jax.random.normal(
+                key_noise, (self.config.num_envs, self.action_size)
+            ),
         )
         return _strongly_typed(state)
 
     # --- Acting ----------------------------------------------------------------
+
+    def _exploring_actions(
+        self, state: TrainingState, key: jax.Array, uniform: bool = False
+    ) -> tuple[jax.Array, TrainingState]:
+        """The exploring actions of all training envs: the policy's tanh-Gaussian samples, or
+        with `uniform` actions uniform in [-1, 1] (the prefill's).
+
+        With `noise_hold_steps` = 1 each step draws afresh (Brax's SAC). With more, each env
+        keeps its draw (a standard normal; mapped through its CDF for `uniform`) and redraws it
+        with probability 1 / noise_hold_steps a step and whenever its episode starts, so that
+        a rhythm controller's parameters stay put long enough for a gait to show.
+        """
+        shape = (self.config.num_envs, self.action_size)
+        if self.config.noise_hold_steps == 1:
+            if uniform:
+                return jax.random.uniform(key, shape, minval=-1.0, maxval=1.0), state
+            policy = self._make_policy((state.normalizer_params, state.policy_params))
+            return policy(state.env_state.obs, key)[0], state
+        key_redraw, key_noise = jax.random.split(key)
+        redraw = (jax.random.uniform(key_redraw, shape[:1]) < 1.0 / self.config.noise_hold_steps) | (
+            state.env_state.done > 0
+        )
+        noise = jnp.where(
+            redraw[:, None], jax.random.normal(key_noise, shape), state.exploration_noise
+        )
+        state = state.replace(exploration_noise=noise)
+        if uniform:
+            return 2.0 * jax.scipy.stats.norm.cdf(noise) - 1.0, state
+        logits = self.networks.policy_network.apply(
+            state.normalizer_params, state.policy_params, state.env_state.obs
+        )
+        distribution = self.networks.parametric_action_distribution
+        gaussian = distribution.create_dist(logits)
+        return distribution.postprocess(gaussian.loc + gaussian.scale * noise), state
 
     def _env_step(
         self, state: TrainingState, actions: jax.Array, key_reset: jax.Array
@@ -324,16 +364,8 @@ class SACTrainer:
 
         def step(state: TrainingState, _) -> tuple[TrainingState, None]:
             key, key_action, key_reset = jax.random.split(state.key, 3)
-            if self.config.prefill_actions == "policy":
-                policy = self._make_policy((state.normalizer_params, state.policy_params))
-                actions, _ = policy(state.env_state.obs, key_action)
-            else:
-                actions = jax.random.uniform(
-                    key_action,
-                    (self.config.num_envs, self.action_size),
-                    minval=-1.0,
-                    maxval=1.0,
-                )
+            uniform = self.config.prefill_actions == "uniform"
+            actions, state = self._exploring_actions(state, key_action, uniform=uniform)
             state, _ = self._env_step(state.replace(key=key), actions, key_reset)
             return state, None
 
@@ -429,8 +461,7 @@ class SACTrainer:
 
         def step(state: TrainingState, _) -> tuple[TrainingState, Metrics]:
             key, key_action, key_reset, key_sample, key_sgd = jax.random.split(state.key, 5)
-            policy = self._make_policy((state.normalizer_params, state.policy_params))
-            actions, _ = policy(state.env_state.obs, key_action)
+            actions, state = self._exploring_actions(state, key_action)
             state, env_metrics = self._env_step(state.replace(key=key), actions, key_reset)
 
             transitions = self.replay.sample(
