@@ -7,7 +7,7 @@ set -uo pipefail
 export OUT=${OUT:-/tmp/quadcos_out}
 SCRATCH=(--terrain=flat --config.env.action_centre=midpoint --config.env.survival_min_speed=0.1
   --config.sac.policy_output_scale=1.0 --config.sac.init_std=None --config.sac.init_alpha=1.0
-  --config.sac.prefill_actions=uniform --config.sac.actor_warmup_steps=0
+  --config.sac.prefill_actions=uniform --config.sac.actor_warmup_steps=0 --config.sac.noise_hold_steps=20
   --config.sac.eval_interval=1000000 --num_timesteps=60000000)
 cpu_run() {  # NAME CORES FLAGS...
   local name=$1 cores=$2; shift 2
