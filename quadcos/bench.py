@@ -58,7 +58,7 @@ from mujoco import mjx
 
 from quadcos import env as env_lib
 from quadcos import evaluate, training
-from quadcos.config import apply_overrides
+from quadcos.overrides import apply_overrides
 from quadcos.train import PRESETS as TRAIN_PRESETS
 from quadcos.training import files
 

@@ -17,7 +17,7 @@ from mujoco import mjx
 
 from quadcos import constants, oscillator, reward, robot, slope
 from quadcos import terrain as terrain_lib
-from quadcos.config import apply_overrides
+from quadcos.overrides import apply_overrides
 
 CONTROLLERS = ("oscillator", "joint")
 IMPLS = ("jax",)  # reset builds mjx.Data with the jax implementation

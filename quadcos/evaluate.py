@@ -49,7 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from quadcos import constants, oscillator, slope, video
-from quadcos import config as config_lib
+from quadcos import overrides as overrides_lib
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
 
@@ -240,9 +240,9 @@ def env_overrides_from_saved(saved: Mapping[str, Any]) -> dict[str, Any]:
       ValueError: the saved config has options this version of the env does not know.
     """
     saved_flat = {
-        key: value for key, value in config_lib.flatten(saved).items() if key != "terrain"
+        key: value for key, value in overrides_lib.flatten(saved).items() if key != "terrain"
     }
-    known = set(config_lib.flat_keys(env_lib.default_config()))
+    known = set(overrides_lib.flat_keys(env_lib.default_config()))
     unknown = sorted(set(saved_flat) - known)
     if unknown:
         raise ValueError(
@@ -682,7 +682,7 @@ def render_trace(
             raise ValueError(f"cannot read trace {trace}: {error}") from None
     if trace.get("format") != TRACE_FORMAT or "qpos" not in trace or "env" not in trace:
         raise ValueError("not a quadcos trace with positions (qpos) and an env config")
-    overrides = config_lib.flatten(trace["env"])
+    overrides = overrides_lib.flatten(trace["env"])
     terrain = overrides.pop("terrain")
     env = env_lib.make_env(terrain, **overrides)
     qpos = np.asarray(trace["qpos"], dtype=np.float64)

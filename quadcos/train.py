@@ -22,7 +22,7 @@ import ml_collections
 
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
-from quadcos.config import apply_overrides, flat_keys, flatten
+from quadcos.overrides import apply_overrides, flat_keys, flatten
 
 # Presets: overrides of the default config, applied before the flags.
 # SAC set up to start from the env's action centre (the fixed trot) and explore around it: a fresh

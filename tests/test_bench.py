@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from quadcos import bench, evaluate, training
-from quadcos.config import apply_overrides
+from quadcos.overrides import apply_overrides
 from tests.toy_env import PointEnv
 
 _TOY_SAC = {
