@@ -48,7 +48,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from quadcos import constants, oscillator, slope, video
+from quadcos import constants, oscillator, reward, slope, video
 from quadcos import overrides as overrides_lib
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
@@ -67,7 +67,6 @@ LEGACY_ENV_VALUES = {
     "action_centre": "midpoint",  # before the trot-centred action map, the zero action was mid-range
 }
 
-REWARD_TERMS = ("fall", "survival", "forward", "lateral", "orientation")
 PARAMETER_NAMES = oscillator.RhythmParameters._fields
 # Per-step series of a trace, besides controller/<joint>, joint/<joint>, parameter/<name>, action/<i>.
 TRACE_SERIES = (
@@ -388,7 +387,7 @@ def _initial_stats(state: Any, num_envs: int) -> EpisodeStats:
         max_abs_pitch_error=zeros,
         slope_sq_error=zeros,
         episode_reward=zeros,
-        reward_terms={term: zeros for term in REWARD_TERMS},
+        reward_terms={term: zeros for term in reward.TERM_NAMES},
     )
 
 
@@ -617,7 +616,7 @@ def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dic
         "mean_episode_reward": mean("episode_reward"),
         "mean_reward_terms": {
             term: float(np.mean([e["reward_terms"][term] for e in episodes]))
-            for term in REWARD_TERMS
+            for term in reward.TERM_NAMES
         },
     }
 

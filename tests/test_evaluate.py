@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from quadcos import constants, evaluate, oscillator, plots, video
+from quadcos import constants, evaluate, oscillator, plots, reward, video
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # A trained flat-ground run, standing in for the pretrained policies to come (as in the notebooks).
@@ -179,7 +179,7 @@ def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
         n = len(x)
         qpos = np.zeros((n, 15), np.float32)
         qpos[:, 0], qpos[:, 3] = x, 1.0
-        metrics = {f"reward/{term}": jnp.ones(n) for term in evaluate.REWARD_TERMS}
+        metrics = {f"reward/{term}": jnp.ones(n) for term in reward.TERM_NAMES}
         metrics |= {"slope_estimate": jnp.full(n, 0.1), "slope_truth": jnp.zeros(n)}
         return types.SimpleNamespace(
             pipeline_state=types.SimpleNamespace(qpos=jnp.asarray(qpos)),

@@ -62,3 +62,7 @@ def test_batched_under_vmap():
 def test_unknown_variant():
     with pytest.raises(ValueError, match="unknown reward variant 'yx'"):
         reward.reward_terms(**WALK, fell=False, variant="yx")
+
+
+def test_term_names_are_the_keys_of_reward_terms_in_order():
+    assert tuple(reward.reward_terms(**WALK, fell=False)) == reward.TERM_NAMES
