@@ -57,7 +57,8 @@ from brax.training.agents.sac import networks as sac_networks
 from mujoco import mjx
 
 from quadcos import env as env_lib
-from quadcos import evaluate, training
+from quadcos import evaluation, training
+from quadcos.evaluation import rollout as rollout_lib
 from quadcos.overrides import apply_overrides
 from quadcos.train import PRESETS as TRAIN_PRESETS
 from quadcos.training import files
@@ -530,7 +531,7 @@ def terrain_goal(env: env_lib.QuadrupedEnv) -> Goal:
     return Goal(num_steps=num_steps, duration_s=num_steps * env.dt, finish_x=finish_x)
 
 
-def episode_success(stats: evaluate.EpisodeStats, goal: Goal) -> np.ndarray:
+def episode_success(stats: evaluation.EpisodeStats, goal: Goal) -> np.ndarray:
     """(num_episodes,) bool from host `quadcos.evaluate` episode statistics of episodes run for
     `goal.num_steps` steps: crossed the course (no fall first), or walked the whole time limit
     at >= `goal.min_speed`."""
@@ -554,7 +555,7 @@ def rollout_evaluator(
     def act(params: Any, obs: jax.Array) -> jax.Array:
         return make_policy(params, deterministic=True)(obs, key_unused)[0]
 
-    controller = evaluate.Controller(
+    source = evaluation.ActionSource(
         name="bench",
         kind="sac",
         act=act,
@@ -563,10 +564,10 @@ def rollout_evaluator(
         training_terrain=env.terrain.spec,
     )
 
-    def evaluation(state: training.TrainingState) -> dict[str, float]:
-        stats = evaluate.rollout(
+    def evaluate(state: training.TrainingState) -> dict[str, float]:
+        stats = rollout_lib.rollout(
             env,
-            controller,
+            source,
             num_envs=num_episodes,
             num_steps=goal.num_steps,
             seed=1,
@@ -579,7 +580,7 @@ def rollout_evaluator(
             "mean_speed": float(np.mean((stats.x - stats.start_x) / seconds)),
         }
 
-    return evaluation
+    return evaluate
 
 
 def time_to_success(

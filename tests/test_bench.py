@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from quadcos import bench, evaluate, training
+from quadcos import bench, evaluation, training
 from quadcos.overrides import apply_overrides
 from tests.toy_env import PointEnv
 
@@ -142,7 +142,7 @@ def _stats(**values):
         },
         "reward_terms": {},
     }
-    return evaluate.EpisodeStats(**{**fields, **{k: np.asarray(v) for k, v in values.items()}})
+    return evaluation.EpisodeStats(**{**fields, **{k: np.asarray(v) for k, v in values.items()}})
 
 
 def test_episode_success_walking_and_crossing():
