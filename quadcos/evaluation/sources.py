@@ -145,10 +145,9 @@ def policy_source(path: str | os.PathLike[str]) -> ActionSource:
             f"cannot load the policy at {path}: {type(error).__name__}: {error}"
         ) from None
     try:
-        env_overrides = runs.env_overrides(runs.migrate(policy.config))
+        env_overrides, training_terrain = trained_env(policy.config)
     except ValueError as error:
         raise ValueError(f"the policy at {path}: {error}") from None
-    training_terrain = str(env_overrides.pop("terrain", "flat"))
     return ActionSource(
         name=str(path),
         kind="sac",
@@ -159,6 +158,17 @@ def policy_source(path: str | os.PathLike[str]) -> ActionSource:
         observation_size=policy.spec.observation_size,
         action_size=policy.spec.action_size,
     )
+
+
+def trained_env(saved: Mapping[str, Any]) -> tuple[dict[str, Any], str]:
+    """The env overrides (terrain excluded) and the terrain of the env a run was trained in, from
+    its saved config (a config.json's content, `quadcos.runs.migrate`).
+
+    Raises:
+      ValueError: not a quadcos run config, or options this quadcos does not know.
+    """
+    env_overrides = runs.env_overrides(runs.migrate(saved))
+    return env_overrides, str(env_overrides.pop("terrain", "flat"))
 
 
 def resolve_source(spec: str) -> ActionSource:
