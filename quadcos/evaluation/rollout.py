@@ -14,6 +14,7 @@ import numpy as np
 from quadcos import constants, oscillator, reward, slope
 from quadcos import env as env_lib
 from quadcos.evaluation import sources
+from quadcos import episodes
 
 FORMAT_VERSION = 1  # of every file quadcos.evaluation writes
 CHUNK_STEPS = 20  # control steps per compiled call: the progress granularity
@@ -163,16 +164,19 @@ def _compiled_chunk(env: env_lib.QuadrupedEnv, act: Callable, chunk_steps: int) 
     course_end_x = env.terrain.course_end_x
 
     def chunk(state, stats, act_params, first_step, num_steps, trace_index):
-        def body(carry, offset):
-            state, stats = carry
-            action = act(act_params, state.obs)
-            state = jax.vmap(env.step)(state, action)
+        def update(stats: EpisodeStats, state: Any, offset: jax.Array) -> EpisodeStats:
             counts = stats.running & (first_step + offset < num_steps)
-            stats = _update_stats(stats, state, counts, course_end_x)
-            return (state, stats), _snapshot(env, state, trace_index)
+            return _update_stats(stats, state, counts, course_end_x)
 
-        (state, stats), trace = jax.lax.scan(body, (state, stats), jnp.arange(chunk_steps))
-        return state, stats, trace
+        return episodes.run_episodes(
+            jax.vmap(env.step),
+            lambda obs: act(act_params, obs),
+            state,
+            stats,
+            update,
+            chunk_steps,
+            observe=lambda state: _snapshot(env, state, trace_index),
+        )
 
     return jax.jit(chunk)
 
