@@ -23,7 +23,7 @@ from quadcos.evaluation import rollout as rollout_lib
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # A trained flat-ground run, standing in for the pretrained policies to come (as in the notebooks).
 STAND_IN_RUN = ROOT / "experiments" / "flat" / "flat_s0"
-LEGACY_POLICY = ROOT / "experiments" / "flat_gpu" / "out" / "paper_20hz" / "policy"
+LEGACY_POLICY = ROOT / "experiments" / "archive" / "flat_gpu" / "paper_20hz" / "policy"
 NUM_ENVS, SECONDS = 4, 2.0
 
 
