@@ -53,7 +53,7 @@ def terrain_goal(env: env_lib.QuadrupedEnv) -> Goal:
 
 
 def episode_success(stats: evaluation.EpisodeStats, goal: Goal) -> np.ndarray:
-    """(num_episodes,) bool from host `quadcos.evaluate` episode statistics of episodes run for
+    """(num_episodes,) bool from host `quadcos.evaluation` episode statistics of episodes run for
     `goal.num_steps` steps: crossed the course (no fall first), or walked the whole time limit
     at >= `goal.min_speed`."""
     if goal.finish_x is not None:
