@@ -87,6 +87,7 @@ def test_only_the_feet_touch_the_ground(flat_env):
     assert colliding == {f"{leg}_foot" for leg in ("LF", "RF", "LB", "RB")}
 
 
+@pytest.mark.slow
 def test_optional_observations_and_joint_controller():
     env = quadcos.make_env("flat", observe_slope=True, observe_phase=True, controller="joint")
     assert env.observation_size == 14 + 1 + 2 + 8
@@ -180,6 +181,7 @@ def _ramps(x, y):
     return np.tan(np.deg2rad(np.asarray(RAMP_DEGREES)))[band] * x
 
 
+@pytest.mark.slow
 def test_estimator_on_ramps_within_one_degree():
     """Robots standing still on 0°, ±5°, ±9° ramps estimate the slope within 1° (Eq. 5)."""
     half = RAMP_BAND * len(RAMP_DEGREES) / 2
@@ -218,6 +220,7 @@ def test_bad_env_config_is_named(overrides, message):
         quadcos.make_env("flat", **overrides)
 
 
+@pytest.mark.slow
 def test_random_spawns_cover_the_range(flat_reset):
     env = quadcos.make_env("flat", spawn_x_max=5.0)
     keys = jax.random.split(jax.random.PRNGKey(0), 32)

@@ -145,6 +145,7 @@ def test_trace_has_every_series_at_one_length(fixed_trot_files):
     assert trace["env"]["terrain"] == "flat" and trace["env"]["action_filter_tau"] == 0.25
 
 
+@pytest.mark.slow
 def test_policy_run_is_evaluated_in_its_training_env(policy_evaluation):
     evaluation = policy_evaluation
     setup = evaluation.summary["setup"]
@@ -300,6 +301,7 @@ def test_video_shows_the_rollout_and_a_saved_trace_renders_the_same(fixed_trot_f
     assert np.abs(_frames(rendered).astype(int) - frames).mean() < 1.0
 
 
+@pytest.mark.slow
 def test_plots_write_pngs(fixed_trot_files, policy_evaluation, tmp_path):
     trace = fixed_trot_files["trace"]
     figures = {
