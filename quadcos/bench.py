@@ -16,8 +16,9 @@ Sections (each can be left out with --skip or chosen with --only):
            20 s and moves >= 0.3 m/s in >= 99 % of evaluation episodes on flat.
   slope5   the same for crossing the slope5 course (the torso passes its end without a fall,
            within the time that 0.3 m/s takes).
-Evaluation episodes are `quadcos.evaluation` rollouts of the deterministic policy, trained in the
-trainer's own host loop. The work is done by `quadcos.benchmarking`; this module is its command line.
+Evaluation episodes are `quadcos.evaluation` rollouts of the deterministic policy, trained in
+the trainer's own host loop. The work is done by `quadcos.benchmarking`; this module is its
+command line.
 
 Every timed function is compiled by a first call on the very carry that is then timed (one trace,
 checked), and timing ends with `block_until_ready`. Start-up-relative times (`compile_s`,
