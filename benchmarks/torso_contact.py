@@ -4,7 +4,7 @@
 
 The robot's MJCF lets only the feet touch the ground; this script gives the torso box back its
 contact (contype 1, as it had before) and times `jax.vmap(env.step)` both ways on flat ground and
-on the slope5 heightfield, with quadcos.bench's timing (warm-up call, then timed calls).
+on the slope5 heightfield, with quadcos.benchmarking's timing (warm-up call, then timed calls).
 """
 
 import argparse
@@ -15,7 +15,8 @@ import jax
 from mujoco import mjx
 
 import quadcos
-from quadcos import bench, constants
+from quadcos import constants
+from quadcos.benchmarking import physics
 
 
 def env_with_torso_contact(terrain: str, torso_contact: bool) -> quadcos.QuadrupedEnv:
@@ -37,8 +38,8 @@ def main() -> None:
     for terrain in args.terrains.split(","):
         for torso_contact in (True, False):
             env = env_with_torso_contact(terrain, torso_contact)
-            states = bench.make_batch_reset(env)(args.num_envs)
-            timing = bench.measure_env(env, states, args.calls)
+            states = physics.make_batch_reset(env)(args.num_envs)
+            timing = physics.measure_env(env, states, args.calls)
             row = {
                 "terrain": terrain,
                 "torso_contact": torso_contact,

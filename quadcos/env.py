@@ -17,7 +17,7 @@ from mujoco import mjx
 
 from quadcos import backends, constants, oscillator, reward, robot, slope
 from quadcos import terrain as terrain_lib
-from quadcos.config import apply_overrides
+from quadcos.overrides import apply_overrides
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")
@@ -179,7 +179,7 @@ class QuadrupedEnv(base.Env):
         command = jnp.zeros(self.action_size)
         observed = self._observe(data, phase, command)
         zero = jnp.zeros(())
-        metrics = {f"reward/{name}": zero for name in _REWARD_TERMS}
+        metrics = {f"reward/{name}": zero for name in reward.TERM_NAMES}
         metrics |= {name: zero for name in _STEP_METRICS}
         return base.State(
             pipeline_state=data,
@@ -335,7 +335,6 @@ class QuadrupedEnv(base.Env):
 
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
-_REWARD_TERMS = ("fall", "survival", "forward", "lateral", "orientation")
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
 
 

@@ -14,6 +14,8 @@ from typing import NamedTuple
 import jax.numpy as jnp
 
 VARIANTS = ("full", "xy")
+# The keys of `reward_terms`, in Eq. 13's order; the env logs each as reward/<name>.
+TERM_NAMES = ("fall", "survival", "forward", "lateral", "orientation")
 
 
 class RewardWeights(NamedTuple):

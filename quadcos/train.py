@@ -23,7 +23,7 @@ import ml_collections
 from quadcos import caches
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
-from quadcos.config import apply_overrides, flat_keys, flatten
+from quadcos.overrides import apply_overrides
 
 # Presets: overrides of the default config, applied before the flags.
 # SAC set up to start from the env's action centre (the fixed trot) and explore around it: a fresh
@@ -315,17 +315,16 @@ def _print_error(error: Exception) -> None:
 
 
 def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
-    """The flattened config a run was started with (its config.json), to resume it as it was."""
+    """The flattened config a run was trained with (its config.json, migrated), to resume it."""
+    from quadcos import runs
+
     path = run_dir / "config.json" if run_dir else None
     if path is None or not path.is_file():
         raise UsageError(f"--resume: {run_dir} holds no run to resume (no config.json)")
     try:
-        saved = json.loads(path.read_text())
-        tree = {"env": saved["run_info"]["env"], "sac": saved["config"]}
-    except (ValueError, KeyError, TypeError) as error:
-        raise UsageError(f"--resume: {path} is not a quadcos run config ({error})") from None
-    known = set(flat_keys(default_config()))
-    return {key: value for key, value in flatten(tree).items() if key in known}
+        return runs.load_run_config(path)
+    except ValueError as error:
+        raise UsageError(f"--resume: {error}") from None
 
 
 if __name__ == "__main__":

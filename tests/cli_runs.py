@@ -5,15 +5,28 @@ import pathlib
 import subprocess
 import sys
 
+import jax
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
-def start_cli(*args: str, **popen_kwargs) -> subprocess.Popen:
-    env = {
-        **os.environ,
-        "PYTHONPATH": str(ROOT),
-        "JAX_COMPILATION_CACHE_DIR": str(ROOT / ".jax_cache"),
+def cache_env() -> dict[str, str]:
+    """Environment variables that give a child process (a CLI run, a notebook kernel) the tests'
+    persistent compilation cache and its thresholds (tests/conftest.py), so that it reuses what
+    the tests compiled and they reuse what it compiled."""
+    return {
+        "JAX_COMPILATION_CACHE_DIR": str(jax.config.jax_compilation_cache_dir),
+        "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": str(
+            jax.config.jax_persistent_cache_min_compile_time_secs
+        ),
+        "JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES": str(
+            jax.config.jax_persistent_cache_min_entry_size_bytes
+        ),
     }
+
+
+def start_cli(*args: str, **popen_kwargs) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **cache_env()}
     return subprocess.Popen(
         [sys.executable, "-m", "quadcos.train", *args], env=env, cwd=ROOT, **popen_kwargs
     )

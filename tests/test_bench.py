@@ -14,8 +14,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from quadcos import bench, evaluate, training
-from quadcos.config import apply_overrides
+from quadcos import bench, evaluation, training
+from quadcos.benchmarking import results as results_lib
+from quadcos.benchmarking import settings, time_to_walk, trainers
+from quadcos.overrides import apply_overrides
 from tests.toy_env import PointEnv
 
 _TOY_SAC = {
@@ -40,7 +42,7 @@ def _finite_positive(value) -> bool:
 def test_device_put_replicated_patch_provides_and_removes_the_function():
     assert "device_put_replicated" not in jax.__dict__  # removed in JAX 0.10
     tree = {"a": jnp.arange(3.0), "b": (jnp.ones((2, 2), jnp.int32), jnp.float32(5))}
-    with bench.device_put_replicated_patch():
+    with trainers.device_put_replicated_patch():
         replicated = jax.device_put_replicated(tree, jax.local_devices()[:1])
     assert "device_put_replicated" not in jax.__dict__
     for original, copy in zip(jax.tree.leaves(tree), jax.tree.leaves(replicated)):
@@ -52,7 +54,7 @@ def test_device_put_replicated_patch_provides_and_removes_the_function():
 def test_device_put_replicated_patch_restores_an_existing_attribute_after_an_error(monkeypatch):
     sentinel = object()
     monkeypatch.setattr(jax, "device_put_replicated", sentinel, raising=False)
-    with pytest.raises(KeyError), bench.device_put_replicated_patch():
+    with pytest.raises(KeyError), trainers.device_put_replicated_patch():
         assert jax.device_put_replicated is not sentinel
         raise KeyError("inside")
     assert jax.device_put_replicated is sentinel
@@ -62,7 +64,7 @@ def test_device_put_replicated_patch_restores_an_existing_attribute_after_an_err
 def test_stock_brax_sac_runs_under_the_patch_and_reports_its_rate():
     config = _toy_config()
     start = time.perf_counter()
-    measured = bench.measure_stock_brax(
+    measured = trainers.measure_stock_brax(
         PointEnv(),
         config,
         train_seconds=0.0,
@@ -87,7 +89,7 @@ def test_time_to_success_stops_at_the_first_successful_evaluation_after_the_warm
         return {"success_rate": 1.0 if len(evaluated) in (1, 3) else 0.5}
 
     start = time.perf_counter()
-    outcome = bench.time_to_success(
+    outcome = time_to_walk.time_to_success(
         training.SACTrainer(PointEnv(), config),
         evaluation,
         timeout_s=600.0,
@@ -104,7 +106,7 @@ def test_time_to_success_stops_at_the_first_successful_evaluation_after_the_warm
 
 
 def test_time_to_success_gives_up_at_the_timeout_with_a_reason():
-    outcome = bench.time_to_success(
+    outcome = time_to_walk.time_to_success(
         training.SACTrainer(PointEnv(), _toy_config()),
         lambda state: {"success_rate": 0.25},
         timeout_s=0.0,
@@ -142,37 +144,38 @@ def _stats(**values):
         },
         "reward_terms": {},
     }
-    return evaluate.EpisodeStats(**{**fields, **{k: np.asarray(v) for k, v in values.items()}})
+    return evaluation.EpisodeStats(**{**fields, **{k: np.asarray(v) for k, v in values.items()}})
 
 
 def test_episode_success_walking_and_crossing():
-    walk = bench.Goal(num_steps=400, duration_s=20.0)
+    walk = time_to_walk.Goal(num_steps=400, duration_s=20.0)
     stats = _stats(
         fell=[False, False, True, False],
         steps=[400, 400, 120, 399],
         start_x=[0.0, 0.0, 0.0, 1.0],
         x=[6.0, 5.9, 9.0, 8.0],
     )
-    np.testing.assert_array_equal(bench.episode_success(stats, walk), [True, False, False, False])
-    cross = bench.Goal(num_steps=734, duration_s=36.7, finish_x=11.0)
+    np.testing.assert_array_equal(time_to_walk.episode_success(stats, walk), [True, False, False, False])
+    cross = time_to_walk.Goal(num_steps=734, duration_s=36.7, finish_x=11.0)
     stats = _stats(finished=[True, False, False, True], fell=[False, True, False, False])
-    np.testing.assert_array_equal(bench.episode_success(stats, cross), [True, False, False, True])
+    np.testing.assert_array_equal(time_to_walk.episode_success(stats, cross), [True, False, False, True])
 
 
 def test_goals_of_the_paper_terrains():
-    assert bench.terrain_goal(bench.make_bench_env("flat", "gpu")) == bench.Goal(400, 20.0)
-    slope5 = bench.terrain_goal(bench.make_bench_env("slope5", "gpu"))
-    assert slope5 == bench.Goal(734, pytest.approx(36.7), finish_x=11.0)  # 2 m lead-in + 3 x 3 m
+    flat = time_to_walk.terrain_goal(settings.make_bench_env("flat", "gpu"))
+    assert flat == time_to_walk.Goal(400, 20.0)
+    slope5 = time_to_walk.terrain_goal(settings.make_bench_env("slope5", "gpu"))
+    assert slope5 == time_to_walk.Goal(734, pytest.approx(36.7), finish_x=11.0)  # 2 m lead-in + 3 x 3 m
 
 
 @pytest.mark.slow
 def test_rollout_evaluator_the_untrained_policy_trots_on_flat():
     # With the gpu/cpu presets a fresh policy acts at the action centre: the fixed trot, which
     # walks on flat (about 0.6-0.8 m/s).
-    env = bench.make_bench_env("flat", "cpu")
-    config = bench.trainer_config("cpu", bench.TrainRow(2, 8, 1))
+    env = settings.make_bench_env("flat", "cpu")
+    config = settings.trainer_config("cpu", settings.TrainRow(2, 8, 1))
     trainer = training.SACTrainer(env, config)
-    evaluation = bench.rollout_evaluator(trainer, bench.terrain_goal(env), num_episodes=2)
+    evaluation = time_to_walk.rollout_evaluator(trainer, time_to_walk.terrain_goal(env), num_episodes=2)
     result = evaluation(trainer.init())
     assert result == {
         "success_rate": 1.0,
@@ -225,7 +228,7 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(tmp_path, cap
     assert results["time_to_walk_flat_s"] is None and results["time_to_cross_slope5_s"] is None
     assert set(results["versions"]) >= {"jax", "jaxlib", "mujoco", "mujoco-mjx", "brax"}
 
-    table = bench.markdown_table(results)
+    table = results_lib.markdown_table(results)
     assert "| 4 |" in table and "| 4 | 32 | 1 |" in table
     printed = capsys.readouterr().out
     assert "physics 4 envs: " in printed and "train 4x32x1: " in printed
@@ -258,7 +261,7 @@ def test_merged_results_keep_the_earlier_numbers():
         "time_to_walk_flat_s": None,
         "command": "second",
     }
-    merged = bench.merge_results(earlier, later)
+    merged = results_lib.merge_results(earlier, later)
     assert merged["physics_steps_per_s"] == {"4": 2.0, "8": 1.0}
     assert merged["train"] == [
         {**row, "quadcos_env_steps_per_s": 3.0, "stock_brax_env_steps_per_s": 4.0},
@@ -268,7 +271,7 @@ def test_merged_results_keep_the_earlier_numbers():
     assert merged["time_to_walk_flat_s"] == 7.0
     assert merged["command"] == ["first", "second"]
     with pytest.raises(ValueError, match="cannot merge"):
-        bench.merge_results(earlier, {**later, "device": "NVIDIA H100 80GB HBM3"})
+        results_lib.merge_results(earlier, {**later, "device": "NVIDIA H100 80GB HBM3"})
 
 
 def test_a_failed_measurement_is_recorded_and_the_others_still_run(tmp_path, monkeypatch):
@@ -279,7 +282,7 @@ def test_a_failed_measurement_is_recorded_and_the_others_still_run(tmp_path, mon
             raise MemoryError("RESOURCE_EXHAUSTED: 4 envs")
         return {"env_steps_per_s": 10.0, "first_chunk_s": 1.0, "start_to_first_step_s": 2.0}
 
-    monkeypatch.setattr(bench, "measure_trainer", out_of_memory)
+    monkeypatch.setattr(trainers, "measure_trainer", out_of_memory)
     out = tmp_path / "bench.json"
     argv = [f"--out={out}", "--only=train", "--train_rows=4x8x1,8x8x1"]
     assert bench.main(argv) == 1

@@ -16,12 +16,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from quadcos import constants, evaluate, oscillator, plots, video
+from quadcos import constants, evaluate, oscillator, plots, reward, video
+from quadcos import evaluation as evaluation_lib
+from quadcos.evaluation import rollout as rollout_lib
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # A trained flat-ground run, standing in for the pretrained policies to come (as in the notebooks).
 STAND_IN_RUN = ROOT / "experiments" / "flat" / "flat_s0"
-LEGACY_POLICY = ROOT / "experiments" / "flat_gpu" / "out" / "paper_20hz" / "policy"
+LEGACY_POLICY = ROOT / "experiments" / "archive" / "flat_gpu" / "paper_20hz" / "policy"
 NUM_ENVS, SECONDS = 4, 2.0
 
 
@@ -62,7 +64,9 @@ def fixed_trot_result(fixed_trot_files):
 @pytest.fixture(scope="session")
 def policy_evaluation():
     """The stand-in trained run evaluated through the library on its training terrain (flat)."""
-    return evaluate.evaluate(str(STAND_IN_RUN), num_envs=NUM_ENVS, seconds=SECONDS, trace_episode=1)
+    return evaluation_lib.evaluate(
+        str(STAND_IN_RUN), num_envs=NUM_ENVS, seconds=SECONDS, trace_episode=1
+    )
 
 
 REQUIRED_KEYS = (
@@ -116,7 +120,7 @@ def test_trace_has_every_series_at_one_length(fixed_trot_files):
     trace = json.loads(fixed_trot_files["trace"].read_text())
     series = trace["series"]
     expected = {
-        *evaluate.TRACE_SERIES,
+        *evaluation_lib.TRACE_SERIES,
         *(f"controller/{joint}" for joint in constants.JOINTS),
         *(f"joint/{joint}" for joint in constants.JOINTS),
         *(f"parameter/{name}" for name in oscillator.RhythmParameters._fields),
@@ -141,6 +145,7 @@ def test_trace_has_every_series_at_one_length(fixed_trot_files):
     assert trace["env"]["terrain"] == "flat" and trace["env"]["action_filter_tau"] == 0.25
 
 
+@pytest.mark.slow
 def test_policy_run_is_evaluated_in_its_training_env(policy_evaluation):
     evaluation = policy_evaluation
     setup = evaluation.summary["setup"]
@@ -160,18 +165,18 @@ def test_policy_run_is_evaluated_in_its_training_env(policy_evaluation):
 
 
 def test_legacy_policy_gets_the_env_of_its_time():
-    controller = evaluate.resolve_controller(str(LEGACY_POLICY))
+    controller = evaluation_lib.resolve_source(str(LEGACY_POLICY))
     assert controller.env_overrides["action_filter_tau"] == 0.0
     assert controller.env_overrides["action_centre"] == "midpoint"
-    assert evaluate.build_env(controller).observation_size == controller.observation_size == 14
+    assert evaluation_lib.build_env(controller).observation_size == controller.observation_size == 14
 
 
 def test_evaluation_starts_at_the_spawn_point_wherever_training_spawned():
-    controller = evaluate.resolve_controller(str(LEGACY_POLICY))
+    controller = evaluation_lib.resolve_source(str(LEGACY_POLICY))
     trained_spread = dataclasses.replace(
         controller, env_overrides={**controller.env_overrides, "spawn_x_max": 8.0}
     )
-    assert evaluate.build_env(trained_spread, "slope5").config.spawn_x_max == 0.0
+    assert evaluation_lib.build_env(trained_spread, "slope5").config.spawn_x_max == 0.0
 
 
 def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
@@ -179,7 +184,7 @@ def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
         n = len(x)
         qpos = np.zeros((n, 15), np.float32)
         qpos[:, 0], qpos[:, 3] = x, 1.0
-        metrics = {f"reward/{term}": jnp.ones(n) for term in evaluate.REWARD_TERMS}
+        metrics = {f"reward/{term}": jnp.ones(n) for term in reward.TERM_NAMES}
         metrics |= {"slope_estimate": jnp.full(n, 0.1), "slope_truth": jnp.zeros(n)}
         return types.SimpleNamespace(
             pipeline_state=types.SimpleNamespace(qpos=jnp.asarray(qpos)),
@@ -189,10 +194,11 @@ def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
         )
 
     start = state([0.0, 0.0, 0.0], [0, 0, 0])
-    stats = evaluate._initial_stats(start, 3)
+    stats = rollout_lib._initial_stats(start, 3)
     # robot 0 walks on, robot 1 falls, robot 2 crosses the course end at x = 1
-    stats = evaluate._update_stats(stats, state([0.5, 0.5, 1.2], [0, 1, 0]), stats.running, 1.0)
-    stats = evaluate._update_stats(stats, state([0.9, 0.7, 1.5], [0, 1, 0]), stats.running, 1.0)
+    update = rollout_lib._update_stats
+    stats = update(stats, state([0.5, 0.5, 1.2], [0, 1, 0]), stats.running, 1.0)
+    stats = update(stats, state([0.9, 0.7, 1.5], [0, 1, 0]), stats.running, 1.0)
     np.testing.assert_array_equal(stats.running, [True, False, False])
     np.testing.assert_array_equal(stats.fell, [False, True, False])
     np.testing.assert_array_equal(stats.finished, [False, False, True])
@@ -219,7 +225,7 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
         e for e in ranking if e["round"] == 1 and e["policy"].startswith("fixed:0.4,0.15,0.6")
     )
     assert trot["fall_rate"] == 0.0 and ranking[0]["score"] >= trot["score"]
-    best = evaluate.parse_fixed(ranking[0]["policy"].removeprefix("fixed:"))
+    best = evaluation_lib.parse_fixed(ranking[0]["policy"].removeprefix("fixed:"))
     assert best == pytest.approx(tuple(ranking[0]["parameters"].values()), abs=1e-5)
 
 
@@ -295,6 +301,7 @@ def test_video_shows_the_rollout_and_a_saved_trace_renders_the_same(fixed_trot_f
     assert np.abs(_frames(rendered).astype(int) - frames).mean() < 1.0
 
 
+@pytest.mark.slow
 def test_plots_write_pngs(fixed_trot_files, policy_evaluation, tmp_path):
     trace = fixed_trot_files["trace"]
     figures = {

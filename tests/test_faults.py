@@ -24,7 +24,7 @@ import hypothesis
 from hypothesis import strategies as st
 import pytest
 
-from quadcos import config as config_lib
+from quadcos import overrides as overrides_lib
 from quadcos import terrain
 from quadcos import train
 from quadcos import training
@@ -242,7 +242,7 @@ def assert_one_line_error(status: int, stderr: str) -> None:
     assert len(lines) == 1 and lines[0].startswith("quadcos.train: error: "), stderr
 
 
-KEYS = config_lib.flat_keys(train.default_config())
+KEYS = overrides_lib.flat_keys(train.default_config())
 VALUES = [
     "None",
     "0",

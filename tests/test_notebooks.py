@@ -11,18 +11,17 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
+from tests.cli_runs import cache_env
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 NOTEBOOKS = ROOT / "notebooks"
 
 
 def run_notebook(name: str, out: pathlib.Path, monkeypatch) -> nbformat.NotebookNode:
-    import jax
-
     monkeypatch.setenv("QUADCOS_NOTEBOOK_TINY", "1")
     monkeypatch.setenv("QUADCOS_NOTEBOOK_OUT", str(out))
-    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", jax.config.jax_compilation_cache_dir)
-    monkeypatch.setenv("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
-    monkeypatch.setenv("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
+    for variable, value in cache_env().items():
+        monkeypatch.setenv(variable, value)
     notebook = nbformat.read(NOTEBOOKS / name, as_version=4)
     client = NotebookClient(
         notebook,

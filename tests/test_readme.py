@@ -3,9 +3,12 @@
 import pathlib
 import re
 
+import pytest
+
 from quadcos import terrain
 
 
+@pytest.mark.slow
 def test_readme_library_example_runs(monkeypatch):
     monkeypatch.setattr(
         terrain, "_REGISTRY", dict(terrain._REGISTRY)

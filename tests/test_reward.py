@@ -72,3 +72,7 @@ def test_survival_only_for_steps_of_movement():
     assert float(still["forward"]) == float(moving["forward"])
     fallen = reward.reward_terms(**WALK, fell=True, moving=True)
     assert float(fallen["survival"]) == 0.0
+
+
+def test_term_names_are_the_keys_of_reward_terms_in_order():
+    assert tuple(reward.reward_terms(**WALK, fell=False)) == reward.TERM_NAMES

@@ -14,7 +14,7 @@ import pytest
 
 from quadcos import training
 from quadcos.training import checkpoint
-from quadcos.training import loop
+from quadcos.training import host
 from tests.toy_env import PointEnv
 
 pytestmark = pytest.mark.slow
@@ -235,7 +235,7 @@ def test_resume_without_replay_refills(tmp_path):
 
 
 def test_signal_stops_after_chunk_with_checkpoint(tmp_path, monkeypatch):
-    add = loop._Window.add
+    add = host.Window.add
     chunks = []
 
     def add_then_signal(self, *args):
@@ -244,7 +244,7 @@ def test_signal_stops_after_chunk_with_checkpoint(tmp_path, monkeypatch):
         if len(chunks) == 2:
             os.kill(os.getpid(), signal.SIGTERM)
 
-    monkeypatch.setattr(loop._Window, "add", add_then_signal)
+    monkeypatch.setattr(host.Window, "add", add_then_signal)
     result = training.train(
         PointEnv(),
         toy_config(checkpoint_interval=100 * CHUNK),

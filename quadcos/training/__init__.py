@@ -5,10 +5,10 @@ the compiled pieces; `load_policy` reads back a trained policy.
 """
 
 from quadcos.training.config import default_config
-from quadcos.training.loop import ConfigError
+from quadcos.training.checks import ConfigError
 from quadcos.training.loop import NonFiniteLossError
 from quadcos.training.loop import TrainResult
-from quadcos.training.loop import check_config
+from quadcos.training.checks import check_config
 from quadcos.training.loop import train
 from quadcos.training.policy import Policy
 from quadcos.training.policy import load_policy

@@ -11,44 +11,32 @@ Run directory layout:
 """
 
 import dataclasses
-import importlib.metadata
 import json
 import logging
 import math
 import os
 from pathlib import Path
-import signal
-import subprocess
-import sys
-import threading
 import time
-from typing import Any, TextIO
+from collections.abc import Callable
+from typing import Any
 
 from brax import envs
 import jax
 import ml_collections
 
+from quadcos import provenance
 from quadcos.training import checkpoint
 from quadcos.training import config as config_lib
 from quadcos.training import files
+from quadcos.training import host
 from quadcos.training import metrics_log
 from quadcos.training import policy as policy_lib
 from quadcos.training import sac
+from quadcos.training.checks import ConfigError, check_config, check_memory
 
 logger = logging.getLogger(__name__)
 
 _LOSSES = ("critic_loss", "actor_loss", "alpha_loss", "alpha")
-# Config fields that size device arrays (or index them with int32).
-_SHAPES = (
-    "num_envs",
-    "batch_size",
-    "replay_size",
-    "episode_length",
-    "steps_per_chunk",
-    "updates_per_step",
-    "num_eval_envs",
-    "eval_episode_length",
-)
 _VERSIONED_PACKAGES = (
     "jax",
     "jaxlib",
@@ -64,13 +52,6 @@ _VERSIONED_PACKAGES = (
 
 class NonFiniteLossError(FloatingPointError):
     """A SAC loss became NaN or infinite; the run cannot continue."""
-
-
-class ConfigError(ValueError):
-    """The config cannot run: inconsistent values, or more memory than the device has.
-
-    `train` raises it before writing anything.
-    """
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,7 +124,7 @@ def train(
     if resume and run_dir is None:
         raise ValueError("resume=True needs a run_dir")
     trainer = sac.SACTrainer(env, config, eval_env=eval_env)
-    _check_memory(trainer)
+    check_memory(trainer)
     spec = policy_lib.PolicySpec(
         observation_size=trainer.observation_size,
         action_size=trainer.action_size,
@@ -181,15 +162,15 @@ def train(
         log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
 
     try:
-        with _SignalStop() as stop:
+        with host.SignalStop() as stop:
             state, history = _train_loop(
                 trainer,
                 state,
                 store,
                 log,
                 stop,
-                _Clock(wall_time_offset),
-                _Progress(config.num_timesteps, enabled=progress),
+                host.Clock(wall_time_offset),
+                host.Progress(config.num_timesteps, enabled=progress),
             )
     finally:
         if log is not None:
@@ -212,18 +193,68 @@ def train(
     )
 
 
+@dataclasses.dataclass(frozen=True)
+class Chunk:
+    """One compiled chunk, as the host loop sees it.
+
+    Attributes:
+      metrics: the chunk's metrics (host values, averaged over the chunk; `SACTrainer.train_chunk`).
+      previous_step, step: env steps before and after the chunk.
+      seconds: wall time of the chunk, its transfer to the host included.
+    """
+
+    metrics: dict[str, Any]
+    previous_step: int
+    step: int
+    seconds: float
+
+
+def run_chunks(
+    trainer: sac.SACTrainer,
+    state: sac.TrainingState,
+    *,
+    on_start: Callable[[sac.TrainingState], None],
+    on_chunk: Callable[[sac.TrainingState, Chunk], bool],
+    num_timesteps: int | None,
+) -> sac.TrainingState:
+    """The host loop of training (of `train`, and of the bench's time to walk).
+
+    Calls `on_start` on a state that has not taken a step (the untrained policy), prefills the
+    replay buffer if it holds less than `min_replay_size`, then runs compiled chunks until
+    `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True.
+    """
+    step = int(state.env_steps)
+    if step == 0:
+        on_start(state)
+    # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
+    unfinished = num_timesteps is None or step < num_timesteps
+    if int(state.replay.size) < trainer.config.min_replay_size and unfinished:
+        state = trainer.prefill(state)
+        step = int(state.env_steps)
+    while num_timesteps is None or step < num_timesteps:
+        start = time.monotonic()
+        state, chunk_metrics = trainer.train_chunk(state)
+        chunk_metrics = jax.device_get(chunk_metrics)
+        chunk = Chunk(chunk_metrics, step, int(state.env_steps), time.monotonic() - start)
+        step = chunk.step
+        if on_chunk(state, chunk):
+            break
+    return state
+
+
 def _train_loop(
     trainer: sac.SACTrainer,
     state: sac.TrainingState,
     store: checkpoint.CheckpointStore | None,
     log: metrics_log.MetricsLog | None,
-    stop: "_SignalStop",
-    clock: "_Clock",
-    progress: "_Progress",
+    stop: host.SignalStop,
+    clock: host.Clock,
+    progress: host.Progress,
 ) -> tuple[sac.TrainingState, list[dict[str, Any]]]:
     """Prefills if needed, then runs chunks until num_timesteps or a signal."""
     config = trainer.config
     history = list(log.rows) if log is not None else []
+    window = host.Window()
 
     def record(row: dict[str, Any]) -> None:
         history.append(row)
@@ -235,54 +266,51 @@ def _train_loop(
         metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
         return {name: float(value) for name, value in jax.device_get(metrics).items()}
 
-    step = int(state.env_steps)
-    if step == 0:
+    def on_start(state: sac.TrainingState) -> None:
         record({"step": 0, "wall_time_s": clock(), **evaluate(state)})
-    # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
-    if int(state.replay.size) < config.min_replay_size and step < config.num_timesteps:
-        state = trainer.prefill(state)
-        step = int(state.env_steps)
 
-    window = _Window()
+    def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
+        nonlocal window
+        previous_step, step = chunk.previous_step, chunk.step
+        window.add(chunk.metrics, step - previous_step, chunk.seconds)
+        _raise_if_non_finite(chunk.metrics, step, store)
+
+        # Read once: a signal arriving later is served after the next chunk.
+        stopping = stop.signal_name is not None
+        finished = step >= config.num_timesteps
+        if finished or _crossed(previous_step, step, config.eval_interval):
+            record(
+                {
+                    "step": step,
+                    "wall_time_s": clock(),
+                    "env_steps_per_s": window.steps_per_second(),
+                    **window.means(),
+                    "train/nan_resets": int(state.nan_resets),
+                    "train/gradient_steps": int(state.gradient_steps),
+                    "train/replay_size": int(state.replay.size),
+                    **evaluate(state),
+                }
+            )
+            window = host.Window()
+        if store is not None and (
+            finished or stopping or _crossed(previous_step, step, config.checkpoint_interval)
+        ):
+            store.save(step, state, {"wall_time_s": clock()}, config.save_replay)
+        progress.update(step, (step - previous_step) / chunk.seconds, history)
+        if stopping:
+            logger.warning(
+                "stopped by %s at env step %d after writing a checkpoint", stop.signal_name, step
+            )
+        return stopping
+
     try:
-        while step < config.num_timesteps:
-            start = time.monotonic()
-            state, chunk_metrics = trainer.train_chunk(state)
-            chunk_metrics = jax.device_get(chunk_metrics)
-            chunk_seconds = time.monotonic() - start
-            previous_step, step = step, int(state.env_steps)
-            window.add(chunk_metrics, step - previous_step, chunk_seconds)
-            _raise_if_non_finite(chunk_metrics, step, store)
-
-            # Read once: a signal arriving later is served after the next chunk.
-            stopping = stop.signal_name is not None
-            finished = step >= config.num_timesteps
-            if finished or _crossed(previous_step, step, config.eval_interval):
-                record(
-                    {
-                        "step": step,
-                        "wall_time_s": clock(),
-                        "env_steps_per_s": window.steps_per_second(),
-                        **window.means(),
-                        "train/nan_resets": int(state.nan_resets),
-                        "train/gradient_steps": int(state.gradient_steps),
-                        "train/replay_size": int(state.replay.size),
-                        **evaluate(state),
-                    }
-                )
-                window = _Window()
-            if store is not None and (
-                finished or stopping or _crossed(previous_step, step, config.checkpoint_interval)
-            ):
-                store.save(step, state, {"wall_time_s": clock()}, config.save_replay)
-            progress.update(step, (step - previous_step) / chunk_seconds, history)
-            if stopping:
-                logger.warning(
-                    "stopped by %s at env step %d after writing a checkpoint",
-                    stop.signal_name,
-                    step,
-                )
-                break
+        state = run_chunks(
+            trainer,
+            state,
+            on_start=on_start,
+            on_chunk=on_chunk,
+            num_timesteps=config.num_timesteps,
+        )
     finally:
         progress.close()
     return state, history
@@ -314,291 +342,12 @@ def _raise_if_non_finite(
     )
 
 
-def check_config(config: ml_collections.ConfigDict) -> None:
-    """Raises ConfigError naming the first inconsistent or unknown field of a trainer config."""
-    try:
-        _check_config(config)
-        for name in _SHAPES:
-            if config[name] >= 2**31:
-                raise ValueError(f"config.{name} must be < 2**31, got {config[name]}")
-        for kind in ("policy", "q"):
-            sizes = config.hidden_sizes[kind]
-            if not all(isinstance(size, int) and 1 <= size < 2**31 for size in sizes):
-                raise ValueError(
-                    f"config.hidden_sizes.{kind} must be layer widths >= 1, got {sizes}"
-                )
-        if not (isinstance(config.noise_hold_steps, int) and config.noise_hold_steps >= 1):
-            raise ValueError(
-                f"config.noise_hold_steps must be a whole number >= 1, got {config.noise_hold_steps}"
-            )
-        if not -(2**63) <= config.seed < 2**63:
-            raise ValueError(f"config.seed must fit in 64 bits, got {config.seed}")
-        if not (0 <= config.discount <= 1 and 0 < config.tau <= 1):
-            raise ValueError(
-                f"config.discount must be in [0, 1] and config.tau in (0, 1], got"
-                f" {config.discount} and {config.tau}"
-            )
-        for name, value in (("init_alpha", config.init_alpha), *config.learning_rate.items()):
-            if not value > 0:
-                raise ValueError(f"config.{name} must be > 0, got {value}")
-    except ValueError as error:
-        raise ConfigError(str(error)) from None
-
-
-def _check_memory(trainer: sac.SACTrainer) -> None:
-    """Raises ConfigError when the training state would not fit in the device's memory.
-
-    The estimate counts what stays allocated: the training state (replay buffer and training
-    envs included) and the evaluation envs' states; not the temporaries of a step.
-    """
-    config = trainer.config
-    state = jax.eval_shape(trainer.init)
-    replay_bytes = _nbytes(state.replay)
-    env_bytes = _nbytes(state.env_state) * (1 + config.num_eval_envs / config.num_envs)
-    total = _nbytes(state) - _nbytes(state.env_state) + env_bytes
-    device = jax.devices()[0]
-    capacity = _memory_bytes(device)
-    if total > capacity:
-        raise ConfigError(
-            f"the run needs about {total / 1e9:.3g} GB (replay buffer of {config.replay_size}"
-            f" transitions: {replay_bytes / 1e9:.3g} GB; {config.num_envs} training and"
-            f" {config.num_eval_envs} evaluation envs: {env_bytes / 1e9:.3g} GB) but the"
-            f" {device.platform} device has {capacity / 1e9:.3g} GB;"
-            " lower config.replay_size or config.num_envs"
-        )
-
-
-def _nbytes(tree: Any) -> int:
-    return sum(math.prod(leaf.shape) * leaf.dtype.itemsize for leaf in jax.tree.leaves(tree))
-
-
-def _memory_bytes(device: jax.Device) -> int:
-    """Memory of an accelerator (its allocator's limit), or of the host for the CPU."""
-    stats = device.memory_stats() if device.platform != "cpu" else None
-    if stats and "bytes_limit" in stats:
-        return stats["bytes_limit"]
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-
-
-def _check_config(config: ml_collections.ConfigDict) -> None:
-    """Raises ValueError naming the first inconsistent or unknown field."""
-    expected = _flat_keys(config_lib.default_config())
-    given = _flat_keys(config)
-    if unknown := sorted(given - expected):
-        raise ValueError(f"unknown config keys: {unknown}")
-    if missing := sorted(expected - given):
-        raise ValueError(f"missing config keys: {missing}")
-    positive = (
-        "num_envs",
-        "num_timesteps",
-        "episode_length",
-        "batch_size",
-        "updates_per_step",
-        "replay_size",
-        "steps_per_chunk",
-        "eval_interval",
-        "num_eval_envs",
-        "eval_episode_length",
-        "checkpoint_interval",
-        "keep_checkpoints",
-    )
-    for name in positive:
-        if config[name] < 1:
-            raise ValueError(f"config.{name} must be >= 1, got {config[name]}")
-    if config.actor_warmup_steps < 0:
-        raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")
-    if config.replay_size < config.num_envs:
-        raise ValueError(
-            f"config.replay_size ({config.replay_size}) must hold one step of all"
-            f" envs (num_envs = {config.num_envs})"
-        )
-    if not 0 <= config.min_replay_size <= config.replay_size:
-        raise ValueError(
-            f"config.min_replay_size ({config.min_replay_size}) must be in"
-            f" [0, replay_size = {config.replay_size}]"
-        )
-    if config.prefill_actions not in sac.PREFILL_ACTIONS:
-        raise ValueError(
-            f"config.prefill_actions must be one of {sac.PREFILL_ACTIONS}, got {config.prefill_actions!r}"
-        )
-    if config.init_std is not None and not config.init_std > sac.MIN_STD:
-        raise ValueError(f"config.init_std must be > {sac.MIN_STD}, got {config.init_std}")
-    prefill_steps = -(-config.min_replay_size // config.num_envs) * config.num_envs
-    if prefill_steps >= config.num_timesteps:
-        raise ValueError(
-            f"no training would happen: the prefill of min_replay_size"
-            f" ({config.min_replay_size}) takes {prefill_steps} env steps >="
-            f" num_timesteps ({config.num_timesteps})"
-        )
-
-
-def _flat_keys(config: ml_collections.ConfigDict, prefix: str = "") -> set[str]:
-    keys = set()
-    for name, value in config.items():
-        if isinstance(value, ml_collections.ConfigDict):
-            keys |= _flat_keys(value, f"{prefix}{name}.")
-        else:
-            keys.add(prefix + name)
-    return keys
-
-
 def _run_info(
     config: ml_collections.ConfigDict, extra_run_info: dict[str, Any] | None
 ) -> dict[str, Any]:
-    versions = {}
-    for package in _VERSIONED_PACKAGES:
-        try:
-            versions[package] = importlib.metadata.version(package)
-        except importlib.metadata.PackageNotFoundError:
-            pass
     return {
         "config": json.loads(json.dumps(config.to_dict())),
-        "versions": versions,
-        "git_revision": _git_revision(),
+        "versions": provenance.versions(_VERSIONED_PACKAGES),
+        "git_revision": provenance.git_revision(),
         "run_info": extra_run_info or {},
     }
-
-
-def _git_revision() -> str | None:
-    """HEAD of the repository holding this package, '+dirty' if modified."""
-    try:
-        revision = _git("rev-parse", "HEAD")
-        status = _git("status", "--porcelain", "--untracked-files=no")
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return revision + ("+dirty" if status else "")
-
-
-def _git(*args: str) -> str:
-    return subprocess.run(
-        ["git", *args],
-        cwd=Path(__file__).parent,
-        capture_output=True,
-        text=True,
-        timeout=10,
-        check=True,
-    ).stdout.strip()
-
-
-class _Window:
-    """Chunk metrics and training time since the last metrics row."""
-
-    def __init__(self):
-        self._sums: dict[str, float] = {}
-        self._chunks = 0
-        self._steps = 0
-        self._seconds = 0.0
-
-    def add(self, chunk_metrics: dict[str, Any], steps: int, seconds: float):
-        for name, value in chunk_metrics.items():
-            self._sums[name] = self._sums.get(name, 0.0) + float(value)
-        self._chunks += 1
-        self._steps += steps
-        self._seconds += seconds
-
-    def means(self) -> dict[str, float]:
-        return {f"train/{name}": total / self._chunks for name, total in self._sums.items()}
-
-    def steps_per_second(self) -> float:
-        return self._steps / self._seconds if self._seconds > 0 else 0.0
-
-
-class _Clock:
-    """Wall time of the run in seconds, continued across resumes."""
-
-    def __init__(self, offset: float):
-        self._start = time.monotonic() - offset
-
-    def __call__(self) -> float:
-        return time.monotonic() - self._start
-
-
-class _SignalStop:
-    """Turns SIGINT/SIGTERM into a request to stop after the current chunk.
-
-    A second SIGINT raises KeyboardInterrupt at once. Handlers can only be
-    installed from the main thread; elsewhere signals keep their handlers.
-    """
-
-    def __init__(self):
-        self.signal_name: str | None = None
-        self._previous: dict[int, Any] = {}
-
-    def __enter__(self) -> "_SignalStop":
-        if threading.current_thread() is threading.main_thread():
-            for signum in (signal.SIGINT, signal.SIGTERM):
-                self._previous[signum] = signal.signal(signum, self._handle)
-        return self
-
-    def __exit__(self, *exc_info) -> None:
-        for signum, handler in self._previous.items():
-            signal.signal(signum, handler)
-
-    def _handle(self, signum: int, frame: Any) -> None:
-        del frame
-        if self.signal_name is not None and signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        self.signal_name = signal.Signals(signum).name
-        logger.warning(
-            "%s received: stopping after the current chunk (SIGINT again aborts)",
-            self.signal_name,
-        )
-
-
-class _Progress:
-    """One redrawn status line on a terminal, one line per row otherwise."""
-
-    _REDRAW_SECONDS = 0.2
-
-    def __init__(self, total_steps: int, enabled: bool, stream: TextIO | None = None):
-        self._total = total_steps
-        self._stream = stream or sys.stderr
-        self._enabled = enabled
-        self._tty = enabled and self._stream.isatty()
-        self._last_redraw = -math.inf
-
-    def update(self, step: int, steps_per_second: float, history: list[dict[str, Any]]) -> None:
-        now = time.monotonic()
-        if not self._tty or now - self._last_redraw < self._REDRAW_SECONDS:
-            return
-        self._last_redraw = now
-        fraction = min(step / self._total, 1.0)
-        bar = "#" * int(24 * fraction)
-        self._stream.write(
-            f"\r[{bar:<24}] {step:,}/{self._total:,} env steps"
-            f"  {steps_per_second:,.0f}/s"
-            f"  eval reward {_last_reward(history)}"
-            f"  ETA {_eta(step, self._total, steps_per_second)}\033[K"
-        )
-        self._stream.flush()
-
-    def log_row(self, row: dict[str, Any]) -> None:
-        if not self._enabled or self._tty:
-            return
-        steps_per_second = row.get("env_steps_per_s", 0.0)
-        self._stream.write(
-            f"step {row['step']:,}/{self._total:,}"
-            f"  {steps_per_second:,.0f} env steps/s"
-            f"  eval reward {_last_reward([row])}"
-            f"  fall rate {row['eval/fall_rate']:.2f}"
-            f"  ETA {_eta(row['step'], self._total, steps_per_second)}\n"
-        )
-        self._stream.flush()
-
-    def close(self) -> None:
-        if self._tty:
-            self._stream.write("\n")
-            self._stream.flush()
-
-
-def _last_reward(history: list[dict[str, Any]]) -> str:
-    if not history:
-        return "-"
-    return f"{history[-1]['eval/episode_reward']:.4g}"
-
-
-def _eta(step: int, total: int, steps_per_second: float) -> str:
-    if steps_per_second <= 0:
-        return "-"
-    seconds = int(max(total - step, 0) / steps_per_second)
-    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"

@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import ml_collections
 import optax
 
+from quadcos import episodes
 from quadcos.training import replay as replay_lib
 
 Metrics = dict[str, jax.Array]
@@ -512,22 +513,23 @@ class SACTrainer:
             alive=jnp.ones((config.num_eval_envs,), bool),
         )
 
-        def step(carry, _):
-            env_state, totals = carry
-            actions, _ = policy(env_state.obs, self._eval_key)
-            next_env_state = self.eval_env.step(env_state, actions)
+        def update(totals: EvalTotals, next_env_state: envs.State, _) -> EvalTotals:
             # `where`, not multiplication: a fallen env may produce NaN.
             alive_sum = lambda total, value: total + jnp.where(totals.alive, value, 0.0)
-            totals = EvalTotals(
+            return EvalTotals(
                 reward=alive_sum(totals.reward, next_env_state.reward),
                 length=alive_sum(totals.length, 1.0),
                 metrics=jax.tree.map(alive_sum, totals.metrics, next_env_state.metrics),
                 alive=totals.alive & (next_env_state.done == 0),
             )
-            return (next_env_state, totals), None
 
-        (_, totals), _ = jax.lax.scan(
-            step, (env_state, totals), None, length=config.eval_episode_length
+        _, totals, _ = episodes.run_episodes(
+            self.eval_env.step,
+            lambda obs: policy(obs, self._eval_key)[0],
+            env_state,
+            totals,
+            update,
+            config.eval_episode_length,
         )
         metrics = {
             "eval/episode_reward": jnp.mean(totals.reward),

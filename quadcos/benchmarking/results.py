@@ -1,0 +1,187 @@
+"""The bench's results: the JSON skeleton, merging a run into earlier results, Markdown tables."""
+
+import dataclasses
+import datetime
+import os
+import pathlib
+import platform
+from collections.abc import Sequence
+from typing import Any
+
+import jax
+
+from quadcos import backends, caches, provenance
+from quadcos.benchmarking.settings import Settings, TrainRow
+
+_VERSIONED_PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "brax", "flax", "optax", "numpy")
+
+
+def _cpu_model() -> str:
+    try:
+        for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dict[str, Any]:
+    """The results skeleton: every key of the issue's schema, numbers still None/empty."""
+    device = jax.devices()[0]
+    return {
+        "device": device.device_kind,
+        "platform": device.platform,
+        "host": {"cpu": _cpu_model(), "cores": os.cpu_count()},
+        "substeps_per_env_step": substeps,
+        "physics_steps_per_s": {},
+        "env_steps_per_s": {},
+        "train": [],
+        "compile_s": {"quadcos": None, "stock_brax": None},
+        "time_to_walk_flat_s": None,
+        "time_to_cross_slope5_s": None,
+        "details": {},
+        "command": " ".join(["python -m quadcos.bench", *argv]),
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "versions": provenance.versions(_VERSIONED_PACKAGES, python=True),
+        "xla_flags": os.environ.get("XLA_FLAGS", ""),
+        "compilation_cache_dir": jax.config.jax_compilation_cache_dir,
+        "terrain": settings.terrain,
+        "impl": backends.resolve_impl(settings.impl),
+        "cache": caches.state(jax.config.jax_compilation_cache_dir),
+        "settings": {
+            **dataclasses.asdict(settings),
+            "train_rows": [str(row) for row in settings.train_rows],
+            "stock_rows": [str(row) for row in settings.stock_rows],
+        },
+    }
+
+
+def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+    """`old` updated with what `new` measured: dict entries and train rows are merged key by key
+    (a None in `new` keeps `old`'s value); the commands, dates and settings of both runs are kept
+    (as lists), and so are the errors of both (`details.errors`).
+
+    Raises:
+      ValueError: the two come from different devices.
+    """
+    if old.get("device") != new["device"]:
+        raise ValueError(f"cannot merge results of {new['device']!r} into {old.get('device')!r}")
+    merged = {**old}
+    for key, value in new.items():
+        if key == "train":
+            rows = {_row_key(row): dict(row) for row in old.get("train", [])}
+            for row in value:
+                if _row_key(row) in rows:
+                    measured = {name: entry for name, entry in row.items() if entry is not None}
+                    rows[_row_key(row)].update(measured)
+                else:
+                    rows[_row_key(row)] = dict(row)
+            merged["train"] = list(rows.values())
+        elif key in ("physics_steps_per_s", "env_steps_per_s", "details", "compile_s"):
+            merged[key] = {**old.get(key, {}), **{k: v for k, v in value.items() if v is not None}}
+            if key == "details" and "errors" in old.get(key, {}):
+                merged[key]["errors"] = {**old[key]["errors"], **value.get("errors", {})}
+        elif key in ("command", "date", "settings"):
+            merged[key] = _as_list(old.get(key)) + [value] if old.get(key) != value else old[key]
+        elif value is not None or key not in old:
+            merged[key] = value
+    return merged
+
+
+def _row_key(row: dict[str, Any]) -> tuple[Any, ...]:
+    # Rows measured before terrain, impl and cache were recorded: flat, JAX, no cache.
+    context = (row.get("terrain", "flat"), row.get("impl", "jax"), row.get("cache", "cold"))
+    return row["num_envs"], row["batch_size"], row["updates_per_step"], *context
+
+
+def _as_list(value: Any) -> list[Any]:
+    if value is None:
+        return []
+    return list(value) if isinstance(value, list) else [value]
+
+
+def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
+    """The results' entry for `row`, created (with every field None) if missing."""
+    for entry in results["train"]:
+        context = (results["terrain"], results["impl"], results["cache"])
+        if _row_key(entry) == (row.num_envs, row.batch_size, row.updates_per_step, *context):
+            return entry
+    entry = {
+        "num_envs": row.num_envs,
+        "batch_size": row.batch_size,
+        "updates_per_step": row.updates_per_step,
+        "terrain": results["terrain"],
+        "impl": results["impl"],
+        "cache": results["cache"],
+        "quadcos_env_steps_per_s": None,
+        "stock_brax_env_steps_per_s": None,
+    }
+    results["train"].append(entry)
+    return entry
+
+
+def format_rate(value: float | None, unit: str = "") -> str:
+    if value is None:
+        return "—"
+    for scale, prefix in ((1e9, " G"), (1e6, " M"), (1e3, " k")):
+        if abs(value) >= scale:
+            return f"{value / scale:.3g}{prefix}{unit}"
+    return f"{value:.3g}{' ' + unit if unit else ''}"
+
+
+def format_seconds(value: float | None) -> str:
+    return "—" if value is None else f"{value:.1f} s"
+
+
+def _outcome(results: dict[str, Any], key: str, section: str) -> str:
+    """A time-to-walk entry: the seconds, why there are none, or "—" when not measured."""
+    if results[key] is not None:
+        return format_seconds(results[key])
+    detail = results["details"].get(section)
+    return detail["reason"] if detail and detail.get("reason") else "—"
+
+
+def markdown_table(results: dict[str, Any]) -> str:
+    """The results as Markdown tables: simulation throughput, training throughput (ours and
+    stock Brax), start-up to the first training step, and time to walk."""
+    header = (
+        f"Device: {results['device']} ({results['platform']}); "
+        f"{results['substeps_per_env_step']} physics steps per env step."
+    )
+    lines = [
+        header,
+        "",
+        "| envs | raw MJX physics steps/s | env steps/s (`make_env`) |",
+        "|---:|---:|---:|",
+    ]
+    counts = sorted(
+        {*results["physics_steps_per_s"], *results["env_steps_per_s"]}, key=lambda count: int(count)
+    )
+    for count in counts:
+        physics = format_rate(results["physics_steps_per_s"].get(count))
+        env = format_rate(results["env_steps_per_s"].get(count))
+        lines.append(f"| {int(count):,} | {physics} | {env} |")
+    lines += [
+        "",
+        "| envs | batch | updates/step | quadcos env-steps/s | stock Brax env-steps/s | ours / stock |",
+        "|---:|---:|---:|---:|---:|---:|",
+    ]
+    for row in sorted(results["train"], key=_row_key):
+        ours, stock = row["quadcos_env_steps_per_s"], row["stock_brax_env_steps_per_s"]
+        ratio = f"{ours / stock:.2f}" if ours and stock else "—"
+        sizes = f"{row['num_envs']:,} | {row['batch_size']:,} | {row['updates_per_step']}"
+        lines.append(f"| {sizes} | {format_rate(ours)} | {format_rate(stock)} | {ratio} |")
+    compile_s = results["compile_s"]
+    ours, stock = format_seconds(compile_s.get("quadcos")), format_seconds(compile_s.get("stock_brax"))
+    walk = _outcome(results, "time_to_walk_flat_s", "walk")
+    cross = _outcome(results, "time_to_cross_slope5_s", "slope5")
+    lines += [
+        "",
+        "| from process start | quadcos | stock Brax |",
+        "|---|---:|---:|",
+        f"| to the first training step (compile) | {ours} | {stock} |",
+        f"| to walking on flat | {walk} | — |",
+        f"| to crossing slope5 | {cross} | — |",
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,29 @@
+"""What the command lines share: a user error is one line on stderr and exit status 2."""
+
+import argparse
+import sys
+
+EXIT_OK = 0
+EXIT_FAILURE = 1  # the work itself failed (e.g. a non-finite loss, a failed measurement)
+EXIT_USAGE = 2  # bad flags, values, paths or specs; reported before anything is written
+
+
+class UsageError(ValueError):
+    """A user error on the command line: reported as one line, exit status 2."""
+
+
+def _raise_usage_error(message: str):
+    raise UsageError(message)
+
+
+def raising(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """`parser`, raising UsageError where argparse would print its usage and exit."""
+    parser.error = _raise_usage_error
+    return parser
+
+
+def print_error(prog: str, error: BaseException) -> None:
+    """`<prog>: error: <message>` on stderr, on one line even when the message (e.g. MuJoCo's
+    XML parser's) has several."""
+    lines = (line.strip() for line in str(error).splitlines())
+    print(f"{prog}: error: {'; '.join(filter(None, lines))}", file=sys.stderr)

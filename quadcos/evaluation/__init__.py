@@ -1,0 +1,45 @@
+"""Batched deterministic evaluation of a trained policy or fixed rhythm parameters.
+
+  sources       what acts (`ActionSource`: a trained policy, fixed parameters) and its env
+  rollout       the one batched deterministic rollout (`rollout.rollout`), per-episode statistics
+  metrics       per-episode values and aggregates: success, falls, speed, attitude, reward
+  traces        one episode's time series (`--trace`) and rendering it to video
+  report        `evaluate` -> `Evaluation` (the `--out` JSON), `write_json`
+  fixed_search  the best fixed rhythm parameters (Fig. 15's baseline)
+
+`python -m quadcos.evaluate` is the command line over these.
+"""
+
+from quadcos.evaluation.fixed_search import search_fixed
+from quadcos.evaluation.metrics import aggregate, episode_values
+from quadcos.evaluation.report import Evaluation, evaluate, write_json
+from quadcos.evaluation.rollout import EpisodeStats, Rollout
+from quadcos.evaluation.sources import (
+    ActionSource,
+    build_env,
+    fixed_source,
+    parse_fixed,
+    policy_source,
+    resolve_source,
+)
+from quadcos.evaluation.traces import TRACE_SERIES, render_trace, trace_dict
+
+__all__ = [
+    "TRACE_SERIES",
+    "ActionSource",
+    "EpisodeStats",
+    "Evaluation",
+    "Rollout",
+    "aggregate",
+    "build_env",
+    "episode_values",
+    "evaluate",
+    "fixed_source",
+    "parse_fixed",
+    "policy_source",
+    "render_trace",
+    "resolve_source",
+    "search_fixed",
+    "trace_dict",
+    "write_json",
+]

@@ -1,0 +1,128 @@
+"""The best fixed rhythm parameters (Fig. 15's baseline): a search over (A_k, A_h, T, φ1, φ3)."""
+
+import math
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from quadcos import oscillator
+from quadcos import terrain as terrain_lib
+from quadcos.evaluation.metrics import episode_values
+from quadcos.evaluation.rollout import FORMAT_VERSION, rollout
+from quadcos.evaluation.sources import FIXED_PREFIX, PARAMETER_NAMES, build_env, fixed_source
+
+SEARCH_FORMAT = "quadcos.fixed_search"
+
+
+def search_fixed(
+    terrain: terrain_lib.Terrain | str = "flat",
+    *,
+    num_candidates: int = 256,
+    robots_per_candidate: int = 4,
+    rounds: int = 3,
+    elite: int = 8,
+    seconds: float = 20.0,
+    seed: int = 0,
+    top: int = 10,
+    env_overrides: Mapping[str, Any] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
+    """Searches constant rhythm parameters (A_k, A_h, T, φ1, φ3) for the best fixed gait.
+
+    Each round evaluates `num_candidates` parameter sets on `robots_per_candidate` robots each, all
+    in one batch (the same compiled rollout every round). Round 1 draws candidates uniformly from
+    the §3.3 ranges (`oscillator.parameter_bounds`), with `oscillator.FIXED_TROT` as candidate 0;
+    each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
+    10 % of each range in round 2, halved every round after). A candidate's score is its robots'
+    mean episode reward (Eq. 13 summed over the episode) when none of them fell, else −inf: the
+    ranking is the paper's reward among gaits with zero falls.
+
+    Returns:
+      {"format", "ranking": the `top` best candidates (parameters, `policy` spec for --policy,
+      score, fall_rate, mean_forward_speed, mean_max_abs_yaw, mean_lateral_drift, ...), "setup"}.
+    """
+    if num_candidates < 1 or robots_per_candidate < 1 or rounds < 1:
+        raise ValueError("num_candidates, robots_per_candidate and rounds must be >= 1")
+    if not (math.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"seconds must be finite and > 0; got {seconds}")
+    source = fixed_source(oscillator.FIXED_TROT, name="search")
+    env = build_env(source, terrain, env_overrides)
+    num_steps = math.ceil(seconds / env.dt - 1e-9)
+    lower, upper = oscillator.parameter_bounds(env.config.period_min)
+    rng = np.random.default_rng(seed)
+    num_envs = num_candidates * robots_per_candidate
+    evaluated: list[dict[str, Any]] = []
+    started = time.monotonic()
+    for round_index in range(rounds):
+        if round_index == 0:
+            candidates = rng.uniform(lower, upper, size=(num_candidates, 5))
+            candidates[0] = np.asarray(oscillator.FIXED_TROT)
+        else:
+            ranked = sorted(evaluated, key=lambda c: c["score"], reverse=True)
+            elites = np.array([c["parameters_array"] for c in ranked[: min(elite, num_candidates)]])
+            std = 0.1 * (upper - lower) / 2 ** (round_index - 1)
+            parents = elites[rng.integers(len(elites), size=num_candidates)]
+            candidates = np.clip(parents + rng.normal(size=parents.shape) * std, lower, upper)
+            candidates[: len(elites)] = elites
+        per_robot = np.repeat(candidates, robots_per_candidate, axis=0).astype(np.float32)
+
+        def round_progress(done: int, total: int, round_index: int = round_index) -> None:
+            if progress is not None:
+                progress(round_index * total + done, rounds * total)
+
+        result = rollout(
+            env,
+            source,
+            num_envs=num_envs,
+            num_steps=num_steps,
+            seed=seed + round_index,
+            act_params=per_robot,
+            progress=round_progress,
+        )
+        episodes = episode_values(result.stats, env.dt, num_steps)
+        for c, params in enumerate(candidates):
+            group = episodes[c * robots_per_candidate : (c + 1) * robots_per_candidate]
+            fall_rate = float(np.mean([e["fell"] for e in group]))
+            mean_reward = float(np.mean([e["episode_reward"] for e in group]))
+            evaluated.append(
+                {
+                    "round": round_index + 1,
+                    "parameters": dict(zip(PARAMETER_NAMES, map(float, params))),
+                    "parameters_array": params,
+                    "policy": FIXED_PREFIX + ",".join(f"{float(p):.6g}" for p in params),
+                    "score": mean_reward if fall_rate == 0.0 else -math.inf,
+                    "mean_episode_reward": mean_reward,
+                    "fall_rate": fall_rate,
+                    "mean_forward_speed": float(np.mean([e["forward_speed"] for e in group])),
+                    "mean_max_abs_yaw": float(np.mean([e["max_abs_yaw"] for e in group])),
+                    "mean_max_abs_roll": float(np.mean([e["max_abs_roll"] for e in group])),
+                    "mean_lateral_drift": float(np.mean([e["lateral_drift"] for e in group])),
+                }
+            )
+    ranked = sorted(evaluated, key=lambda c: c["score"], reverse=True)
+    ranking = [
+        {key: value for key, value in c.items() if key != "parameters_array"}
+        | {"score": c["score"] if math.isfinite(c["score"]) else None}
+        for c in ranked[:top]
+    ]
+    return {
+        "format": SEARCH_FORMAT,
+        "format_version": FORMAT_VERSION,
+        "ranking": ranking,
+        "num_without_falls": sum(math.isfinite(c["score"]) for c in evaluated),
+        "num_evaluated": len(evaluated),
+        "setup": {
+            "terrain": env.terrain.spec,
+            "num_candidates": num_candidates,
+            "robots_per_candidate": robots_per_candidate,
+            "rounds": rounds,
+            "elite": elite,
+            "seconds": num_steps * env.dt,
+            "seed": seed,
+            "env": env.config.to_dict() | {"terrain": env.terrain.spec},
+            "wall_time_s": time.monotonic() - started,
+        },
+    }
+

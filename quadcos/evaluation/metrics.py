@@ -1,0 +1,85 @@
+"""What an evaluation reports per episode and over all of them: success, falls, speed, drift,
+attitude, the slope estimate's error and the reward (Eq. 13) with its terms."""
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from quadcos import reward
+from quadcos.evaluation.rollout import EpisodeStats
+
+
+def episode_values(stats: EpisodeStats, dt: float, num_steps: int) -> list[dict[str, Any]]:
+    """Per-episode values from host EpisodeStats; times in s, lengths in m, angles in rad."""
+    episodes = []
+    for i in range(len(stats.steps)):
+        steps = int(stats.steps[i])
+        seconds = steps * dt
+        distance = float(stats.x[i] - stats.start_x[i])
+        fell, finished = bool(stats.fell[i]), bool(stats.finished[i])
+        episodes.append(
+            {
+                "index": i,
+                "success": None,  # filled by evaluate (depends on the terrain)
+                "fell": fell,
+                "fall_time_s": seconds if fell else None,
+                "finished_course": finished,
+                "finish_time_s": seconds if finished else None,
+                "seconds": seconds,
+                "timed_out": steps >= num_steps and not fell and not finished,
+                "distance": distance,
+                "forward_speed": distance / seconds if steps else 0.0,
+                "lateral_drift": float(abs(stats.y[i] - stats.start_y[i])),
+                "max_lateral_deviation": float(stats.max_lateral_deviation[i]),
+                "max_abs_roll": float(stats.max_abs_roll[i]),
+                "max_abs_yaw": float(stats.max_abs_yaw[i]),
+                "max_abs_pitch_error": float(stats.max_abs_pitch_error[i]),
+                "slope_error_rms": math.sqrt(float(stats.slope_sq_error[i]) / steps)
+                if steps
+                else None,
+                "episode_reward": float(stats.episode_reward[i]),
+                "reward_terms": {k: float(v[i]) for k, v in stats.reward_terms.items()},
+                "final_x": float(stats.x[i]),
+                "final_y": float(stats.y[i]),
+            }
+        )
+    return episodes
+
+
+def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dict[str, Any]:
+    """Aggregates over episodes (means of per-episode values unless said otherwise).
+
+    `slope_error_rms` pools every step of every episode: sqrt(Σ squared errors / Σ steps).
+    """
+
+    def mean(key: str) -> float:
+        return float(np.mean([float(e[key]) for e in episodes]))
+
+    total_steps = int(np.sum(stats.steps))
+    speeds = np.array([e["forward_speed"] for e in episodes])
+    return {
+        "num_episodes": len(episodes),
+        "success_rate": mean("success"),
+        "fall_rate": mean("fell"),
+        "course_completion_rate": mean("finished_course"),
+        "mean_forward_speed": float(speeds.mean()),
+        "std_forward_speed": float(speeds.std()),
+        "mean_distance": mean("distance"),
+        "mean_seconds": mean("seconds"),
+        "mean_max_abs_roll": mean("max_abs_roll"),
+        "mean_max_abs_yaw": mean("max_abs_yaw"),
+        "mean_max_abs_pitch_error": mean("max_abs_pitch_error"),
+        "mean_lateral_drift": mean("lateral_drift"),
+        "mean_max_lateral_deviation": mean("max_lateral_deviation"),
+        "slope_error_rms": math.sqrt(float(np.sum(stats.slope_sq_error)) / total_steps)
+        if total_steps
+        else None,
+        "mean_episode_reward": mean("episode_reward"),
+        "mean_reward_terms": {
+            term: float(np.mean([e["reward_terms"][term] for e in episodes]))
+            for term in reward.TERM_NAMES
+        },
+    }
+

@@ -1,0 +1,170 @@
+"""`evaluate`: batched deterministic rollouts of an action source -> an `Evaluation` (aggregates,
+set-up, episodes, one trace), written as JSON with `write_json`."""
+
+import dataclasses
+import json
+import math
+import os
+import pathlib
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from quadcos import env as env_lib
+from quadcos import provenance, video
+from quadcos import terrain as terrain_lib
+from quadcos.evaluation.metrics import aggregate, episode_values
+from quadcos.evaluation.rollout import FORMAT_VERSION, rollout
+from quadcos.evaluation.sources import PARAMETER_NAMES, ActionSource, build_env, resolve_source
+from quadcos.evaluation.traces import trace_dict
+
+FORMAT = "quadcos.evaluation"
+_VERSIONED_PACKAGES = ("quadcos", "jax", "mujoco", "mujoco-mjx", "brax")
+
+
+@dataclasses.dataclass
+class Evaluation:
+    """The result of `evaluate`.
+
+    Attributes:
+      summary: aggregates (see `aggregate`) and the set-up under "setup".
+      episodes: one dict of values per episode.
+      trace: the traced episode's series, cut where it ended (see `trace_dict`).
+      qpos: (steps, nq) positions of the traced episode, from reset on, for `render_video`.
+      env: the env it ran in.
+    """
+
+    summary: dict[str, Any]
+    episodes: list[dict[str, Any]]
+    trace: dict[str, Any]
+    qpos: np.ndarray
+    env: env_lib.QuadrupedEnv
+
+    def to_json(self) -> dict[str, Any]:
+        """The evaluation file's content: aggregates at the top, then setup and episodes."""
+        return {**self.summary, "episodes": self.episodes}
+
+    def save_video(self, path: str | os.PathLike[str], **options: Any) -> pathlib.Path:
+        """The traced episode as an mp4 at the control rate; options: see `video.render_video`.
+
+        Raises:
+          video.VideoError: no headless OpenGL or no mp4 writer here.
+        """
+        return video.render_video(
+            self.env.mj_model, self.qpos, path, fps=1.0 / self.env.dt, **options
+        )
+
+
+def evaluate(
+    policy: str | ActionSource,
+    terrain: terrain_lib.Terrain | str | None = None,
+    *,
+    num_envs: int = 64,
+    seconds: float = 20.0,
+    seed: int = 0,
+    trace_episode: int = 0,
+    env_overrides: Mapping[str, Any] | None = None,
+    env: env_lib.QuadrupedEnv | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Evaluation:
+    """Batched deterministic rollouts of `policy` (a --policy string or an ActionSource).
+
+    Args:
+      terrain: a Terrain or spec; default: the policy's training terrain (flat for fixed ones).
+      num_envs: robots = episodes, all run at once.
+      seconds: time limit of an episode, s (rounded up to whole control steps).
+      seed: seed of the reset noise.
+      trace_episode: the episode whose time series `trace` holds.
+      env_overrides: env config overrides on top of the policy's.
+      env: an env from `build_env(source, ...)` to run in instead of building one (then
+        `terrain` and `env_overrides` are not used).
+      progress: called as progress(steps_done, num_steps) as the rollout advances.
+
+    Raises:
+      ValueError, FileNotFoundError: bad policy, terrain, overrides or sizes.
+    """
+    source = resolve_source(policy) if isinstance(policy, str) else policy
+    if not (math.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"seconds must be finite and > 0; got {seconds}")
+    if env is None:
+        env = build_env(source, terrain, env_overrides)
+    num_steps = math.ceil(seconds / env.dt - 1e-9)
+    started = time.monotonic()
+    result = rollout(
+        env,
+        source,
+        num_envs=num_envs,
+        num_steps=num_steps,
+        seed=seed,
+        trace_index=trace_episode,
+        progress=progress,
+    )
+    episodes = episode_values(result.stats, env.dt, num_steps)
+    course = env.terrain.course_end_x is not None
+    for episode in episodes:
+        episode["success"] = episode["finished_course"] if course else not episode["fell"]
+    setup = {
+        "policy": source.name,
+        "policy_kind": source.kind,
+        "fixed_parameters": None
+        if source.fixed_parameters is None
+        else dict(zip(PARAMETER_NAMES, map(float, source.fixed_parameters))),
+        "terrain": env.terrain.spec,
+        "course_end_x": env.terrain.course_end_x,
+        "num_envs": num_envs,
+        "seconds": num_steps * env.dt,
+        "num_steps": num_steps,
+        "control_dt": env.dt,
+        "seed": seed,
+        "trace_episode": trace_episode,
+        "env": env.config.to_dict() | {"terrain": env.terrain.spec},
+        "wall_time_s": time.monotonic() - started,
+        "versions": provenance.versions(_VERSIONED_PACKAGES),
+    }
+    summary = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        **aggregate(episodes, result.stats),
+        "setup": setup,
+    }
+    traced = episodes[trace_episode]
+    meta = {
+        "policy": source.name,
+        "terrain": env.terrain.spec,
+        "course_end_x": env.terrain.course_end_x,
+        "control_dt": env.dt,
+        **{key: traced[key] for key in ("success", "fell", "finished_course")},
+    }
+    trace = trace_dict(env, result, trace_episode, meta)
+    return Evaluation(
+        summary=summary,
+        episodes=episodes,
+        trace=trace,
+        qpos=np.asarray(trace["qpos"]),
+        env=env,
+    )
+
+def write_json(path: str | os.PathLike[str], content: Any) -> pathlib.Path:
+    """Writes `content` as JSON, atomically; non-finite floats become null."""
+    from quadcos.training.files import atomic_write_text
+
+    path = pathlib.Path(path)
+    atomic_write_text(path, json.dumps(_finite_json(content), indent=1, allow_nan=False) + "\n")
+    return path
+
+
+def _finite_json(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _finite_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_json(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+

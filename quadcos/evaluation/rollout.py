@@ -1,0 +1,235 @@
+"""The one batched deterministic rollout: robots run in parallel until they fall, finish the
+course or reach the time limit, with running per-episode statistics and one traced episode."""
+
+import dataclasses
+import functools
+from collections.abc import Callable
+from typing import Any
+
+import flax.struct
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from quadcos import constants, oscillator, reward, slope
+from quadcos import env as env_lib
+from quadcos.evaluation import sources
+from quadcos import episodes
+
+FORMAT_VERSION = 1  # of every file quadcos.evaluation writes
+CHUNK_STEPS = 20  # control steps per compiled call: the progress granularity
+
+
+@flax.struct.dataclass
+class EpisodeStats:
+    """Running per-episode statistics, each (n,); updated only while the episode runs."""
+
+    running: jax.Array  # bool: not fallen, not finished, within the time limit
+    fell: jax.Array  # bool
+    finished: jax.Array  # bool: the torso passed the course end
+    steps: jax.Array  # int32: control steps taken, the fall step included
+    start_x: jax.Array  # m
+    start_y: jax.Array
+    x: jax.Array  # m, at the last step taken
+    y: jax.Array
+    max_lateral_deviation: jax.Array  # m: max |y − start_y|
+    max_abs_roll: jax.Array  # rad
+    max_abs_yaw: jax.Array
+    max_abs_pitch_error: jax.Array  # rad: max |pitch − true slope|
+    slope_sq_error: jax.Array  # rad²: Σ (estimate − truth)²
+    episode_reward: jax.Array  # Σ Eq. 13
+    reward_terms: dict[str, jax.Array]  # Σ of each term
+
+
+@dataclasses.dataclass
+class Rollout:
+    """Host copies of a finished batched rollout.
+
+    Attributes:
+      stats: EpisodeStats of numpy arrays, (num_envs,) each.
+      trace: series of the traced episode, (num_steps,) or (num_steps, k) numpy arrays, covering the
+        whole time limit (use `stats.steps[trace_index]` to cut it where the episode ended).
+      qpos: (num_steps, nq) positions of the traced episode, for rendering.
+      start_qpos: (nq,) its positions after reset.
+    """
+
+    stats: EpisodeStats
+    trace: dict[str, np.ndarray]
+    qpos: np.ndarray
+    start_qpos: np.ndarray
+
+
+def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[str, jax.Array]:
+    """The trace series of robot `index` after a step."""
+    data = state.pipeline_state
+    qpos, time_now = data.qpos[index], data.time[index]
+    body = slope.attitude(qpos[constants.QPOS_QUATERNION])
+    command, phase = state.info["command"][index], state.info["phase"][index]
+    snapshot = {
+        "time": time_now,
+        "cog_x": qpos[0],
+        "cog_y": qpos[1],
+        "cog_z": qpos[2],
+        "pitch": body.pitch,
+        "yaw": body.yaw,
+        "roll": body.roll,
+        "expected_pitch": state.metrics["slope_truth"][index],
+        "slope_estimate": state.metrics["slope_estimate"][index],
+        "forward_speed": state.metrics["forward_speed"][index],
+        "reward": state.reward[index],
+        "controller": env.joint_targets(command, phase, time_now),
+        "joint": qpos[constants.QPOS_JOINTS],
+        "action": command,
+        "qpos": qpos,
+    }
+    if env.config.controller == "oscillator":
+        params = oscillator.action_to_parameters(command, env.config.period_min, env.action_centre)
+        snapshot["parameter"] = jnp.stack(params)
+    return snapshot
+
+
+def _initial_stats(state: Any, num_envs: int) -> EpisodeStats:
+    qpos = state.pipeline_state.qpos
+    zeros = jnp.zeros(num_envs)
+    return EpisodeStats(
+        running=jnp.ones(num_envs, bool),
+        fell=jnp.zeros(num_envs, bool),
+        finished=jnp.zeros(num_envs, bool),
+        steps=jnp.zeros(num_envs, jnp.int32),
+        start_x=qpos[:, 0],
+        start_y=qpos[:, 1],
+        x=qpos[:, 0],
+        y=qpos[:, 1],
+        max_lateral_deviation=zeros,
+        max_abs_roll=zeros,
+        max_abs_yaw=zeros,
+        max_abs_pitch_error=zeros,
+        slope_sq_error=zeros,
+        episode_reward=zeros,
+        reward_terms={term: zeros for term in reward.TERM_NAMES},
+    )
+
+
+def _update_stats(
+    stats: EpisodeStats, state: Any, counts: jax.Array, course_end_x: float | None
+) -> EpisodeStats:
+    """Adds one step to the episodes that were running before it (`counts`)."""
+    qpos = state.pipeline_state.qpos
+    body = slope.attitude(qpos[:, constants.QPOS_QUATERNION])
+    x, y = qpos[:, 0], qpos[:, 1]
+    metrics = state.metrics
+
+    def accumulate(old, new):
+        return jnp.where(counts, new, old)
+
+    fell = counts & (state.done > 0)
+    at_end = jnp.zeros_like(fell) if course_end_x is None else x >= course_end_x
+    finished = counts & ~fell & at_end
+    slope_error = metrics["slope_estimate"] - metrics["slope_truth"]
+    return EpisodeStats(
+        running=stats.running & ~fell & ~finished,
+        fell=stats.fell | fell,
+        finished=stats.finished | finished,
+        steps=stats.steps + counts.astype(jnp.int32),
+        start_x=stats.start_x,
+        start_y=stats.start_y,
+        x=accumulate(stats.x, x),
+        y=accumulate(stats.y, y),
+        max_lateral_deviation=accumulate(
+            stats.max_lateral_deviation,
+            jnp.maximum(stats.max_lateral_deviation, jnp.abs(y - stats.start_y)),
+        ),
+        max_abs_roll=accumulate(
+            stats.max_abs_roll, jnp.maximum(stats.max_abs_roll, jnp.abs(body.roll))
+        ),
+        max_abs_yaw=accumulate(
+            stats.max_abs_yaw, jnp.maximum(stats.max_abs_yaw, jnp.abs(body.yaw))
+        ),
+        max_abs_pitch_error=accumulate(
+            stats.max_abs_pitch_error,
+            jnp.maximum(stats.max_abs_pitch_error, jnp.abs(body.pitch - metrics["slope_truth"])),
+        ),
+        slope_sq_error=accumulate(stats.slope_sq_error, stats.slope_sq_error + slope_error**2),
+        episode_reward=accumulate(stats.episode_reward, stats.episode_reward + state.reward),
+        reward_terms={
+            term: accumulate(total, total + metrics[f"reward/{term}"])
+            for term, total in stats.reward_terms.items()
+        },
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_chunk(env: env_lib.QuadrupedEnv, act: Callable, chunk_steps: int) -> Callable:
+    """jit(chunk of `chunk_steps` control steps for all robots); cached per env and source."""
+    course_end_x = env.terrain.course_end_x
+
+    def chunk(state, stats, act_params, first_step, num_steps, trace_index):
+        def update(stats: EpisodeStats, state: Any, offset: jax.Array) -> EpisodeStats:
+            counts = stats.running & (first_step + offset < num_steps)
+            return _update_stats(stats, state, counts, course_end_x)
+
+        return episodes.run_episodes(
+            jax.vmap(env.step),
+            lambda obs: act(act_params, obs),
+            state,
+            stats,
+            update,
+            chunk_steps,
+            observe=lambda state: _snapshot(env, state, trace_index),
+        )
+
+    return jax.jit(chunk)
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_reset(env: env_lib.QuadrupedEnv) -> Callable:
+    return jax.jit(jax.vmap(env.reset))
+
+
+def rollout(
+    env: env_lib.QuadrupedEnv,
+    source: sources.ActionSource,
+    *,
+    num_envs: int,
+    num_steps: int,
+    seed: int = 0,
+    trace_index: int = 0,
+    act_params: Any = None,
+    progress: Callable[[int, int], None] | None = None,
+    chunk_steps: int = CHUNK_STEPS,
+) -> Rollout:
+    """Runs `num_envs` robots for at most `num_steps` control steps each, deterministically.
+
+    Args:
+      act_params: overrides `source.params` (e.g. (num_envs, 5) fixed parameters, one row per
+        robot, for a search).
+      progress: called as progress(steps_done, num_steps) after each compiled chunk.
+    """
+    if num_envs < 1 or num_steps < 1:
+        raise ValueError(f"num_envs and num_steps must be >= 1; got {num_envs}, {num_steps}")
+    if not 0 <= trace_index < num_envs:
+        raise ValueError(f"trace episode {trace_index} is not in 0..{num_envs - 1}")
+    params = source.params if act_params is None else act_params
+    if source.kind == "fixed":  # parameters -> the constant actions that command them here
+        params = jnp.broadcast_to(jnp.asarray(params, jnp.float32), (num_envs, 5))
+        params = env.action_for(oscillator.RhythmParameters(*jnp.moveaxis(params, -1, 0)))
+    chunk = _compiled_chunk(env, source.act, chunk_steps)
+    state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs))
+    start_qpos = np.asarray(state.pipeline_state.qpos[trace_index])
+    stats = _initial_stats(state, num_envs)
+    traces = []
+    done = 0
+    while done < num_steps:
+        state, stats, trace = chunk(
+            state, stats, params, jnp.int32(done), jnp.int32(num_steps), jnp.int32(trace_index)
+        )
+        traces.append(jax.device_get(trace))
+        done = min(done + chunk_steps, num_steps)
+        if progress is not None:
+            progress(done, num_steps)
+        if not bool(stats.running.any()):
+            break
+    trace = {key: np.concatenate([t[key] for t in traces])[:num_steps] for key in traces[0]}
+    qpos = trace.pop("qpos")
+    return Rollout(stats=jax.device_get(stats), trace=trace, qpos=qpos, start_qpos=start_qpos)
+

@@ -1,0 +1,151 @@
+"""Checks of a trainer config before anything is built or written: consistent values, and a
+training state that fits in the device's memory."""
+
+import math
+import os
+from typing import Any
+
+import jax
+import ml_collections
+
+from quadcos.overrides import flat_keys
+from quadcos.training import config as config_lib
+from quadcos.training import sac
+
+# Config fields that size device arrays (or index them with int32).
+_SHAPES = (
+    "num_envs",
+    "batch_size",
+    "replay_size",
+    "episode_length",
+    "steps_per_chunk",
+    "updates_per_step",
+    "num_eval_envs",
+    "eval_episode_length",
+)
+
+class ConfigError(ValueError):
+    """The config cannot run: inconsistent values, or more memory than the device has.
+
+    `train` raises it before writing anything.
+    """
+
+
+def check_config(config: ml_collections.ConfigDict) -> None:
+    """Raises ConfigError naming the first inconsistent or unknown field of a trainer config."""
+    try:
+        _check_config(config)
+        for name in _SHAPES:
+            if config[name] >= 2**31:
+                raise ValueError(f"config.{name} must be < 2**31, got {config[name]}")
+        for kind in ("policy", "q"):
+            sizes = config.hidden_sizes[kind]
+            if not all(isinstance(size, int) and 1 <= size < 2**31 for size in sizes):
+                raise ValueError(
+                    f"config.hidden_sizes.{kind} must be layer widths >= 1, got {sizes}"
+                )
+        if not (isinstance(config.noise_hold_steps, int) and config.noise_hold_steps >= 1):
+            raise ValueError(
+                f"config.noise_hold_steps must be a whole number >= 1, got {config.noise_hold_steps}"
+            )
+        if not -(2**63) <= config.seed < 2**63:
+            raise ValueError(f"config.seed must fit in 64 bits, got {config.seed}")
+        if not (0 <= config.discount <= 1 and 0 < config.tau <= 1):
+            raise ValueError(
+                f"config.discount must be in [0, 1] and config.tau in (0, 1], got"
+                f" {config.discount} and {config.tau}"
+            )
+        for name, value in (("init_alpha", config.init_alpha), *config.learning_rate.items()):
+            if not value > 0:
+                raise ValueError(f"config.{name} must be > 0, got {value}")
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
+
+
+def check_memory(trainer: sac.SACTrainer) -> None:
+    """Raises ConfigError when the training state would not fit in the device's memory.
+
+    The estimate counts what stays allocated: the training state (replay buffer and training
+    envs included) and the evaluation envs' states; not the temporaries of a step.
+    """
+    config = trainer.config
+    state = jax.eval_shape(trainer.init)
+    replay_bytes = _nbytes(state.replay)
+    env_bytes = _nbytes(state.env_state) * (1 + config.num_eval_envs / config.num_envs)
+    total = _nbytes(state) - _nbytes(state.env_state) + env_bytes
+    device = jax.devices()[0]
+    capacity = _memory_bytes(device)
+    if total > capacity:
+        raise ConfigError(
+            f"the run needs about {total / 1e9:.3g} GB (replay buffer of {config.replay_size}"
+            f" transitions: {replay_bytes / 1e9:.3g} GB; {config.num_envs} training and"
+            f" {config.num_eval_envs} evaluation envs: {env_bytes / 1e9:.3g} GB) but the"
+            f" {device.platform} device has {capacity / 1e9:.3g} GB;"
+            " lower config.replay_size or config.num_envs"
+        )
+
+
+def _nbytes(tree: Any) -> int:
+    return sum(math.prod(leaf.shape) * leaf.dtype.itemsize for leaf in jax.tree.leaves(tree))
+
+
+def _memory_bytes(device: jax.Device) -> int:
+    """Memory of an accelerator (its allocator's limit), or of the host for the CPU."""
+    stats = device.memory_stats() if device.platform != "cpu" else None
+    if stats and "bytes_limit" in stats:
+        return stats["bytes_limit"]
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def _check_config(config: ml_collections.ConfigDict) -> None:
+    """Raises ValueError naming the first inconsistent or unknown field."""
+    expected = set(flat_keys(config_lib.default_config()))
+    given = set(flat_keys(config))
+    if unknown := sorted(given - expected):
+        raise ValueError(f"unknown config keys: {unknown}")
+    if missing := sorted(expected - given):
+        raise ValueError(f"missing config keys: {missing}")
+    positive = (
+        "num_envs",
+        "num_timesteps",
+        "episode_length",
+        "batch_size",
+        "updates_per_step",
+        "replay_size",
+        "steps_per_chunk",
+        "eval_interval",
+        "num_eval_envs",
+        "eval_episode_length",
+        "checkpoint_interval",
+        "keep_checkpoints",
+    )
+    for name in positive:
+        if config[name] < 1:
+            raise ValueError(f"config.{name} must be >= 1, got {config[name]}")
+    if config.actor_warmup_steps < 0:
+        raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")
+    if config.replay_size < config.num_envs:
+        raise ValueError(
+            f"config.replay_size ({config.replay_size}) must hold one step of all"
+            f" envs (num_envs = {config.num_envs})"
+        )
+    if not 0 <= config.min_replay_size <= config.replay_size:
+        raise ValueError(
+            f"config.min_replay_size ({config.min_replay_size}) must be in"
+            f" [0, replay_size = {config.replay_size}]"
+        )
+    if config.prefill_actions not in sac.PREFILL_ACTIONS:
+        raise ValueError(
+            f"config.prefill_actions must be one of {sac.PREFILL_ACTIONS}, got {config.prefill_actions!r}"
+        )
+    if config.init_std is not None and not config.init_std > sac.MIN_STD:
+        raise ValueError(f"config.init_std must be > {sac.MIN_STD}, got {config.init_std}")
+    prefill_steps = -(-config.min_replay_size // config.num_envs) * config.num_envs
+    if prefill_steps >= config.num_timesteps:
+        raise ValueError(
+            f"no training would happen: the prefill of min_replay_size"
+            f" ({config.min_replay_size}) takes {prefill_steps} env steps >="
+            f" num_timesteps ({config.num_timesteps})"
+        )
+
+

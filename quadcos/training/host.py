@@ -1,0 +1,136 @@
+"""What the host loop does between compiled chunks besides training: the metrics window, the
+run's wall clock, stopping on SIGINT/SIGTERM and the progress line."""
+
+import logging
+import math
+import signal
+import sys
+import threading
+import time
+from typing import Any, TextIO
+
+logger = logging.getLogger(__name__)
+
+
+class Window:
+    """Chunk metrics and training time since the last metrics row."""
+
+    def __init__(self):
+        self._sums: dict[str, float] = {}
+        self._chunks = 0
+        self._steps = 0
+        self._seconds = 0.0
+
+    def add(self, chunk_metrics: dict[str, Any], steps: int, seconds: float):
+        for name, value in chunk_metrics.items():
+            self._sums[name] = self._sums.get(name, 0.0) + float(value)
+        self._chunks += 1
+        self._steps += steps
+        self._seconds += seconds
+
+    def means(self) -> dict[str, float]:
+        return {f"train/{name}": total / self._chunks for name, total in self._sums.items()}
+
+    def steps_per_second(self) -> float:
+        return self._steps / self._seconds if self._seconds > 0 else 0.0
+
+
+class Clock:
+    """Wall time of the run in seconds, continued across resumes."""
+
+    def __init__(self, offset: float):
+        self._start = time.monotonic() - offset
+
+    def __call__(self) -> float:
+        return time.monotonic() - self._start
+
+
+class SignalStop:
+    """Turns SIGINT/SIGTERM into a request to stop after the current chunk.
+
+    A second SIGINT raises KeyboardInterrupt at once. Handlers can only be
+    installed from the main thread; elsewhere signals keep their handlers.
+    """
+
+    def __init__(self):
+        self.signal_name: str | None = None
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> "SignalStop":
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self._previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        del frame
+        if self.signal_name is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.signal_name = signal.Signals(signum).name
+        logger.warning(
+            "%s received: stopping after the current chunk (SIGINT again aborts)",
+            self.signal_name,
+        )
+
+
+class Progress:
+    """One redrawn status line on a terminal, one line per row otherwise."""
+
+    _REDRAW_SECONDS = 0.2
+
+    def __init__(self, total_steps: int, enabled: bool, stream: TextIO | None = None):
+        self._total = total_steps
+        self._stream = stream or sys.stderr
+        self._enabled = enabled
+        self._tty = enabled and self._stream.isatty()
+        self._last_redraw = -math.inf
+
+    def update(self, step: int, steps_per_second: float, history: list[dict[str, Any]]) -> None:
+        now = time.monotonic()
+        if not self._tty or now - self._last_redraw < self._REDRAW_SECONDS:
+            return
+        self._last_redraw = now
+        fraction = min(step / self._total, 1.0)
+        bar = "#" * int(24 * fraction)
+        self._stream.write(
+            f"\r[{bar:<24}] {step:,}/{self._total:,} env steps"
+            f"  {steps_per_second:,.0f}/s"
+            f"  eval reward {_last_reward(history)}"
+            f"  ETA {_eta(step, self._total, steps_per_second)}\033[K"
+        )
+        self._stream.flush()
+
+    def log_row(self, row: dict[str, Any]) -> None:
+        if not self._enabled or self._tty:
+            return
+        steps_per_second = row.get("env_steps_per_s", 0.0)
+        self._stream.write(
+            f"step {row['step']:,}/{self._total:,}"
+            f"  {steps_per_second:,.0f} env steps/s"
+            f"  eval reward {_last_reward([row])}"
+            f"  fall rate {row['eval/fall_rate']:.2f}"
+            f"  ETA {_eta(row['step'], self._total, steps_per_second)}\n"
+        )
+        self._stream.flush()
+
+    def close(self) -> None:
+        if self._tty:
+            self._stream.write("\n")
+            self._stream.flush()
+
+
+def _last_reward(history: list[dict[str, Any]]) -> str:
+    if not history:
+        return "-"
+    return f"{history[-1]['eval/episode_reward']:.4g}"
+
+
+def _eta(step: int, total: int, steps_per_second: float) -> str:
+    if steps_per_second <= 0:
+        return "-"
+    seconds = int(max(total - step, 0) / steps_per_second)
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
