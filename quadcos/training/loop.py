@@ -108,6 +108,7 @@ def train(
     eval_env: envs.Env | None = None,
     resume: bool = False,
     progress: bool = True,
+    progress_bar: bool = True,
     extra_run_info: dict[str, Any] | None = None,
 ) -> TrainResult:
     """Trains a SAC policy on `env`.
@@ -124,6 +125,7 @@ def train(
         replay and env shapes.
       progress: report progress on stderr (a redrawn line on a terminal, one
         line per evaluation otherwise).
+      progress_bar: False prints the one line per evaluation on a terminal too.
       extra_run_info: JSON-serialisable data stored in config.json under
         `run_info` (e.g. the env config).
 
@@ -189,7 +191,7 @@ def train(
                 log,
                 stop,
                 _Clock(wall_time_offset),
-                _Progress(config.num_timesteps, enabled=progress),
+                _Progress(config.num_timesteps, enabled=progress, bar=progress_bar),
             )
     finally:
         if log is not None:
@@ -239,7 +241,9 @@ def _train_loop(
     if step == 0:
         record({"step": 0, "wall_time_s": clock(), **evaluate(state)})
     # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
-    if int(state.replay.size) < config.min_replay_size and step < config.num_timesteps:
+    prefill = int(state.replay.size) < config.min_replay_size and step < config.num_timesteps
+    _log_final_step(config, step + prefill * trainer.num_prefill_steps * config.num_envs)
+    if prefill:
         state = trainer.prefill(state)
         step = int(state.env_steps)
 
@@ -288,6 +292,24 @@ def _train_loop(
     return state, history
 
 
+def _log_final_step(config: ml_collections.ConfigDict, first_chunk_step: int) -> None:
+    """Says where training will end when whole chunks overshoot `num_timesteps`."""
+    chunk = config.num_envs * config.steps_per_chunk
+    chunks = max(-(-(config.num_timesteps - first_chunk_step) // chunk), 0)
+    final_step = first_chunk_step + chunks * chunk
+    if final_step != config.num_timesteps:
+        logger.info(
+            "training ends at env step %s, not num_timesteps=%s: it takes whole chunks of %s env"
+            " steps (num_envs %d x steps_per_chunk %d) from env step %s (after the prefill)",
+            f"{final_step:,}",
+            f"{config.num_timesteps:,}",
+            f"{chunk:,}",
+            config.num_envs,
+            config.steps_per_chunk,
+            f"{first_chunk_step:,}",
+        )
+
+
 def _crossed(previous_step: int, step: int, interval: int) -> bool:
     return step // interval > previous_step // interval
 
@@ -334,7 +356,8 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 f"config.discount must be in [0, 1] and config.tau in (0, 1], got"
                 f" {config.discount} and {config.tau}"
             )
-        for name, value in (("init_alpha", config.init_alpha), *config.learning_rate.items()):
+        learning_rates = {f"learning_rate.{name}": rate for name, rate in config.learning_rate.items()}
+        for name, value in (("init_alpha", config.init_alpha), *learning_rates.items()):
             if not value > 0:
                 raise ValueError(f"config.{name} must be > 0, got {value}")
     except ValueError as error:
@@ -546,11 +569,13 @@ class _Progress:
 
     _REDRAW_SECONDS = 0.2
 
-    def __init__(self, total_steps: int, enabled: bool, stream: TextIO | None = None):
+    def __init__(
+        self, total_steps: int, enabled: bool, bar: bool = True, stream: TextIO | None = None
+    ):
         self._total = total_steps
         self._stream = stream or sys.stderr
         self._enabled = enabled
-        self._tty = enabled and self._stream.isatty()
+        self._tty = enabled and bar and self._stream.isatty()
         self._last_redraw = -math.inf
 
     def update(self, step: int, steps_per_second: float, history: list[dict[str, Any]]) -> None:
@@ -572,11 +597,19 @@ class _Progress:
         if not self._enabled or self._tty:
             return
         steps_per_second = row.get("env_steps_per_s", 0.0)
+        # Env metrics that a generic Brax env may not log.
+        extras = "".join(
+            f"  {label} {row[key]:.3g}{unit}"
+            for key, label, unit in (
+                ("eval/forward_speed", "speed", " m/s"),
+                ("eval/fall_rate", "fall rate", ""),
+            )
+            if key in row
+        )
         self._stream.write(
             f"step {row['step']:,}/{self._total:,}"
             f"  {steps_per_second:,.0f} env steps/s"
-            f"  eval reward {_last_reward([row])}"
-            f"  fall rate {row['eval/fall_rate']:.2f}"
+            f"  eval reward {_last_reward([row])}{extras}"
             f"  ETA {_eta(row['step'], self._total, steps_per_second)}\n"
         )
         self._stream.flush()
