@@ -330,6 +330,7 @@ scalars = st.one_of(st.floats(), st.integers(), st.text(max_size=3), st.none(), 
 @hypothesis.given(
     st.lists(
         st.one_of(
+            st.builds(terrain.Section, scalars, scalars),
             st.tuples(scalars, scalars),
             st.lists(st.floats(), max_size=3),
             st.none(),
@@ -338,7 +339,7 @@ scalars = st.one_of(st.floats(), st.integers(), st.text(max_size=3), st.none(), 
         max_size=4,
     )
 )
-@hypothesis.example([(10**400, 5.0)])
+@hypothesis.example([terrain.Section(5.0, 10**400)])
 def test_fuzzed_section_lists_give_a_terrain_or_a_one_line_value_error(segments):
     try:
         ground = terrain.sections(segments)
