@@ -573,7 +573,7 @@ class _Progress:
         self, total_steps: int, enabled: bool, bar: bool = True, stream: TextIO | None = None
     ):
         self._total = total_steps
-        self._stream = stream or sys.stderr
+        self._stream = sys.stderr if stream is None else stream
         self._enabled = enabled
         self._tty = enabled and bar and self._stream.isatty()
         self._last_redraw = -math.inf
