@@ -120,7 +120,7 @@ FLAGS = {
 }
 
 
-logger = logging.getLogger(__name__)
+logger = logging.getLogger("quadcos.train")  # also when run as __main__
 
 
 class UsageError(ValueError):

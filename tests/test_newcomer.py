@@ -136,18 +136,22 @@ def test_resume_past_a_corrupt_checkpoint_says_so_in_one_line(smoke_run, tmp_pat
     assert result.stdout == f"{run_dir}\n"
     lines = result.stderr.splitlines()
     assert "Traceback" not in result.stderr and "Event loop" not in result.stderr
-    fallback = [line for line in lines if "checkpoint" in line]
-    assert len(fallback) == 1 and f"checkpoint {latest} cannot be read" in fallback[0]
-    assert "likely truncated or damaged" in fallback[0] and "previous one" in fallback[0]
+    # The fallback: one warning naming the file and the cause, one line naming what is used.
+    assert f"warning: checkpoint {latest} cannot be read" in lines[0]
+    assert "likely truncated or damaged" in lines[0] and "previous one" in lines[0]
+    assert lines[1].endswith(f"resuming from {run_dir / 'checkpoints' / str(steps[-2])}")
     final = steps[-2] + 256 + 3 * 128  # the prefill, then chunks of 4 envs x 32 steps
-    assert f"training ends at env step {final:,}, not num_timesteps={total:,}" in lines[1]
-    progress = [line for line in lines if line.startswith("step ")]
+    assert f"training ends at env step {final:,}, not num_timesteps={total:,}" in lines[2]
+    progress = lines[3:-1]
     assert progress and all(
-        re.fullmatch(r"step [\d,]+/[\d,]+  [\d,]+ env steps/s  eval reward \S+  speed \S+ m/s"
-                     r"  fall rate \S+  ETA \S+", line)
+        re.fullmatch(
+            r"step [\d,]+/[\d,]+  [\d,]+ env steps/s  eval reward \S+  speed \S+ m/s"
+            r"  fall rate \S+  ETA \S+",
+            line,
+        )
         for line in progress
-    ), progress
-    assert len(lines) == 2 + len(progress) + 1, lines  # + "env step N: policy in ..."
+    ), lines
+    assert lines[-1] == f"quadcos.train: env step {final:,}: policy in {run_dir / 'policy'}"
 
 
 def test_the_cpu_presets_rounding_is_stated(caplog):
