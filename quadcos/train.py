@@ -250,7 +250,8 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
             for key, value in overrides.items()
             if isinstance(value, float) and not math.isfinite(value)
         }
-        config = apply_overrides(config, {k: v for k, v in overrides.items() if k not in non_finite})
+        finite = {key: value for key, value in overrides.items() if key not in non_finite}
+        config = apply_overrides(config, finite)
         # apply_overrides refuses non-finite floats before any range check: set them here, so
         # that the checks below name the allowed range.
         for key, value in non_finite.items():
@@ -269,7 +270,8 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
             training.check_config(config.sac)
         except training.ConfigError as error:  # it names fields as config.<sac key>
             raise ValueError(re.sub(r"\bconfig\.", "config.sac.", str(error))) from None
-        for key, value in non_finite.items():
+        if non_finite:  # in range, as far as the checks above know
+            key, value = next(iter(non_finite.items()))
             raise ValueError(f"bad value {value} for config key {key!r}: it must be finite")
     except (ValueError, TypeError) as error:
         raise UsageError(str(error)) from None
@@ -326,7 +328,8 @@ def _finished_run_message(run_dir: pathlib.Path, num_timesteps: int) -> str | No
     """What to tell a --resume of a run that has its policy and a checkpoint at or past
     `num_timesteps`; None when there is training left to do."""
     checkpoints = run_dir / "checkpoints"
-    steps = [int(path.name) for path in checkpoints.iterdir() if path.name.isdigit()]
+    names = [path.name for path in checkpoints.iterdir()] if checkpoints.is_dir() else []
+    steps = [int(name) for name in names if name.isdigit()]
     if not (run_dir / "policy").is_dir() or not steps or max(steps) < num_timesteps:
         return None
     return (

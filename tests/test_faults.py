@@ -187,8 +187,9 @@ DAMAGE = {
 }
 
 
-# Orbax leaves callbacks behind after the failed read; they fire on a closed event loop.
-@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+# Orbax leaves reads behind after the failed one; their callbacks fire on a closed event loop and
+# used to print hundreds of tracebacks: restore_latest silences them.
+@pytest.mark.filterwarnings("error::pytest.PytestUnraisableExceptionWarning")
 @pytest.mark.parametrize("damage", DAMAGE)
 def test_a_damaged_latest_checkpoint_is_named_and_the_previous_one_used(
     toy_state, tmp_path, caplog, damage

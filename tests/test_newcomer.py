@@ -1,5 +1,5 @@
-"""A newcomer's first hour (issue 18): the cases of its table that the training CLI, the terrain API,
-the Makefile and the notebooks answer, each asserting the fixed behaviour at smoke size.
+"""A newcomer's first hour (issue 18): the cases of its table that the training CLI, the terrain
+API, the Makefile and the notebooks answer, each asserting the fixed behaviour at smoke size.
 
 Elsewhere: the README's blocks (tests/test_readme.py, case 10's command lines).
 """
@@ -131,7 +131,9 @@ def test_resume_past_a_corrupt_checkpoint_says_so_in_one_line(smoke_run, tmp_pat
     for path in (latest / "state" / "d").iterdir():  # the array data, cut in half
         path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
     total = steps[-1] + 100  # not a whole number of chunks from the previous checkpoint
-    result = run_cli(f"--output_dir={run_dir}", "--resume", f"--num_timesteps={total}", "--no_progress")
+    result = run_cli(
+        f"--output_dir={run_dir}", "--resume", f"--num_timesteps={total}", "--no_progress"
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     assert result.stdout == f"{run_dir}\n"
     lines = result.stderr.splitlines()

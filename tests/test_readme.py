@@ -62,8 +62,9 @@ def test_readme_custom_terrain_commands_build_their_envs(registry, tmp_path, mon
         assert command[:3] == ["python", "-m", "quadcos.train"], command
         with mock.patch.object(training, "train", side_effect=fake_train):
             assert train.main(command[3:]) == 0, command
-    assert set(built) == {"my_courses:hills", "my_courses:climb", "heightfield:course.npy;x_range=-2,10"}
+    heightfield = "heightfield:course.npy;x_range=-2,10"
+    assert set(built) == {"my_courses:hills", "my_courses:climb", heightfield}
     assert built["my_courses:hills"].name == "hills"
     assert built["my_courses:climb"].course_end_x == 4.0  # 2 m lead-in, 2 m at 4°
-    assert built["heightfield:course.npy;x_range=-2,10"].extent[:2] == (-2.0, 10.0)
+    assert built[heightfield].extent[:2] == (-2.0, 10.0)
     sys.modules.pop("my_courses", None)

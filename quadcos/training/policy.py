@@ -155,7 +155,8 @@ def load_policy(path: str | os.PathLike[str]) -> Policy:
 def _unreadable(path: Path, cause: str, error: Exception) -> ValueError:
     detail = str(error).splitlines()[0] if str(error) else ""
     return ValueError(
-        f"policy file {path} cannot be read, likely {cause} ({type(error).__name__}: {detail:.200});"
+        f"policy file {path} cannot be read, likely {cause}"
+        f" ({type(error).__name__}: {detail:.200});"
         " copy it again from its run directory"
     )
 
