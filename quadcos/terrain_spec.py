@@ -7,7 +7,7 @@
   returning one; when MODULE has no attribute NAME, the terrain that importing it registered as
   NAME (`terrain.register`). E.g. `--terrain=my_courses:hills` for `hills` in ./my_courses.py.
 - `heightfield:FILE.npy[;x_range=MIN,MAX][;y_range=MIN,MAX][;course_end_x=X]`: ground heights
-  in m from a NumPy file, a (ny, nx) array (rows along y, columns along x) or an (nx,) profile
+  in m from a NumPy file (a relative FILE from the current directory), a (ny, nx) array (rows along y, columns along x) or an (nx,) profile
   along x, spread evenly over the ranges (m; defaults as `terrain.heightfield`'s: x from -2 to
   20, y from -2 to 2). Heights are absolute; the robot spawns at x = 0, y = 0.
 """
