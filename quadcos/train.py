@@ -178,7 +178,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--numbered",
         action="store_true",
-        help="when --output_dir already holds files, use the first free DIR-2, DIR-3, ...",
+        help=(
+            "when --output_dir already holds files, start the new run in the first free DIR-2,"
+            " DIR-3, ... (ignored with --resume)"
+        ),
     )
     parser.add_argument(
         "--resume",
@@ -352,8 +355,6 @@ def _main(argv: list[str]) -> int:
     try:
         args, overrides = resolve(argv)
         run_dir = pathlib.Path(args.output_dir) if args.output_dir else None
-        if args.resume and args.numbered:
-            raise UsageError("--numbered starts a new run; it cannot go with --resume")
         if args.resume:
             config = build_config(_saved_config(run_dir), overrides)
         else:
@@ -364,7 +365,7 @@ def _main(argv: list[str]) -> int:
         if args.resume and (message := _finished_run_message(run_dir, config.sac.num_timesteps)):
             logger.info("%s", message)
             return 0
-        if args.numbered and run_dir is not None:
+        if args.numbered and not args.resume and run_dir is not None:
             run_dir = _numbered_dir(run_dir)
         _check_output_dir(run_dir, args.resume)
         env = env_lib.QuadrupedEnv(

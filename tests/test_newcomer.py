@@ -60,8 +60,6 @@ def test_a_second_run_into_a_taken_dir_gets_the_next_number(tmp_path, capsys, mo
             outputs.append(capsys.readouterr())
     assert [output.out for output in outputs] == ["runs/flat\n", "runs/flat-2\n", "runs/flat-3\n"]
     assert "runs/flat already holds a run; this run goes to runs/flat-3" in outputs[2].err
-    assert train.main(argv + ["--resume"]) == 2
-    assert "--numbered" in one_error_line(capsys)
 
 
 def test_make_train_numbers_its_runs_and_make_clean_keeps_them():
