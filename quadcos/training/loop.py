@@ -299,14 +299,14 @@ def _log_final_step(config: ml_collections.ConfigDict, first_chunk_step: int) ->
     final_step = first_chunk_step + chunks * chunk
     if final_step != config.num_timesteps:
         logger.info(
-            "training ends at env step %s, not num_timesteps=%s: it takes whole chunks of %s env"
-            " steps (num_envs %d x steps_per_chunk %d) from env step %s (after the prefill)",
+            "training ends at env step %s, not num_timesteps=%s: from env step %s on it takes"
+            " whole chunks of %s env steps (num_envs %d x steps_per_chunk %d)",
             f"{final_step:,}",
             f"{config.num_timesteps:,}",
+            f"{first_chunk_step:,}",
             f"{chunk:,}",
             config.num_envs,
             config.steps_per_chunk,
-            f"{first_chunk_step:,}",
         )
 
 
