@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 TRAIN_ARGS ?=
 
-.PHONY: install test test-fast train clean
+.PHONY: install test test-fast train notebooks clean
 
 install: $(STAMP)
 
@@ -22,9 +22,20 @@ test: $(STAMP)
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"
 
-# The paper's flat experiment at CPU scale (see README for how long it takes).
+# The paper's flat experiment at CPU scale (see README for how long it takes). A second
+# `make train` writes runs/flat-2 (then -3, ...) and says so; the run directory ends up on stdout.
 train: $(STAMP)
-	$(BIN)/python -m quadcos.train --preset=cpu --terrain=flat --output_dir=runs/flat $(TRAIN_ARGS)
+	$(BIN)/python -m quadcos.train --preset=cpu --terrain=flat --output_dir=runs/flat --numbered $(TRAIN_ARGS)
 
+# Jupyter (the `notebooks` extra) into .venv, then JupyterLab on notebooks/ (it prints the URL).
+notebooks: $(VENV)/.notebooks-stamp
+	$(BIN)/jupyter lab notebooks
+
+$(VENV)/.notebooks-stamp: $(STAMP)
+	$(BIN)/python -m pip install -q -e ".[notebooks,plots,video]"
+	touch $@
+
+# Keeps runs/: trained runs are results, not build products.
 clean:
 	rm -rf $(VENV) .jax_cache .pytest_cache
+	@if [ -d runs ]; then echo "make clean: kept runs/ (your trained runs); delete it yourself with rm -rf runs" >&2; fi

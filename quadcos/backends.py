@@ -15,7 +15,11 @@ import importlib.util
 
 import jax
 import ml_collections
-from mujoco import mjx
+
+from quadcos.quiet import warp_absence_unprinted
+
+with warp_absence_unprinted():  # MJX prints a notice to stdout when warp-lang is absent
+    from mujoco import mjx
 
 IMPLS = ("auto", "jax", "warp")
 INSTALL_HINT = "pip install 'quadcos[warp]'  (warp-lang; MJX's Warp backend needs a CUDA GPU)"

@@ -12,12 +12,16 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 import ml_collections
-from brax.envs import base
-from mujoco import mjx
 
 from quadcos import backends, constants, oscillator, reward, robot, slope
 from quadcos import terrain as terrain_lib
 from quadcos.overrides import apply_overrides
+from quadcos.quiet import warp_absence_unprinted
+
+# The first import of MJX in a quadcos process (brax imports it too).
+with warp_absence_unprinted():
+    from brax.envs import base
+    from mujoco import mjx
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")

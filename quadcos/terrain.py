@@ -18,6 +18,7 @@ import itertools
 import math
 import re
 from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -41,6 +42,13 @@ _SECTIONS_FORMAT = (
     "sections:ANGLE_DEG@LENGTH_M[,ANGLE_DEG@LENGTH_M...][;lead_in=M][;run_out=M][;resolution=M]"
 )
 _NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_.-]*")
+
+
+class Section(NamedTuple):
+    """One straight section of a course, in the order of the CLI's `sections:ANGLE@LENGTH`."""
+
+    angle_deg: float  # > 0 uphill along +x
+    length_m: float
 
 
 def _format_number(value: float) -> str:
@@ -88,7 +96,7 @@ def flat() -> Terrain:
 
 
 def sections(
-    segments: Sequence[tuple[float, float]],
+    segments: Sequence[Section],
     *,
     lead_in: float = _SECTIONS_DEFAULTS["lead_in"],
     run_out: float = _SECTIONS_DEFAULTS["run_out"],
@@ -102,8 +110,9 @@ def sections(
     heightfield spans x from -2 m to `course_end_x + run_out` and y from -3 to 3 m.
 
     Args:
-      segments: (length_m, angle_deg) per section, in order; angle > 0 is uphill along +x.
-        Each length >= 1 mm, each |angle| <= 45°, total length <= 200 m.
+      segments: a `Section(angle_deg, length_m)` per section, in order; angle > 0 is uphill
+        along +x. Each length >= 1 mm, each |angle| <= 45°, total length <= 200 m. Plain tuples
+        are refused: this function took (length_m, angle_deg) before Section existed.
       lead_in: flat ground between the spawn point and the first section, m; in [0, 200].
       run_out: flat ground after the last section, m; in (0, 200].
       resolution: x cell size of the MuJoCo heightfield, m; > 0.
@@ -116,17 +125,17 @@ def sections(
       ValueError: naming the bad segment (index and value) or argument.
     """
     if len(segments) == 0:
-        raise ValueError("segments is empty; expected at least one (length_m, angle_deg)")
+        raise ValueError("segments is empty; expected at least one Section(angle_deg, length_m)")
     lengths, angles_deg = [], []
     for index, segment in enumerate(segments):
-        try:
-            raw_length, raw_angle = segment
-        except (TypeError, ValueError):
+        if not isinstance(segment, Section):
             raise ValueError(
-                f"segment {index}: expected (length_m, angle_deg), got {segment!r}"
-            ) from None
-        length = _finite(f"segment {index} length_m", raw_length)
-        angle_deg = _finite(f"segment {index} angle_deg", raw_angle)
+                f"segment {index}: expected a terrain.Section(angle_deg, length_m), got"
+                f" {segment!r} (plain tuples are refused: sections took (length_m, angle_deg)"
+                " before)"
+            )
+        length = _finite(f"segment {index} length_m", segment.length_m)
+        angle_deg = _finite(f"segment {index} angle_deg", segment.angle_deg)
         if length < _MIN_SECTION_LENGTH:
             raise ValueError(
                 f"segment {index} length_m must be >= {_MIN_SECTION_LENGTH:g}, got {length}"
@@ -249,12 +258,12 @@ def heightfield(
 
 def _slope5() -> Terrain:
     """Paper Fig. 10: 5° uphill, 0°, 5° downhill, 3 m each."""
-    return sections([(3.0, 5.0), (3.0, 0.0), (3.0, -5.0)])
+    return sections([Section(5.0, 3.0), Section(0.0, 3.0), Section(-5.0, 3.0)])
 
 
 def _s4() -> Terrain:
     """Paper Fig. 16, the unseen course S-4: 5°, 0°, 9°, 0° of 1.4, 1.4, 1.2, 1.4 m."""
-    return sections([(1.4, 5.0), (1.4, 0.0), (1.2, 9.0), (1.4, 0.0)])
+    return sections([Section(5.0, 1.4), Section(0.0, 1.4), Section(9.0, 1.2), Section(0.0, 1.4)])
 
 
 _REGISTRY: dict[str, Terrain | Callable[[], Terrain]] = {"flat": flat, "slope5": _slope5, "s4": _s4}
@@ -300,7 +309,9 @@ def parse(spec: str) -> Terrain:
       - a registered name (`flat`, `slope5`, `s4`, ...); the terrain comes back with `name` and
         `spec` set to that name;
       - `sections:ANGLE_DEG@LENGTH_M,...` with optional `;lead_in=M`, `;run_out=M`,
-        `;resolution=M` (see `sections`), e.g. `sections:5@1.4,0@1.4,9@1.2,0@1.4`.
+        `;resolution=M` (see `sections`), e.g. `sections:5@1.4,0@1.4,9@1.2,0@1.4`;
+      - `MODULE:NAME` (a terrain from the user's module) and `heightfield:FILE.npy;...` (heights
+        from a NumPy file): see `quadcos.terrain_spec`.
 
     Raises:
       ValueError: unknown name or malformed sections spec, naming the bad token.
@@ -311,9 +322,14 @@ def parse(spec: str) -> Terrain:
     text = spec.strip()
     if text.startswith(_SECTIONS_PREFIX):
         return _parse_sections(text)
+    from quadcos import terrain_spec  # pylint: disable=g-import-not-at-top  (it imports this)
+
+    if (external := terrain_spec.parse_external(text)) is not None:
+        return external
     if text not in _REGISTRY:
         raise ValueError(
-            f"unknown terrain {spec!r}; known: {', '.join(names())}, or {_SECTIONS_FORMAT}"
+            f"unknown terrain {spec!r}; known: {', '.join(names())}, {_SECTIONS_FORMAT},"
+            f" {terrain_spec.HEIGHTFIELD_FORMAT} or {terrain_spec.MODULE_FORMAT}"
         )
     entry = _REGISTRY[text]
     terrain = entry if isinstance(entry, Terrain) else entry()
@@ -339,7 +355,7 @@ def _parse_sections(spec: str) -> Terrain:
         try:
             if not at:
                 raise ValueError
-            segments.append((float(length), float(angle_deg)))
+            segments.append(Section(float(angle_deg), float(length)))
         except ValueError:
             raise ValueError(
                 f"bad section {token!r} in {spec!r}: expected ANGLE_DEG@LENGTH_M"

@@ -5,17 +5,24 @@
     python -m quadcos.train --preset=smoke --config.sac.batch_size=128 --config.env.reward.yaw=0
 
 Every value of the resolved config (`--print_config` shows it) can be overridden with
-`--config.<dotted.key>=<value>`. Bad flags, values or terrain specs exit with one line on stderr
-and status 2, before anything is written.
+`--config.<dotted.key>=<value>` (a group key such as `--config.sac.learning_rate=1e-3` sets all
+of its values). Bad flags, values or terrain specs exit with one line on stderr and status 2,
+before anything is written. stdout carries only the config JSON (`--print_config`) or the run
+directory at the end; logs and progress go to stderr.
 """
 
 import argparse
 import ast
+import contextlib
 import json
+import logging
+import math
 import os
 import pathlib
+import re
 import sys
-from collections.abc import Sequence
+import tempfile
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import ml_collections
@@ -23,7 +30,7 @@ import ml_collections
 from quadcos import caches
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
-from quadcos.overrides import apply_overrides
+from quadcos.overrides import apply_overrides, flat_keys
 
 # Presets: overrides of the default config, applied before the flags.
 # SAC set up to start from the env's action centre (the fixed trot) and explore around it: a fresh
@@ -114,6 +121,9 @@ FLAGS = {
 }
 
 
+logger = logging.getLogger("quadcos.train")  # also when run as __main__
+
+
 class UsageError(ValueError):
     """A user error on the command line: reported as one line, exit status 2."""
 
@@ -129,10 +139,15 @@ def default_config() -> ml_collections.ConfigDict:
 
 
 def _parse_value(text: str) -> Any:
-    """A flag value as a Python literal when it is one (1e-3, (64, 64), True), else a string."""
+    """A flag value as a Python literal when it is one (1e-3, (64, 64), True), a float for nan
+    and inf, else a string."""
     try:
         return ast.literal_eval(text)
     except (ValueError, SyntaxError):
+        pass
+    try:
+        return float(text)
+    except ValueError:
         return text
 
 
@@ -149,7 +164,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--terrain",
-        help=f"terrain name or spec: {', '.join(terrain_lib.names())} or sections:ANGLE@LENGTH,... (default: flat)",
+        help=(
+            f"terrain: {', '.join(terrain_lib.names())}, sections:ANGLE@LENGTH,...,"
+            " heightfield:FILE.npy;x_range=MIN,MAX;y_range=MIN,MAX, or MODULE:NAME (a Terrain,"
+            " factory or registered name from your module) (default: flat)"
+        ),
     )
     parser.add_argument("--num_envs", type=int, help="parallel training envs")
     parser.add_argument(
@@ -157,6 +176,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--seed", type=int, help="seed of everything random")
     parser.add_argument("--output_dir", help="run directory (config, metrics, checkpoints, policy)")
+    parser.add_argument(
+        "--numbered",
+        action="store_true",
+        help=(
+            "when --output_dir already holds files, start the new run in the first free DIR-2,"
+            " DIR-3, ... (ignored with --resume)"
+        ),
+    )
     parser.add_argument(
         "--resume",
         action="store_true",
@@ -220,13 +247,48 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
     from quadcos import training
 
     try:
-        config = apply_overrides(apply_overrides(default_config(), base), overrides)
+        config = apply_overrides(default_config(), base)
+        overrides = _expand_groups(overrides, flat_keys(config))
+        non_finite = {
+            key: value
+            for key, value in overrides.items()
+            if isinstance(value, float) and not math.isfinite(value)
+        }
+        finite = {key: value for key, value in overrides.items() if key not in non_finite}
+        config = apply_overrides(config, finite)
+        # apply_overrides refuses non-finite floats before any range check: set them here, so
+        # that the checks below name the allowed range.
+        for key, value in non_finite.items():
+            try:
+                apply_overrides(config, {key: 1.0})  # the key exists and takes floats
+            except ValueError:
+                apply_overrides(config, {key: value})  # raises naming the key and the value
+            *parents, leaf = key.split(".")
+            node = config
+            for parent in parents:
+                node = node[parent]
+            node[leaf] = value
         terrain_lib.parse(config.env.terrain)
         env_lib.validate_config(config.env)
-        training.check_config(config.sac)
-    except ValueError as error:
+        try:
+            training.check_config(config.sac)
+        except training.ConfigError as error:  # it names fields as config.<sac key>
+            raise ValueError(re.sub(r"\bconfig\.", "config.sac.", str(error))) from None
+        if non_finite:  # in range, as far as the checks above know
+            key, value = next(iter(non_finite.items()))
+            raise ValueError(f"bad value {value} for config key {key!r}: it must be finite")
+    except (ValueError, TypeError) as error:
         raise UsageError(str(error)) from None
     return config
+
+
+def _expand_groups(overrides: dict[str, Any], known: list[str]) -> dict[str, Any]:
+    """A group key (`sac.learning_rate`) as each of its values (`sac.learning_rate.actor`, ...)."""
+    expanded = {}
+    for key, value in overrides.items():
+        members = [name for name in known if name.startswith(key + ".")]
+        expanded |= dict.fromkeys(members, value) if members and key not in known else {key: value}
+    return expanded
 
 
 def _check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
@@ -245,6 +307,40 @@ def _check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
         raise UsageError(
             f"--output_dir {run_dir} cannot be created: {existing} is not a writable directory"
         )
+    try:  # os.access does not see read-only or virtual file systems (/proc)
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".quadcos-write-test-"):
+            pass
+    except OSError as error:
+        raise UsageError(
+            f"--output_dir {run_dir} cannot be written: a file in {existing} cannot be"
+            f" created ({error.strerror or error})"
+        ) from None
+
+
+def _numbered_dir(run_dir: pathlib.Path) -> pathlib.Path:
+    """`run_dir` if it holds no files, else the first free `run_dir`-2, -3, ..."""
+    candidate, number = run_dir, 1
+    while candidate.exists() and (not candidate.is_dir() or any(candidate.iterdir())):
+        number += 1
+        candidate = run_dir.with_name(f"{run_dir.name}-{number}")
+    if candidate != run_dir:
+        logger.info("%s already holds a run; this run goes to %s", run_dir, candidate)
+    return candidate
+
+
+def _finished_run_message(run_dir: pathlib.Path, num_timesteps: int) -> str | None:
+    """What to tell a --resume of a run that has its policy and a checkpoint at or past
+    `num_timesteps`; None when there is training left to do."""
+    checkpoints = run_dir / "checkpoints"
+    names = [path.name for path in checkpoints.iterdir()] if checkpoints.is_dir() else []
+    steps = [int(name) for name in names if name.isdigit()]
+    if not (run_dir / "policy").is_dir() or not steps or max(steps) < num_timesteps:
+        return None
+    return (
+        f"{run_dir} is finished (env step {max(steps):,} of num_timesteps={num_timesteps:,});"
+        f" nothing was changed. To train it further, raise the total: --output_dir={run_dir}"
+        f" --resume --num_timesteps={2 * num_timesteps}"
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -252,6 +348,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # Read when JAX starts its backend (building the env), so it is set before anything else.
     os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
+    with _logging_to_stderr():
+        return _main(argv)
+
+
+def _main(argv: list[str]) -> int:
     cache_dirs = caches.enable()
     try:
         args, overrides = resolve(argv)
@@ -263,6 +364,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.print_config:
             print(json.dumps(config.to_dict(), indent=2))
             return 0
+        if args.resume and (message := _finished_run_message(run_dir, config.sac.num_timesteps)):
+            logger.info("%s", message)
+            return 0
+        if args.numbered and not args.resume and run_dir is not None:
+            run_dir = _numbered_dir(run_dir)
         _check_output_dir(run_dir, args.resume)
         # Warp's contact buffer is shared by a batch's worlds: size it for the largest batch.
         config.env.warp.max_envs = max(
@@ -285,13 +391,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     from quadcos import training
 
     try:
-        training.train(
+        result = training.train(
             env,
             config.sac,
             run_dir,
             eval_env=eval_env,
             resume=args.resume,
-            progress=not args.no_progress,
+            progress_bar=not args.no_progress,
             extra_run_info={
                 "env": config.env.to_dict(),
                 "argv": argv,
@@ -305,6 +411,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except training.NonFiniteLossError as error:
         _print_error(error)
         return 1
+    logger.info("env step %s: policy in %s", f"{result.env_steps:,}", run_dir / "policy")
+    print(run_dir)
     return 0
 
 
@@ -312,6 +420,29 @@ def _print_error(error: Exception) -> None:
     """One line on stderr, even when the message (e.g. MuJoCo's XML parser's) has several."""
     lines = (line.strip() for line in str(error).splitlines())
     print(f"quadcos.train: error: {'; '.join(filter(None, lines))}", file=sys.stderr)
+
+
+class _Formatter(logging.Formatter):
+    def format(self, record: logging.LogRecord) -> str:
+        level = "" if record.levelno < logging.WARNING else f"{record.levelname.lower()}: "
+        return f"quadcos.train: {level}{record.getMessage()}"
+
+
+@contextlib.contextmanager
+def _logging_to_stderr() -> Iterator[None]:
+    """quadcos's log records at INFO and above as "quadcos.train: ..." lines on stderr."""
+    package_logger = logging.getLogger("quadcos")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Formatter())
+    saved = package_logger.level, package_logger.propagate
+    package_logger.addHandler(handler)
+    package_logger.setLevel(logging.INFO)
+    package_logger.propagate = False
+    try:
+        yield
+    finally:
+        package_logger.removeHandler(handler)
+        package_logger.level, package_logger.propagate = saved
 
 
 def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
@@ -324,7 +455,10 @@ def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
     try:
         return runs.load_run_config(path)
     except ValueError as error:
-        raise UsageError(f"--resume: {error}") from None
+        raise UsageError(
+            f"--resume: {path} cannot be read, likely truncated or not a quadcos run config"
+            f" ({error})"
+        ) from None
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ import pytest
 from hypothesis import strategies as st
 
 from quadcos import terrain
+from quadcos.terrain import Section
 
 TAN5 = math.tan(math.radians(5.0))
 TAN9 = math.tan(math.radians(9.0))
@@ -96,7 +97,7 @@ def test_flat_is_zero_everywhere():
 
 
 def test_sections_courses_sum_lengths_as_written():
-    ground = terrain.sections([(1.4, 5), (1.2, 9)], lead_in=1.0)
+    ground = terrain.sections([Section(5, 1.4), Section(9, 1.2)], lead_in=1.0)
     assert ground.course_end_x == 3.6
     np.testing.assert_array_equal(ground.x_knots, [-2.0, 1.0, 2.4, 3.6, 6.6])
 
@@ -170,7 +171,9 @@ def test_sections_spec_round_trips_and_matches_builtin():
     np.testing.assert_array_equal(spelled.x_knots, s4.x_knots)
     np.testing.assert_array_equal(spelled.heights, s4.heights)
     assert spelled.course_end_x == s4.course_end_x
-    custom = terrain.sections([(2.5, -3.25), (1, 45)], lead_in=0, run_out=1.5, resolution=0.1)
+    custom = terrain.sections(
+        [Section(-3.25, 2.5), Section(45, 1)], lead_in=0, run_out=1.5, resolution=0.1
+    )
     assert custom.spec == "sections:-3.25@2.5,45@1;lead_in=0;run_out=1.5;resolution=0.1"
     again = terrain.parse(custom.spec)
     assert again.spec == custom.spec and again.resolution == 0.1 and again.course_end_x == 3.5
@@ -180,8 +183,8 @@ def test_sections_spec_round_trips_and_matches_builtin():
 @hypothesis.settings(max_examples=50, deadline=None)
 @hypothesis.given(
     st.lists(
-        st.tuples(st.floats(0.001, 20.0), st.floats(-45.0, 45.0)), min_size=1, max_size=10
-    ).filter(lambda segments: sum(length for length, _ in segments) <= 200.0)
+        st.builds(Section, st.floats(-45.0, 45.0), st.floats(0.001, 20.0)), min_size=1, max_size=10
+    ).filter(lambda segments: sum(segment.length_m for segment in segments) <= 200.0)
 )
 def test_any_sections_course_round_trips(segments):
     ground = terrain.sections(segments)
@@ -276,12 +279,13 @@ def test_fuzzed_specs_give_a_terrain_or_value_error(spec):
     "segments, message",
     [
         ([], "segments is empty"),
-        ([(1.0, 5.0), (2.0,)], "segment 1: expected (length_m, angle_deg)"),
-        ([(1.0, 5.0), ("a", 0.0)], "segment 1 length_m must be a number, got 'a'"),
-        ([(1.0, 5.0), (1.0, float("nan"))], "segment 1 angle_deg must be finite"),
-        ([(1.0, 5.0), (-2.0, 0.0)], "segment 1 length_m must be >= 0.001, got -2.0"),
-        ([(1.0, -45.5)], "segment 0 angle_deg must be within ±45, got -45.5"),
-        ([(100.0, 0.0), (100.5, 0.0)], "total section length 200.5 m exceeds 200 m"),
+        ([Section(5.0, 1.0), (2.0,)], "segment 1: expected a terrain.Section(angle_deg, length_m)"),
+        ([(1.0, 5.0)], "plain tuples are refused: sections took (length_m, angle_deg) before"),
+        ([Section(5.0, 1.0), Section(0.0, "a")], "segment 1 length_m must be a number, got 'a'"),
+        ([Section(5.0, 1.0), Section(float("nan"), 1.0)], "segment 1 angle_deg must be finite"),
+        ([Section(5.0, 1.0), Section(0.0, -2.0)], "segment 1 length_m must be >= 0.001, got -2.0"),
+        ([Section(-45.5, 1.0)], "segment 0 angle_deg must be within ±45, got -45.5"),
+        ([Section(0.0, 100.0), Section(0.0, 100.5)], "total section length 200.5 m exceeds 200 m"),
     ],
 )
 def test_bad_sections_raise_naming_the_segment(segments, message):
@@ -319,7 +323,7 @@ def registry(monkeypatch):
 def test_register_and_get_custom_terrain(registry):
     bumps = terrain.heightfield(_bumps, x_range=(-2, 6), name="my bumps")
     terrain.register("bumps", bumps)
-    terrain.register("steep", lambda: terrain.sections([(2.0, 20.0)]))
+    terrain.register("steep", lambda: terrain.sections([Section(20.0, 2.0)]))
     assert {"bumps", "steep"} <= set(terrain.names())
     got = terrain.get("bumps")
     assert got.name == got.spec == "bumps"

@@ -1,11 +1,14 @@
 """Orbax checkpoints of the full training state, with fallback on corruption."""
 
+import contextlib
 import dataclasses
 import logging
 import os
 from pathlib import Path
 import shutil
+import sys
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import jax
@@ -63,18 +66,20 @@ class CheckpointStore:
     def __init__(self, directory: str | os.PathLike[str], keep: int):
         """Opens (creating if needed) `directory`, keeping the newest `keep`."""
         self.directory = Path(directory).absolute()
-        self._manager = ocp.CheckpointManager(
-            self.directory,
-            options=ocp.CheckpointManagerOptions(
-                max_to_keep=keep, create=True, enable_async_checkpointing=False
-            ),
-            # Handlers named up front, so that item_metadata reads a checkpoint's shapes
-            # before anything was saved or restored through this manager.
-            item_handlers={
-                "state": ocp.StandardCheckpointHandler(),
-                "meta": ocp.JsonCheckpointHandler(),
-            },
-        )
+        # Opening reads each checkpoint's metadata; a damaged one is reported on restore.
+        with _failed_reads_quiet():
+            self._manager = ocp.CheckpointManager(
+                self.directory,
+                options=ocp.CheckpointManagerOptions(
+                    max_to_keep=keep, create=True, enable_async_checkpointing=False
+                ),
+                # Handlers named up front, so that item_metadata reads a checkpoint's shapes
+                # before anything was saved or restored through this manager.
+                item_handlers={
+                    "state": ocp.StandardCheckpointHandler(),
+                    "meta": ocp.JsonCheckpointHandler(),
+                },
+            )
 
     def steps(self) -> list[int]:
         """Env steps of the checkpoints on disk, oldest first."""
@@ -112,6 +117,10 @@ class CheckpointStore:
         Raises:
           ShapeMismatchError: the newest readable checkpoint does not fit `template`.
         """
+        with _failed_reads_quiet():
+            return self._restore_latest(template)
+
+    def _restore_latest(self, template: TrainingState) -> Restored | None:
         for step in reversed(self.steps()):
             try:
                 meta = self._manager.restore(
@@ -130,13 +139,15 @@ class CheckpointStore:
             except ShapeMismatchError:
                 raise
             except Exception as error:  # orbax/tensorstore raise many types
+                moved_to = self._quarantine(step)
                 logger.warning(
-                    "checkpoint %s cannot be read (%s: %s); falling back to the previous one",
+                    "checkpoint %s cannot be read, likely truncated or damaged (%s: %.200s);"
+                    " moved to %s, falling back to the previous one",
                     self.path(step),
                     type(error).__name__,
                     str(error).splitlines()[0] if str(error) else "",
+                    moved_to,
                 )
-                self._quarantine(step)
                 continue
             return Restored(state=template.replace(**restored), step=step, meta=meta)
         return None
@@ -158,11 +169,13 @@ class CheckpointStore:
             " replay_size, hidden_sizes, env observations)"
         )
 
-    def _quarantine(self, step: int) -> None:
+    def _quarantine(self, step: int) -> Path:
         target = self.directory.with_name(self.directory.name + "_corrupt")
         target.mkdir(exist_ok=True)
-        shutil.move(self.path(step), target / f"{step}-{int(time.time())}")
+        moved_to = target / f"{step}-{int(time.time())}"
+        shutil.move(self.path(step), moved_to)
         self._manager.reload()
+        return moved_to
 
     def close(self) -> None:
         self._manager.close()
@@ -172,3 +185,32 @@ class CheckpointStore:
 
     def __exit__(self, *exc_info) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def _failed_reads_quiet() -> Iterator[None]:
+    """Silences what a failed orbax read leaves behind; `restore_latest` reports the failure.
+
+    When one array of a checkpoint cannot be read, orbax closes its event loop while tensorstore
+    still completes the other reads; each completion then raises "Event loop is closed" as an
+    unraisable exception (hundreds of tracebacks for a training state). Orbax also logs damaged
+    metadata files at ERROR through absl. Other unraisable exceptions reach the previous hook.
+    """
+    previous_hook = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        if not (
+            isinstance(unraisable.exc_value, RuntimeError)
+            and str(unraisable.exc_value) == "Event loop is closed"
+        ):
+            previous_hook(unraisable)
+
+    absl_logger = logging.getLogger("absl")
+    previous_level = absl_logger.level
+    sys.unraisablehook = hook
+    absl_logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous_hook
+        absl_logger.setLevel(previous_level)

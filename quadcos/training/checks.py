@@ -55,7 +55,8 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 f"config.discount must be in [0, 1] and config.tau in (0, 1], got"
                 f" {config.discount} and {config.tau}"
             )
-        for name, value in (("init_alpha", config.init_alpha), *config.learning_rate.items()):
+        rates = {f"learning_rate.{name}": rate for name, rate in config.learning_rate.items()}
+        for name, value in (("init_alpha", config.init_alpha), *rates.items()):
             if not value > 0:
                 raise ValueError(f"config.{name} must be > 0, got {value}")
     except ValueError as error:

@@ -82,11 +82,13 @@ class Progress:
 
     _REDRAW_SECONDS = 0.2
 
-    def __init__(self, total_steps: int, enabled: bool, stream: TextIO | None = None):
+    def __init__(
+        self, total_steps: int, enabled: bool, bar: bool = True, stream: TextIO | None = None
+    ):
         self._total = total_steps
-        self._stream = stream or sys.stderr
+        self._stream = sys.stderr if stream is None else stream
         self._enabled = enabled
-        self._tty = enabled and self._stream.isatty()
+        self._tty = enabled and bar and self._stream.isatty()
         self._last_redraw = -math.inf
 
     def update(self, step: int, steps_per_second: float, history: list[dict[str, Any]]) -> None:
@@ -108,11 +110,19 @@ class Progress:
         if not self._enabled or self._tty:
             return
         steps_per_second = row.get("env_steps_per_s", 0.0)
+        # Env metrics that a generic Brax env may not log.
+        extras = "".join(
+            f"  {label} {row[key]:.3g}{unit}"
+            for key, label, unit in (
+                ("eval/forward_speed", "speed", " m/s"),
+                ("eval/fall_rate", "fall rate", ""),
+            )
+            if key in row
+        )
         self._stream.write(
             f"step {row['step']:,}/{self._total:,}"
             f"  {steps_per_second:,.0f} env steps/s"
-            f"  eval reward {_last_reward([row])}"
-            f"  fall rate {row['eval/fall_rate']:.2f}"
+            f"  eval reward {_last_reward([row])}{extras}"
             f"  ETA {_eta(row['step'], self._total, steps_per_second)}\n"
         )
         self._stream.flush()

@@ -89,6 +89,7 @@ def train(
     eval_env: envs.Env | None = None,
     resume: bool = False,
     progress: bool = True,
+    progress_bar: bool = True,
     extra_run_info: dict[str, Any] | None = None,
 ) -> TrainResult:
     """Trains a SAC policy on `env`.
@@ -105,6 +106,7 @@ def train(
         replay and env shapes.
       progress: report progress on stderr (a redrawn line on a terminal, one
         line per evaluation otherwise).
+      progress_bar: False prints the one line per evaluation on a terminal too.
       extra_run_info: JSON-serialisable data stored in config.json under
         `run_info` (e.g. the env config).
 
@@ -170,7 +172,7 @@ def train(
                 log,
                 stop,
                 host.Clock(wall_time_offset),
-                host.Progress(config.num_timesteps, enabled=progress),
+                host.Progress(config.num_timesteps, enabled=progress, bar=progress_bar),
             )
     finally:
         if log is not None:
@@ -228,7 +230,11 @@ def run_chunks(
         on_start(state)
     # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
     unfinished = num_timesteps is None or step < num_timesteps
-    if int(state.replay.size) < trainer.config.min_replay_size and unfinished:
+    prefill = int(state.replay.size) < trainer.config.min_replay_size and unfinished
+    if num_timesteps is not None:
+        first_chunk_step = step + prefill * trainer.num_prefill_steps * trainer.config.num_envs
+        _log_final_step(trainer.config, num_timesteps, first_chunk_step)
+    if prefill:
         state = trainer.prefill(state)
         step = int(state.env_steps)
     while num_timesteps is None or step < num_timesteps:
@@ -240,6 +246,26 @@ def run_chunks(
         if on_chunk(state, chunk):
             break
     return state
+
+
+def _log_final_step(
+    config: ml_collections.ConfigDict, num_timesteps: int, first_chunk_step: int
+) -> None:
+    """Says where training will end when whole chunks overshoot `num_timesteps`."""
+    chunk = config.num_envs * config.steps_per_chunk
+    chunks = max(-(-(num_timesteps - first_chunk_step) // chunk), 0)
+    final_step = first_chunk_step + chunks * chunk
+    if final_step != num_timesteps:
+        logger.info(
+            "training ends at env step %s, not num_timesteps=%s: from env step %s on it takes"
+            " whole chunks of %s env steps (num_envs %d x steps_per_chunk %d)",
+            f"{final_step:,}",
+            f"{num_timesteps:,}",
+            f"{first_chunk_step:,}",
+            f"{chunk:,}",
+            config.num_envs,
+            config.steps_per_chunk,
+        )
 
 
 def _train_loop(

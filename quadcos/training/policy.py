@@ -116,24 +116,49 @@ def save_policy(path: str | os.PathLike[str], policy: Policy) -> Path:
 
 
 def load_policy(path: str | os.PathLike[str]) -> Policy:
-    """Loads a policy from a policy directory or a run directory."""
+    """Loads a policy from a policy directory or a run directory.
+
+    Raises:
+      FileNotFoundError: no policy.json in `path` or `path`/policy.
+      ValueError: a policy file that cannot be read, naming it and the likely cause.
+    """
     path = Path(path)
     if not (path / _SPEC_FILE).exists() and (path / "policy" / _SPEC_FILE).exists():
         path = path / "policy"
-    if not (path / _SPEC_FILE).exists():
+    spec_path, params_path = path / _SPEC_FILE, path / _PARAMS_FILE
+    if not spec_path.exists():
         raise FileNotFoundError(f"no policy in {path}: expected {_SPEC_FILE} there or in policy/")
-    spec_json = json.loads((path / _SPEC_FILE).read_text(encoding="utf-8"))
-    if spec_json.get("format") != _FORMAT:
-        raise ValueError(f"{path / _SPEC_FILE} is not a {_FORMAT} file")
-    spec = PolicySpec(
-        observation_size=spec_json["observation_size"],
-        action_size=spec_json["action_size"],
-        hidden_sizes=tuple(spec_json["hidden_sizes"]),
-        normalize_observations=spec_json["normalize_observations"],
+    try:
+        spec_json = json.loads(spec_path.read_text(encoding="utf-8"))
+        if spec_json.get("format") != _FORMAT:
+            raise ValueError(f"its format is not {_FORMAT!r}")
+        spec = PolicySpec(
+            observation_size=spec_json["observation_size"],
+            action_size=spec_json["action_size"],
+            hidden_sizes=tuple(spec_json["hidden_sizes"]),
+            normalize_observations=spec_json["normalize_observations"],
+        )
+        template = _params_template(spec)
+    except (ValueError, KeyError, TypeError, AttributeError) as error:
+        raise _unreadable(spec_path, "truncated, damaged or not a quadcos policy", error) from None
+    try:
+        params = flax.serialization.from_bytes(template, params_path.read_bytes())
+    except OSError as error:
+        raise _unreadable(params_path, "missing or unreadable", error) from None
+    except Exception as error:  # msgpack and flax raise many types
+        raise _unreadable(
+            params_path, f"truncated, damaged or not the network {_SPEC_FILE} describes", error
+        ) from None
+    return Policy(spec, params, spec_json.get("config"))
+
+
+def _unreadable(path: Path, cause: str, error: Exception) -> ValueError:
+    detail = str(error).splitlines()[0] if str(error) else ""
+    return ValueError(
+        f"policy file {path} cannot be read, likely {cause}"
+        f" ({type(error).__name__}: {detail:.200});"
+        " copy it again from its run directory"
     )
-    template = _params_template(spec)
-    params = flax.serialization.from_bytes(template, (path / _PARAMS_FILE).read_bytes())
-    return Policy(spec, params, spec_json["config"])
 
 
 def _networks(spec: PolicySpec) -> sac_networks.SACNetworks:
