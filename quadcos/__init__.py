@@ -14,4 +14,24 @@ def load_policy(path):
     return _load_policy(path)
 
 
-__all__ = ["QuadrupedEnv", "default_config", "load_policy", "make_env"]
+def evaluate_policy(policy, terrain=None, *, episodes=64, seconds=20.0, seed=0, **env_overrides):
+    """Deterministic episodes of `policy` (a run or policy directory, "fixed:trot",
+    "fixed:A_k,A_h,T,phi1,phi3" or an `evaluation.ActionSource`) on `terrain` (a spec or Terrain;
+    default: the policy's training terrain), all at once. Env overrides as in `make_env`.
+
+    Returns a `quadcos.evaluation.Evaluation`: `.success`, `.falls`, `.speed`, `.summary`,
+    `.episodes`, `.trace`, `.to_json()`, `.save_video(path)`.
+    """
+    from quadcos import evaluation
+
+    return evaluation.evaluate(
+        policy,
+        terrain,
+        num_envs=episodes,
+        seconds=seconds,
+        seed=seed,
+        env_overrides=env_overrides,
+    )
+
+
+__all__ = ["QuadrupedEnv", "default_config", "evaluate_policy", "load_policy", "make_env"]

@@ -35,9 +35,9 @@ The work is done by `quadcos.evaluation`; this module is its command line.
 import argparse
 import ast
 import math
-import os
 import pathlib
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -137,9 +137,19 @@ def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]
         if path.is_dir():
             raise cli.UsageError(f"--{flag} {value} is a directory")
         parent = path.absolute().parent
-        if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        if not parent.is_dir() or not _can_create_files_in(parent):
             raise cli.UsageError(f"--{flag} {value}: {parent} is not a writable directory")
     return args, overrides
+
+
+def _can_create_files_in(directory: pathlib.Path) -> bool:
+    """Whether a file can be created there: tried, not inferred (root passes `os.access` on
+    /proc, where nothing can be created), so that no rollout runs for output that is lost."""
+    try:
+        with tempfile.NamedTemporaryFile(dir=directory, prefix=".quadcos-probe-"):
+            return True
+    except OSError:
+        return False
 
 
 class _Progress:
@@ -189,6 +199,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"best: --policy={best['policy']} (score {best['score']}, fall rate {best['fall_rate']})"
             )
             return 0
+        if not args.no_progress:
+            print(f"{_PROG}: building the env and compiling the rollout...", file=sys.stderr)
         source = evaluation.resolve_source(args.policy)
         # Builds the env now: a bad terrain or size is reported before anything runs.
         env = evaluation.build_env(source, args.terrain, overrides)

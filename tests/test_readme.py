@@ -17,6 +17,7 @@ README = (pathlib.Path(__file__).resolve().parent.parent / "README.md").read_tex
 PYTHON_BLOCKS = re.findall(r"```python\n(.*?)```", README, re.S)
 BASH_BLOCKS = re.findall(r"```bash\n(.*?)```", README, re.S)
 MODULE_HEADER = "# my_courses.py\n"
+EVALUATION_HEADER = "# Evaluate a policy from Python.\n"
 
 
 @pytest.fixture
@@ -44,7 +45,7 @@ def test_readme_custom_terrain_commands_build_their_envs(registry, tmp_path, mon
     monkeypatch.syspath_prepend(str(tmp_path))  # as `python -m` puts the current directory
     monkeypatch.delitem(sys.modules, "my_courses", raising=False)
     for block in PYTHON_BLOCKS[1:]:
-        if not block.startswith(MODULE_HEADER):
+        if not block.startswith((MODULE_HEADER, EVALUATION_HEADER)):
             exec(compile(block, "README.md", "exec"), {})
     commands = [
         shlex.split(line)
@@ -69,3 +70,15 @@ def test_readme_custom_terrain_commands_build_their_envs(registry, tmp_path, mon
     assert built["my_courses:climb"].course_end_x == 4.0  # 2 m lead-in, 2 m at 4°
     assert built[heightfield].extent[:2] == (-2.0, 10.0)
     sys.modules.pop("my_courses", None)
+
+
+@pytest.mark.slow
+def test_readme_evaluation_example_runs(monkeypatch):
+    block = next(block for block in PYTHON_BLOCKS if block.startswith(EVALUATION_HEADER))
+    monkeypatch.chdir(pathlib.Path(__file__).resolve().parent.parent)
+    namespace: dict = {}
+    exec(compile(block, "README.md", "exec"), namespace)
+    result = namespace["result"]
+    assert result.success == 1.0 and result.falls == 0.0  # the pretrained policy, 2 s on flat
+    assert 0.2 < result.speed < 1.5
+    assert namespace["summary"]["num_episodes"] == 8

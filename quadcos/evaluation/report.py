@@ -42,6 +42,21 @@ class Evaluation:
     qpos: np.ndarray
     env: env_lib.QuadrupedEnv
 
+    @property
+    def success(self) -> float:
+        """Fraction of episodes that succeeded (survived; on a course, also crossed it)."""
+        return self.summary["success_rate"]
+
+    @property
+    def falls(self) -> float:
+        """Fraction of episodes that ended in a fall."""
+        return self.summary["fall_rate"]
+
+    @property
+    def speed(self) -> float:
+        """Mean forward speed over the episodes, m/s."""
+        return self.summary["mean_forward_speed"]
+
     def to_json(self) -> dict[str, Any]:
         """The evaluation file's content: aggregates at the top, then setup and episodes."""
         return {**self.summary, "episodes": self.episodes}
