@@ -14,7 +14,7 @@ ACTIVATIONS = {"relu": lambda x: np.maximum(x, 0.0), "tanh": np.tanh}
 
 
 class NumpyPolicy:
-    """normalise → Dense layers (activation between them) → first half of the output → tanh."""
+    """Normalise, Dense layers with the activation between them, tanh of the output's first half."""
 
     def __init__(self, mean, std, kernels, biases, activation, action_size, env_config):
         if activation not in ACTIVATIONS:

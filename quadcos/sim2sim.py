@@ -56,7 +56,7 @@ class Pilot:
     fixed_parameters: oscillator.RhythmParameters | None = None
 
     def actor(self) -> Callable[[np.ndarray], np.ndarray]:
-        """obs -> (action_size,) action; for fixed parameters the constant action commanding them."""
+        """obs -> (action_size,) action; fixed parameters: the constant action commanding them."""
         if self.policy is not None:
             return self.policy
         centre = env_lib.ACTION_CENTRES[self.config.action_centre]
@@ -186,11 +186,16 @@ class HostRobot:
             body=body,
             slope_estimate=slope_estimate,
             fell=fell,
-            moving=forward_speed >= self.config.survival_min_speed,
+            moving=self._moving(forward_speed),
             weights=self.weights,
             variant=self.config.reward_variant,
         )
         return StepResult(obs, body, slope_estimate, slope_truth, forward_speed, terms, fell)
+
+    def _moving(self, forward_speed: float) -> bool:
+        """`QuadrupedEnv._moving`: whether the step earns Eq. 9's r_s."""
+        min_speed = self.config.survival_min_speed
+        return min_speed == 0 or forward_speed >= min_speed
 
     def _joint_targets(self, params: oscillator.RhythmParameters | None) -> np.ndarray:
         """`QuadrupedEnv.joint_targets` of the current command and phase."""
@@ -337,8 +342,13 @@ def evaluate_mujoco(
         "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
     }
     summary = evaluate.aggregate(values, stats)
-    return {"format": evaluate.FORMAT, "format_version": evaluate.FORMAT_VERSION, **summary,
-            "setup": setup, "episodes": values}
+    return {
+        "format": evaluate.FORMAT,
+        "format_version": evaluate.FORMAT_VERSION,
+        **summary,
+        "setup": setup,
+        "episodes": values,
+    }
 
 
 # --- CLI -----------------------------------------------------------------------------------------
@@ -362,6 +372,10 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _print_progress(done: int, total: int) -> None:
+    print(f"sim2sim: episode {done}/{total}", file=sys.stderr, flush=True)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (2, one line on stderr, for bad input)."""
     parser = _parser()
@@ -377,7 +391,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             episodes=args.episodes,
             seconds=args.seconds,
             seed=args.seed,
-            progress=evaluate._Progress("sim2sim", not args.no_progress),  # noqa: SLF001
+            progress=None if args.no_progress else _print_progress,
         )
     except (ValueError, FileNotFoundError) as error:
         print(f"quadcos.sim2sim: error: {error}", file=sys.stderr)

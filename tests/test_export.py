@@ -48,7 +48,8 @@ def test_numpy_policy_imports_numpy_only(tmp_path):
     script = (
         "import sys, importlib.util\n"
         "for name in ('jax', 'flax', 'brax', 'quadcos', 'mujoco'): sys.modules[name] = None\n"
-        f"spec = importlib.util.spec_from_file_location('np_policy', {str(ROOT / 'quadcos' / 'numpy_policy.py')!r})\n"
+        f"path = {str(ROOT / 'quadcos' / 'numpy_policy.py')!r}\n"
+        "spec = importlib.util.spec_from_file_location('np_policy', path)\n"
         "module = importlib.util.module_from_spec(spec); spec.loader.exec_module(module)\n"
         f"policy = module.NumpyPolicy.load({str(tmp_path / 'flat.npz')!r})\n"
         "print(policy([0.0] * policy.observation_size).shape)\n"

@@ -29,7 +29,8 @@ def test_oscillator_twins(centre):
             params, oscillator.action_to_parameters(action, 0.2, centre), rtol=1e-6, atol=1e-6
         )
         phases = twins.trot_phases(params.phi1, params.phi3)
-        np.testing.assert_allclose(phases, oscillator.trot_phases(params.phi1, params.phi3), atol=1e-6)
+        expected = oscillator.trot_phases(params.phi1, params.phi3)
+        np.testing.assert_allclose(phases, expected, atol=1e-6)
         phase = RNG.uniform(0, 2 * np.pi)
         np.testing.assert_allclose(
             twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases),
@@ -46,7 +47,8 @@ def test_slope_twins():
         quaternion = RNG.normal(size=4)
         quaternion /= np.linalg.norm(quaternion)
         joints = RNG.uniform(-0.8, 0.8, 8)
-        np.testing.assert_allclose(twins.attitude(quaternion), slope.attitude(quaternion), atol=1e-5)
+        expected = slope.attitude(quaternion)
+        np.testing.assert_allclose(twins.attitude(quaternion), expected, atol=1e-5)
         assert twins.estimate_slope(joints, quaternion) == pytest.approx(
             float(slope.estimate_slope(joints, quaternion)), abs=1e-5
         )
@@ -125,6 +127,15 @@ def test_a_rolled_robot_falls():
     assert host.step(np.zeros(5)).fell
 
 
+@pytest.mark.parametrize("min_speed, survival", [(0.0, 10.0), (0.5, 0.0)])
+def test_survival_pays_a_step_backwards_only_without_a_min_speed(min_speed, survival):
+    host = sim2sim.HostRobot("flat", sim2sim._config({"survival_min_speed": min_speed}))
+    host.reset(0)
+    host.data.qvel[0] = -1.0  # pushed backwards
+    result = host.step(np.zeros(5))
+    assert result.forward_speed < 0 and result.reward_terms["survival"] == survival
+
+
 def test_cli_writes_an_evaluation_json(tmp_path, capsys):
     out = tmp_path / "trot.json"
     args = ["--policy=fixed:trot", "--terrain=flat", "--episodes=2", "--seconds=2", f"--out={out}"]
@@ -161,7 +172,7 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):
     assert not (tmp_path / "x.json").exists()
 
 
-# --- play ------------------------------------------------------------------------------------------
+# --- play ----------------------------------------------------------------------------------------
 
 
 def test_play_without_a_display_says_so(monkeypatch, capsys):
