@@ -23,7 +23,6 @@ import os
 import pathlib
 import sys
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
@@ -36,39 +35,17 @@ from quadcos.training import policy as policy_lib
 ACTIVATION = "relu"  # quadcos.training.sac.make_networks: Brax's default, linen.relu
 
 
-def load_trained(path: str | os.PathLike[str]) -> policy_lib.Policy:
-    """`load_policy(path)` with every failure as FileNotFoundError or ValueError naming `path`."""
-    if not pathlib.Path(path).exists():
-        raise FileNotFoundError(f"no policy at {path}: no such file or directory")
-    try:
-        return policy_lib.load_policy(path)
-    except (FileNotFoundError, ValueError):
-        raise
-    except Exception as error:  # noqa: BLE001 -- msgpack, flax and JSON readers raise many types
-        raise ValueError(
-            f"cannot load the policy at {path}: {type(error).__name__}: {error}"
-        ) from None
-
-
-def env_config(policy: policy_lib.Policy) -> dict[str, Any]:
-    """The complete env config (a plain dict, `terrain` = the training terrain) that `policy` was
-    trained in; options its saved config lacks take `evaluate.LEGACY_ENV_VALUES`.
+def policy_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """The .npz contents (see the module docstring) of the run or policy directory `path`.
 
     Raises:
-      ValueError: no saved env config, or options this quadcos does not know.
+      FileNotFoundError, ValueError: no loadable policy there, no saved env config, or env
+        options this quadcos does not know (see `evaluate.policy_controller`).
     """
-    try:
-        saved = dict(policy.config["run_info"]["env"])
-    except (KeyError, TypeError, ValueError):
-        raise ValueError("the policy has no saved env config (run_info.env)") from None
-    overrides = evaluate.env_overrides_from_saved(saved)
-    config = config_lib.apply_overrides(env_lib.default_config(), overrides)
-    config.terrain = str(saved.get("terrain", "flat"))
-    return config.to_dict()
-
-
-def policy_arrays(policy: policy_lib.Policy) -> dict[str, np.ndarray]:
-    """The .npz contents (see the module docstring) of a loaded policy."""
+    controller = evaluate.policy_controller(path)  # checks the files and the saved env config
+    policy = policy_lib.load_policy(path)
+    config = config_lib.apply_overrides(env_lib.default_config(), controller.env_overrides)
+    config.terrain = controller.training_terrain
     layers = policy.params["policy"]["params"]
     names = sorted(layers, key=lambda name: int(name.rsplit("_", 1)[1]))  # hidden_0, hidden_1, ...
     arrays = {
@@ -79,7 +56,7 @@ def policy_arrays(policy: policy_lib.Policy) -> dict[str, np.ndarray]:
         "num_layers": np.asarray(len(names)),
         "normalizer_mean": np.asarray(policy.params["normalizer"]["mean"], np.float32),
         "normalizer_std": np.asarray(policy.params["normalizer"]["std"], np.float32),
-        "env_config": np.asarray(json.dumps(env_config(policy))),
+        "env_config": np.asarray(json.dumps(config.to_dict())),
     }
     for index, name in enumerate(names):
         arrays[f"kernel_{index}"] = np.asarray(layers[name]["kernel"], np.float32)
@@ -91,7 +68,7 @@ def numpy_policy(path: str | os.PathLike[str]) -> NumpyPolicy:
     """A policy directory (or an exported .npz) as a NumpyPolicy, without writing a file."""
     if str(path).endswith(".npz"):
         return NumpyPolicy.load(path)
-    return NumpyPolicy.from_arrays(policy_arrays(load_trained(path)), source=str(path))
+    return NumpyPolicy.from_arrays(policy_arrays(path), source=str(path))
 
 
 def export_policy(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> pathlib.Path:
@@ -103,7 +80,7 @@ def export_policy(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> 
     out = pathlib.Path(out)
     if out.suffix != ".npz":
         raise ValueError(f"--out must end in .npz; got {out}")
-    arrays = policy_arrays(load_trained(path))
+    arrays = policy_arrays(path)
     temporary = out.with_name(f".{out.name}.tmp-{os.getpid()}.npz")
     np.savez(temporary, **arrays)
     os.replace(temporary, out)

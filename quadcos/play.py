@@ -18,10 +18,9 @@ import time
 from collections.abc import Sequence
 
 import mujoco
-import numpy as np
 
-from quadcos import constants, evaluate, oscillator
-from quadcos.sim2sim import HostRobot, Pilot, StepResult, load_pilot
+from quadcos import constants
+from quadcos.sim2sim import HostRobot, Pilot, StepResult, load_pilot, pilot_parser
 
 KEY_SPACE, KEY_R, KEY_BACKSPACE = 32, ord("R"), 259  # GLFW key codes
 _MAX_LAG = 0.25  # s: behind real time by more than this, pacing starts over instead of rushing
@@ -145,19 +144,8 @@ def _no_display_line(args: argparse.Namespace, reason: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (2, one line on stderr, for bad input or no
     display)."""
-    parser = argparse.ArgumentParser(
-        prog="python -m quadcos.play",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument(
-        "--policy", required=True, help="run or policy directory, exported .npz, or fixed:trot"
-    )
-    parser.add_argument("--terrain", help="terrain name or spec (default: the training terrain)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
-    parser.error = evaluate._raise_usage_error  # noqa: SLF001 -- one line, not the usage text
     try:
-        args = parser.parse_args(argv)
+        args = pilot_parser("python -m quadcos.play", __doc__).parse_args(argv)
         pilot = load_pilot(args.policy)
         host = HostRobot(args.terrain or pilot.training_terrain, pilot.config)
         session = Session(pilot, host, args.seed)

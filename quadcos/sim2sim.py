@@ -354,19 +354,25 @@ def evaluate_mujoco(
 # --- CLI -----------------------------------------------------------------------------------------
 
 
-def _parser() -> argparse.ArgumentParser:
+def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
+    """A CLI parser with --policy, --terrain and --seed (sim2sim's and play's) whose errors are
+    `evaluate.UsageError`s, reported as one line."""
     parser = argparse.ArgumentParser(
-        prog="python -m quadcos.sim2sim",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        prog=prog, description=description, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument(
         "--policy", required=True, help="run or policy directory, exported .npz, or fixed:trot"
     )
     parser.add_argument("--terrain", help="terrain name or spec (default: the training terrain)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
+    parser.error = evaluate._raise_usage_error  # noqa: SLF001 -- one line, not the usage text
+    return parser
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = pilot_parser("python -m quadcos.sim2sim", __doc__)
     parser.add_argument("--episodes", type=int, default=64, help="episodes, one after another")
     parser.add_argument("--seconds", type=float, default=20.0, help="time limit of an episode, s")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
     parser.add_argument("--out", required=True, help="evaluation JSON to write")
     parser.add_argument("--no_progress", action="store_true", help="no progress on stderr")
     return parser
@@ -378,10 +384,8 @@ def _print_progress(done: int, total: int) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (2, one line on stderr, for bad input)."""
-    parser = _parser()
-    parser.error = evaluate._raise_usage_error  # noqa: SLF001 -- one line, not the usage text
     try:
-        args = parser.parse_args(argv)
+        args = _parser().parse_args(argv)
         out = pathlib.Path(args.out)
         if out.suffix != ".json" or not out.absolute().parent.is_dir():
             raise ValueError(f"--out must be a .json file in an existing directory; got {out}")
