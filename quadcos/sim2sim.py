@@ -5,14 +5,11 @@ the loop.
         --seconds=30 --out=s4_mujoco.json
     python -m quadcos.sim2sim --policy=fixed:trot --terrain=flat --out=trot_mujoco.json
 
-`HostRobot` steps one robot as `quadcos.env.QuadrupedEnv.step` does: the action, clipped, feeds the
-low-pass command filter at every physics step, the command sets the rhythm parameters (§3.3), the
-oscillator phase advances by 2π dt/T, the joint targets (Eq. 3) are the position servos' ctrl;
-then the observation, slope estimate (Eq. 5), reward (Eq. 13) and fall check, all from the
-NumPy twins in `quadcos.numpy_twins`. The policy is the exported NumPy forward pass
-(`quadcos.export`; `--policy` takes a run or policy directory, an exported .npz, or `fixed:...`
-as `quadcos.evaluate` does) and runs in the env config it was trained with. Reset: the env's
-spawn pose at x = y = 0; episodes differ by the seed of their reset joint noise.
+`HostRobot` steps one robot as `QuadrupedEnv.step` does (command filter, rhythm parameters, phase
+and joint targets at every physics step; observation, slope estimate, reward, fall check) with the
+NumPy twins of `quadcos.numpy_twins`. The policy is its exported NumPy forward pass
+(`quadcos.export`; `--policy` also takes an exported .npz or `fixed:...`) in the env config it was
+trained with. Reset: the env's spawn pose at x = y = 0; episodes differ by their noise seed.
 
 Episodes end and succeed as in `quadcos.evaluate` (no fall within `--seconds`; on a course, the
 torso past `course_end_x` first). `--out` is an evaluation JSON in `quadcos.evaluate`'s format
@@ -40,6 +37,8 @@ from quadcos import terrain as terrain_lib
 from quadcos.numpy_policy import NumpyPolicy
 
 ENGINE = "mujoco"
+# Per-episode maxima of evaluate.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
+_MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
 
 
@@ -81,10 +80,16 @@ def load_pilot(spec: str) -> Pilot:
     policy = export.numpy_policy(spec)
     saved = dict(policy.env_config)
     terrain = str(saved.pop("terrain", "flat"))
-    return Pilot(spec, "sac", _config(config_lib.flatten(saved)), terrain, policy=policy)
+    return Pilot(spec, "sac", env_config(config_lib.flatten(saved)), terrain, policy=policy)
 
 
-def _config(overrides: dict[str, Any]) -> ml_collections.ConfigDict:
+def env_config(overrides: dict[str, Any] | None = None) -> ml_collections.ConfigDict:
+    """`quadcos.env.default_config()` with dotted `overrides`, spawning at x = 0 as evaluations do.
+
+    Raises:
+      ValueError: an unknown key or a value the env cannot run with.
+    """
+    overrides = dict(overrides or {})
     config = config_lib.apply_overrides(env_lib.default_config(), overrides | {"spawn_x_max": 0.0})
     env_lib.validate_config(config)
     return config
@@ -249,35 +254,31 @@ def run_episode(
     obs = host.reset(seed)
     x, y = float(host.data.qpos[0]), float(host.data.qpos[1])
     record = dict(fell=False, finished=False, steps=0, start_x=x, start_y=y, x=x, y=y)
-    maxima = dict.fromkeys(("max_lateral_deviation", "max_abs_roll", "max_abs_yaw"), 0.0)
-    maxima["max_abs_pitch_error"] = 0.0
-    totals = {"slope_sq_error": 0.0, "episode_reward": 0.0}
-    reward_totals = dict.fromkeys(evaluate.REWARD_TERMS, 0.0)
+    maxima = np.zeros(len(_MAXIMA))
+    slope_sq_error, reward_terms = 0.0, dict.fromkeys(evaluate.REWARD_TERMS, 0.0)
     course_end_x = host.terrain.course_end_x
     for _ in range(num_steps):
         result = host.step(act(obs))
-        obs = result.obs
-        qpos = host.data.qpos
+        obs, qpos = result.obs, host.data.qpos
         body = twins.attitude(qpos[constants.QPOS_QUATERNION])  # as evaluate: from qpos
         record.update(steps=record["steps"] + 1, x=float(qpos[0]), y=float(qpos[1]))
-        for key, value in (
-            ("max_lateral_deviation", abs(qpos[1] - record["start_y"])),
-            ("max_abs_roll", abs(body.roll)),
-            ("max_abs_yaw", abs(body.yaw)),
-            ("max_abs_pitch_error", abs(body.pitch - result.slope_truth)),
-        ):
-            maxima[key] = max(maxima[key], float(value))
-        totals["slope_sq_error"] += (result.slope_estimate - result.slope_truth) ** 2
-        totals["episode_reward"] += sum(result.reward_terms.values())
+        now = [qpos[1] - record["start_y"], body.roll, body.yaw, body.pitch - result.slope_truth]
+        maxima = np.maximum(maxima, np.abs(now))
+        slope_sq_error += (result.slope_estimate - result.slope_truth) ** 2
         for term, value in result.reward_terms.items():
-            reward_totals[term] += value
+            reward_terms[term] += value
         at_end = course_end_x is not None and qpos[0] >= course_end_x
-        record["fell"] = result.fell
-        record["finished"] = not result.fell and at_end
+        record.update(fell=result.fell, finished=not result.fell and at_end)
         if record["fell"] or record["finished"]:
             break
-    record["running"] = not (record["fell"] or record["finished"])
-    return record | maxima | totals | {"reward_terms": reward_totals}
+    return {
+        **record,
+        **dict(zip(_MAXIMA, maxima.tolist())),
+        "running": not (record["fell"] or record["finished"]),
+        "slope_sq_error": slope_sq_error,
+        "episode_reward": sum(reward_terms.values()),
+        "reward_terms": reward_terms,
+    }
 
 
 def evaluate_mujoco(
@@ -301,11 +302,11 @@ def evaluate_mujoco(
         raise ValueError(f"episodes must be >= 1 and seconds > 0; got {episodes}, {seconds}")
     host = HostRobot(terrain if terrain is not None else pilot.training_terrain, pilot.config)
     act = pilot.actor()
-    if pilot.policy is not None and host.reset(0).shape[0] != pilot.policy.observation_size:
+    size = host.reset(0).shape[0]
+    if pilot.policy is not None and size != pilot.policy.observation_size:
         raise ValueError(
             f"the policy expects observations of size {pilot.policy.observation_size}, the env"
-            f" gives {host.reset(0).shape[0]}: its env config does not match the one it was"
-            " trained with"
+            f" gives {size}: its env config does not match the one it was trained with"
         )
     num_steps = math.ceil(seconds / host.dt - 1e-9)
     started = time.monotonic()
@@ -341,14 +342,8 @@ def evaluate_mujoco(
         "wall_time_s": time.monotonic() - started,
         "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
     }
-    summary = evaluate.aggregate(values, stats)
-    return {
-        "format": evaluate.FORMAT,
-        "format_version": evaluate.FORMAT_VERSION,
-        **summary,
-        "setup": setup,
-        "episodes": values,
-    }
+    head = {"format": evaluate.FORMAT, "format_version": evaluate.FORMAT_VERSION}
+    return head | evaluate.aggregate(values, stats) | {"setup": setup, "episodes": values}
 
 
 # --- CLI -----------------------------------------------------------------------------------------

@@ -90,7 +90,7 @@ def test_reward_twin(variant, fell):
 
 
 def test_reset_stands_on_the_ramp_with_the_env_pose():
-    host = sim2sim.HostRobot("slope5", sim2sim._config({}))
+    host = sim2sim.HostRobot("slope5", sim2sim.env_config({}))
     obs = host.reset(0, x=3.5)  # on the 5° uphill
     pitch, slope_estimate = obs[3], host.step(np.zeros(5)).slope_estimate
     assert pitch == pytest.approx(math.radians(5), abs=0.01)
@@ -103,7 +103,7 @@ def test_reset_stands_on_the_ramp_with_the_env_pose():
 
 
 def test_observation_layout_follows_the_config():
-    config = sim2sim._config(
+    config = sim2sim.env_config(
         {"observe_slope": True, "observe_phase": True, "action_filter_tau": 0.0}
     )
     host = sim2sim.HostRobot("flat", config)
@@ -113,7 +113,7 @@ def test_observation_layout_follows_the_config():
     assert result.obs[14] == result.slope_estimate
     np.testing.assert_allclose(result.obs[15:], [math.cos(host.phase), math.sin(host.phase)])
     assert 0 < host.phase < 2 * np.pi
-    filtered = sim2sim.HostRobot("flat", sim2sim._config({}))
+    filtered = sim2sim.HostRobot("flat", sim2sim.env_config({}))
     filtered.reset(0)
     obs = filtered.step(np.ones(5)).obs
     assert obs.shape == (19,)  # the command: 10 substeps of a 0.25-s low-pass towards 1
@@ -121,7 +121,7 @@ def test_observation_layout_follows_the_config():
 
 
 def test_a_rolled_robot_falls():
-    host = sim2sim.HostRobot("flat", sim2sim._config({}))
+    host = sim2sim.HostRobot("flat", sim2sim.env_config({}))
     host.reset(0)
     host.data.qpos[3:7] = [math.cos(0.5), math.sin(0.5), 0.0, 0.0]  # 1 rad roll
     assert host.step(np.zeros(5)).fell
@@ -129,7 +129,7 @@ def test_a_rolled_robot_falls():
 
 @pytest.mark.parametrize("min_speed, survival", [(0.0, 10.0), (0.5, 0.0)])
 def test_survival_pays_a_step_backwards_only_without_a_min_speed(min_speed, survival):
-    host = sim2sim.HostRobot("flat", sim2sim._config({"survival_min_speed": min_speed}))
+    host = sim2sim.HostRobot("flat", sim2sim.env_config({"survival_min_speed": min_speed}))
     host.reset(0)
     host.data.qvel[0] = -1.0  # pushed backwards
     result = host.step(np.zeros(5))
