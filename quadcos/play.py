@@ -23,6 +23,7 @@ from quadcos import constants
 from quadcos.sim2sim import HostRobot, Pilot, StepResult, load_pilot, pilot_parser
 
 KEY_SPACE, KEY_R, KEY_BACKSPACE = 32, ord("R"), 259  # GLFW key codes
+_TEXT_INTERVAL = 0.2  # s of wall time between overlay updates
 _MAX_LAG = 0.25  # s: behind real time by more than this, pacing starts over instead of rushing
 
 
@@ -120,16 +121,20 @@ def run_viewer(session: Session) -> None:
         viewer.cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
         viewer.cam.trackbodyid = host.model.body(constants.TORSO_BODY).id
         viewer.cam.distance, viewer.cam.elevation = 3.0, -15.0
-        deadline = time.perf_counter()
+        deadline = next_text = time.perf_counter()
         while viewer.is_running():
             with viewer.lock():
                 session.advance()
+            # set_texts waits for the next frame (so outside the lock, which the render thread
+            # takes): a few times a second, so that slow rendering does not slow the robot.
+            if time.perf_counter() >= next_text:
                 viewer.set_texts((None, mujoco.mjtGridPos.mjGRID_TOPLEFT, *session.overlay()))
+                next_text = time.perf_counter() + _TEXT_INTERVAL
             viewer.sync()
             deadline += host.dt
             lag = time.perf_counter() - deadline
             if lag > _MAX_LAG:
-                deadline = time.perf_counter()
+                deadline = next_text = time.perf_counter()
             time.sleep(max(0.0, -lag))
 
 
