@@ -5,8 +5,8 @@ in real time through `quadcos.sim2sim.HostRobot` (the env's controller path in C
 policy's NumPy forward pass), the camera following the torso. The overlay reads the time, forward
 speed, attitude, the slope estimate beside the ground truth and the five rhythm parameters.
 
-Keys: space pauses and resumes; R or Backspace restarts (next reset noise seed). A fallen robot
-waits for a restart. Without a display the command says so in one line and exits with status 2:
+Keys: space pauses and resumes; R or Backspace restarts (next reset noise seed); Tab and
+Shift-Tab show MuJoCo's own panels. A fallen robot waits for a restart. Without a display the command says so in one line and exits with status 2:
 render a video instead with `python -m quadcos.evaluate ... --video=walk.mp4`.
 """
 
@@ -117,10 +117,12 @@ def run_viewer(session: Session) -> None:
     if not glfw.init():
         raise RuntimeError("GLFW could not be initialised")
     host = session.host
-    with mujoco_viewer.launch_passive(host.model, host.data, key_callback=session.key) as viewer:
+    with mujoco_viewer.launch_passive(
+        host.model, host.data, key_callback=session.key, show_left_ui=False, show_right_ui=False
+    ) as viewer:
         viewer.cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
         viewer.cam.trackbodyid = host.model.body(constants.TORSO_BODY).id
-        viewer.cam.distance, viewer.cam.elevation = 3.0, -15.0
+        viewer.cam.distance, viewer.cam.azimuth, viewer.cam.elevation = 3.5, 120.0, -20.0
         deadline = next_text = time.perf_counter()
         while viewer.is_running():
             with viewer.lock():
