@@ -6,8 +6,9 @@ policy's NumPy forward pass), the camera following the torso. The overlay reads 
 speed, attitude, the slope estimate beside the ground truth and the five rhythm parameters.
 
 Keys: space pauses and resumes; R or Backspace restarts (next reset noise seed); Tab and
-Shift-Tab show MuJoCo's own panels. A fallen robot waits for a restart. Without a display the command says so in one line and exits with status 2:
-render a video instead with `python -m quadcos.evaluate ... --video=walk.mp4`.
+Shift-Tab show MuJoCo's own panels. A fallen robot waits for a restart. Without a display the
+command says so in one line and exits with status 2: render a video instead with
+`python -m quadcos.evaluate ... --video=walk.mp4`.
 """
 
 import argparse

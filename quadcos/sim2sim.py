@@ -134,9 +134,9 @@ class HostRobot:
         self._torso_half_size = self.model.geom(constants.TORSO_GEOM).size.copy()
         self.phase, self.command = 0.0, np.zeros(self.action_size)
 
-    def reset(self, seed: int, x: float = 0.0, y: float = 0.0) -> np.ndarray:
+    def reset(self, seed: int | Sequence[int], x: float = 0.0, y: float = 0.0) -> np.ndarray:
         """`QuadrupedEnv.reset_at`: standing at (x, y), pitched with the ground, joints perturbed
-        by U(±reset_joint_noise) drawn from `seed`. Returns the first observation."""
+        by U(±reset_joint_noise) from `np.random.default_rng(seed)`. Returns the observation."""
         noise = self.config.reset_joint_noise
         joints = np.random.default_rng(seed).uniform(-noise, noise, len(constants.JOINTS))
         ground_slope = float(twins.slope_at(self.terrain, x, y))
@@ -247,7 +247,10 @@ class HostRobot:
 
 
 def run_episode(
-    host: HostRobot, act: Callable[[np.ndarray], np.ndarray], seed: Any, num_steps: int
+    host: HostRobot,
+    act: Callable[[np.ndarray], np.ndarray],
+    seed: int | Sequence[int],
+    num_steps: int,
 ) -> dict[str, Any]:
     """One episode of at most `num_steps` control steps from `host.reset(seed)`; returns the
     fields of `evaluate.EpisodeStats` for it (scalars), accumulated as `evaluate` does."""

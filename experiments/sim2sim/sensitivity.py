@@ -1,9 +1,10 @@
-"""How much the slope5 policy's S-4 result in C MuJoCo moves with the physics settings that MJX and C
-MuJoCo treat differently: solver convergence, step size, and the heightfield's triangles (C MuJoCo
-makes one contact per triangle prism a foot touches, MJX at most 4 per foot, within 1 mm of the
-deepest). Each variant runs episodes 0..N-1 of `mujoco_s4.json` (same reset seeds: paired).
+"""How much the slope5 policy's S-4 result in C MuJoCo moves with the physics settings that MJX
+and C MuJoCo treat differently: solver convergence, step size, and the heightfield's triangles (C
+MuJoCo makes one contact per triangle prism a foot touches, MJX at most 4 per foot, within 1 mm
+of the deepest). Each variant runs episodes 0..N-1 of `mujoco_s4.json` (same reset seeds: paired).
 
-    PYTHONPATH=. python experiments/sim2sim/sensitivity.py --episodes=128 --out=experiments/sim2sim/sensitivity_s4.json
+    PYTHONPATH=. python experiments/sim2sim/sensitivity.py --episodes=128 \
+        --out=experiments/sim2sim/sensitivity_s4.json
 """
 
 import argparse
