@@ -1,0 +1,202 @@
+"""`quadcos.numpy_twins` against their JAX originals, `quadcos.sim2sim`'s controller path in C
+MuJoCo, and `quadcos.play` without a display."""
+
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from quadcos import numpy_twins as twins
+from quadcos import oscillator, play, reward, sim2sim, slope, terrain
+from quadcos.evaluate import REWARD_TERMS
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+FLAT_POLICY = str(ROOT / "experiments" / "policies" / "flat")
+RNG = np.random.default_rng(16)
+
+
+# --- the twins -----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("centre", [oscillator.FIXED_TROT, None])
+def test_oscillator_twins(centre):
+    for _ in range(20):
+        action = RNG.uniform(-1.3, 1.3, 5)
+        params = twins.action_to_parameters(action, 0.2, centre)
+        np.testing.assert_allclose(
+            params, oscillator.action_to_parameters(action, 0.2, centre), rtol=1e-6, atol=1e-6
+        )
+        phases = twins.trot_phases(params.phi1, params.phi3)
+        expected = oscillator.trot_phases(params.phi1, params.phi3)
+        np.testing.assert_allclose(phases, expected, atol=1e-6)
+        phase = RNG.uniform(0, 2 * np.pi)
+        np.testing.assert_allclose(
+            twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases),
+            oscillator.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases),
+            atol=1e-6,
+        )
+        assert twins.advance_phase(phase, params.period, 0.005) == pytest.approx(
+            float(oscillator.advance_phase(phase, params.period, 0.005)), abs=1e-5
+        )
+
+
+def test_slope_twins():
+    for _ in range(50):
+        quaternion = RNG.normal(size=4)
+        quaternion /= np.linalg.norm(quaternion)
+        joints = RNG.uniform(-0.8, 0.8, 8)
+        expected = slope.attitude(quaternion)
+        np.testing.assert_allclose(twins.attitude(quaternion), expected, atol=1e-5)
+        assert twins.estimate_slope(joints, quaternion) == pytest.approx(
+            float(slope.estimate_slope(joints, quaternion)), abs=1e-5
+        )
+
+
+@pytest.mark.parametrize(
+    "ground",
+    [
+        terrain.get("s4"),
+        terrain.heightfield(lambda x, y: 0.1 * np.sin(x) * np.cos(2 * y), x_range=(-2, 5)),
+    ],
+)
+def test_terrain_twins(ground):
+    x, y = RNG.uniform(-3, 12, 200), RNG.uniform(-3, 3, 200)
+    np.testing.assert_allclose(twins.height_at(ground, x, y), ground.height_at(x, y), atol=1e-5)
+    np.testing.assert_allclose(twins.slope_at(ground, x, y), ground.slope_at(x, y), atol=1e-5)
+
+
+@pytest.mark.parametrize("variant", reward.VARIANTS)
+@pytest.mark.parametrize("fell", [False, True])
+def test_reward_twin(variant, fell):
+    x, y, angles = RNG.normal(size=4), RNG.normal(size=2), RNG.normal(size=4) * 0.2
+    body = slope.Attitude(roll=angles[0], pitch=angles[1], yaw=angles[2])
+    weights = reward.RewardWeights()
+    common = dict(x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=fell, moving=False)
+    host = twins.reward_terms(
+        **common, body=body, slope_estimate=angles[3], weights=weights, variant=variant
+    )
+    original = reward.reward_terms(
+        **common, pitch=body.pitch, yaw=body.yaw, roll=body.roll, slope=angles[3], weights=weights,
+        variant=variant,
+    )
+    assert set(host) == set(REWARD_TERMS)
+    for term in REWARD_TERMS:
+        assert host[term] == pytest.approx(float(original[term]), abs=1e-4)
+
+
+# --- the controller path in C MuJoCo -------------------------------------------------------------
+
+
+def test_reset_stands_on_the_ramp_with_the_env_pose():
+    host = sim2sim.HostRobot("slope5", sim2sim.env_config({}))
+    obs = host.reset(0, x=3.5)  # on the 5° uphill
+    pitch, slope_estimate = obs[3], host.step(np.zeros(5)).slope_estimate
+    assert pitch == pytest.approx(math.radians(5), abs=0.01)
+    assert slope_estimate == pytest.approx(math.radians(5), abs=0.03)
+    joints = host.data.qpos[7:15].copy()
+    noise = host.config.reset_joint_noise
+    host.reset(1)
+    assert np.abs(host.data.qpos[7:15]).max() <= noise
+    assert not np.allclose(host.data.qpos[7:15], joints)  # another seed, other noise
+
+
+def test_observation_layout_follows_the_config():
+    config = sim2sim.env_config(
+        {"observe_slope": True, "observe_phase": True, "action_filter_tau": 0.0}
+    )
+    host = sim2sim.HostRobot("flat", config)
+    host.reset(0)
+    result = host.step(np.full(5, 0.2))
+    assert result.obs.shape == (14 + 1 + 2,)
+    assert result.obs[14] == result.slope_estimate
+    np.testing.assert_allclose(result.obs[15:], [math.cos(host.phase), math.sin(host.phase)])
+    assert 0 < host.phase < 2 * np.pi
+    filtered = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    filtered.reset(0)
+    obs = filtered.step(np.ones(5)).obs
+    assert obs.shape == (19,)  # the command: 10 substeps of a 0.25-s low-pass towards 1
+    np.testing.assert_allclose(obs[14:], 1 - math.exp(-0.05 / 0.25), rtol=1e-6)
+
+
+def test_a_rolled_robot_falls():
+    host = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    host.reset(0)
+    host.data.qpos[3:7] = [math.cos(0.5), math.sin(0.5), 0.0, 0.0]  # 1 rad roll
+    assert host.step(np.zeros(5)).fell
+
+
+@pytest.mark.parametrize("min_speed, survival", [(0.0, 10.0), (0.5, 0.0)])
+def test_survival_pays_a_step_backwards_only_without_a_min_speed(min_speed, survival):
+    host = sim2sim.HostRobot("flat", sim2sim.env_config({"survival_min_speed": min_speed}))
+    host.reset(0)
+    host.data.qvel[0] = -1.0  # pushed backwards
+    result = host.step(np.zeros(5))
+    assert result.forward_speed < 0 and result.reward_terms["survival"] == survival
+
+
+def test_cli_writes_an_evaluation_json(tmp_path, capsys):
+    out = tmp_path / "trot.json"
+    args = ["--policy=fixed:trot", "--terrain=flat", "--episodes=2", "--seconds=2", f"--out={out}"]
+    assert sim2sim.main([*args, "--no_progress"]) == 0
+    result = json.loads(out.read_text())
+    assert result["num_episodes"] == 2 and result["setup"]["engine"] == "mujoco"
+    assert result["success_rate"] == 1.0 and result["mean_forward_speed"] > 0.3
+    assert result["episodes"][0]["reset_seed"] == [0, 0]
+    assert "2 episodes on flat in C MuJoCo: success 1.000" in capsys.readouterr().out
+
+
+def test_policy_walks_and_a_course_ends_at_its_end():
+    result = sim2sim.evaluate_mujoco(FLAT_POLICY, "flat", episodes=1, seconds=2.0)
+    assert result["mean_forward_speed"] > 0.5 and result["success_rate"] == 1.0
+    short = "sections:0@0.5;lead_in=0.5;run_out=5"  # course end at x = 1 m
+    result = sim2sim.evaluate_mujoco(FLAT_POLICY, short, episodes=1, seconds=10.0)
+    episode = result["episodes"][0]
+    assert episode["finished_course"] and episode["success"] and episode["seconds"] < 3.0
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--policy=fixed:trot", "--terrain=s5"], "s5"),
+        (["--policy=/nowhere/policy"], "/nowhere/policy"),
+        (["--policy=fixed:9,0,0.6,0,0"], "amplitude_knee=9"),
+        (["--policy=fixed:trot", "--episodes=0"], "episodes"),
+    ],
+)
+def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):
+    assert sim2sim.main([*args, f"--out={tmp_path / 'x.json'}", "--no_progress"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and named in lines[0]
+    assert not (tmp_path / "x.json").exists()
+
+
+# --- play ----------------------------------------------------------------------------------------
+
+
+def test_play_without_a_display_says_so(monkeypatch, capsys):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr(play.sys, "platform", "linux")
+    assert play.main(["--policy=fixed:trot", "--terrain=slope5"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "no display" in lines[0] and "--video" in lines[0]
+    assert "--terrain=slope5" in lines[0]
+
+
+def test_play_session_steps_pauses_and_restarts():
+    pilot = sim2sim.load_pilot(FLAT_POLICY)
+    session = play.Session(pilot, sim2sim.HostRobot("flat", pilot.config))
+    for _ in range(5):
+        session.advance()
+    assert session.host.data.time == pytest.approx(0.25)
+    labels, values = session.overlay()
+    assert "A_k / A_h" in labels and "slope est. / true" in labels and "m/s" in values
+    session.key(play.KEY_SPACE)
+    session.advance()
+    assert session.host.data.time == pytest.approx(0.25) and "paused" in session.overlay()[1]
+    session.key(play.KEY_SPACE)
+    session.key(play.KEY_R)
+    session.advance()
+    assert session.episode == 1 and session.host.data.time == pytest.approx(0.05)
