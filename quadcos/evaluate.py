@@ -81,6 +81,13 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--num_candidates", type=int, default=256, help="search: per round")
     parser.add_argument("--robots_per_candidate", type=int, default=4, help="search")
     parser.add_argument("--rounds", type=int, default=3, help="search: rounds of refinement")
+    parser.add_argument(
+        "--engine",
+        choices=("mjx", "mujoco"),
+        default="mjx",
+        help="mjx: batched on the device (default); mujoco: the same controller path in C MuJoCo,"
+        " episode after episode (quadcos.sim2sim)",
+    )
     parser.add_argument("--no_progress", action="store_true", help="no progress on stderr")
     return parser
 
@@ -109,6 +116,10 @@ def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]
             raise cli.UsageError(f"--render {args.render}: no such file")
     elif args.out is None:
         raise cli.UsageError("--out is required")
+    if args.engine == "mujoco" and (args.search_fixed or args.render or args.trace or args.video):
+        raise cli.UsageError("--engine=mujoco evaluates a --policy to --out only")
+    if args.engine == "mujoco" and overrides:
+        raise cli.UsageError("--engine=mujoco runs the policy's own env config: no --env.KEY")
     if args.search_fixed and (args.trace or args.video):
         raise cli.UsageError("--trace and --video go with --policy, not --search_fixed")
     if args.num_envs < 1:
@@ -199,6 +210,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"best: --policy={best['policy']} (score {best['score']}, fall rate {best['fall_rate']})"
             )
             return 0
+        if args.engine == "mujoco":
+            return _evaluate_in_mujoco(args)
         if not args.no_progress:
             print(f"{_PROG}: building the env and compiling the rollout...", file=sys.stderr)
         source = evaluation.resolve_source(args.policy)
@@ -233,6 +246,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}: success"
         f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
         f" {summary['mean_forward_speed']:.3f} m/s -> {args.out}"
+    )
+    return 0
+
+
+def _evaluate_in_mujoco(args: argparse.Namespace) -> int:
+    """--engine=mujoco: `quadcos.sim2sim.evaluate_mujoco`, the same JSON and summary line."""
+    from quadcos import sim2sim
+
+    result = sim2sim.evaluate_mujoco(
+        args.policy,
+        args.terrain,
+        episodes=args.num_envs,
+        seconds=args.seconds,
+        seed=args.seed,
+        progress=None if args.no_progress else _Progress("C MuJoCo episodes", True),
+    )
+    evaluation.write_json(args.out, result)
+    print(
+        f"{result['num_episodes']} episodes on {result['setup']['terrain']} in C MuJoCo: success"
+        f" {result['success_rate']:.3f}, falls {result['fall_rate']:.3f}, speed"
+        f" {result['mean_forward_speed']:.3f} m/s -> {args.out}"
     )
     return 0
 

@@ -26,9 +26,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from quadcos import config as config_lib
+from quadcos import overrides as config_lib
 from quadcos import env as env_lib
-from quadcos import evaluate
+from quadcos import evaluation
 from quadcos.numpy_policy import FORMAT, NumpyPolicy
 from quadcos.training import policy as policy_lib
 
@@ -40,12 +40,12 @@ def policy_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
 
     Raises:
       FileNotFoundError, ValueError: no loadable policy there, no saved env config, or env
-        options this quadcos does not know (see `evaluate.policy_controller`).
+        options this quadcos does not know (see `evaluation.policy_source`).
     """
-    controller = evaluate.policy_controller(path)  # checks the files and the saved env config
+    source = evaluation.policy_source(path)  # checks the files and the saved env config
     policy = policy_lib.load_policy(path)
-    config = config_lib.apply_overrides(env_lib.default_config(), controller.env_overrides)
-    config.terrain = controller.training_terrain
+    config = config_lib.apply_overrides(env_lib.default_config(), source.env_overrides)
+    config.terrain = source.training_terrain
     layers = policy.params["policy"]["params"]
     names = sorted(layers, key=lambda name: int(name.rsplit("_", 1)[1]))  # hidden_0, hidden_1, ...
     arrays = {

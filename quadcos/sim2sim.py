@@ -29,15 +29,16 @@ import ml_collections
 import mujoco
 import numpy as np
 
-from quadcos import config as config_lib
-from quadcos import constants, evaluate, export, oscillator, reward, robot, slope
+from quadcos import overrides as config_lib
+from quadcos import cli, constants, evaluation, export, oscillator, reward, robot, slope
+from quadcos.evaluation import report, rollout, sources
 from quadcos import env as env_lib
 from quadcos import numpy_twins as twins
 from quadcos import terrain as terrain_lib
 from quadcos.numpy_policy import NumpyPolicy
 
 ENGINE = "mujoco"
-# Per-episode maxima of evaluate.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
+# Per-episode maxima of evaluation.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
 _MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
 
@@ -73,10 +74,10 @@ def load_pilot(spec: str) -> Pilot:
     Raises:
       FileNotFoundError, ValueError: no policy there, or an env config this quadcos cannot build.
     """
-    if spec.startswith(evaluate.FIXED_PREFIX):
-        controller = evaluate.resolve_controller(spec)
-        config = evaluate.build_env(controller, "flat").config  # checks the §3.3 ranges
-        return Pilot(spec, "fixed", config, "flat", fixed_parameters=controller.fixed_parameters)
+    if spec.startswith(sources.FIXED_PREFIX):
+        source = evaluation.resolve_source(spec)
+        config = evaluation.build_env(source, "flat").config  # checks the §3.3 ranges
+        return Pilot(spec, "fixed", config, "flat", fixed_parameters=source.fixed_parameters)
     policy = export.numpy_policy(spec)
     saved = dict(policy.env_config)
     terrain = str(saved.pop("terrain", "flat"))
@@ -125,6 +126,8 @@ class HostRobot:
         self.dt = self.substeps * config.physics_dt
         tau = config.action_filter_tau
         self._blend = 1.0 - math.exp(-config.physics_dt / tau) if tau > 0 else 1.0
+        speed_tau = config.survival_speed_tau
+        self._speed_blend = 1.0 - math.exp(-self.dt / speed_tau) if speed_tau > 0 else 1.0
         self.action_size = 5 if config.controller == "oscillator" else len(constants.JOINTS)
         self.action_centre = env_lib.ACTION_CENTRES[config.action_centre]
         self.weights = reward.RewardWeights(**config.reward.to_dict())
@@ -132,7 +135,7 @@ class HostRobot:
         self._orientation = slice(sensor.adr[0], sensor.adr[0] + 4)
         self._torso = self.model.body(constants.TORSO_BODY).id
         self._torso_half_size = self.model.geom(constants.TORSO_GEOM).size.copy()
-        self.phase, self.command = 0.0, np.zeros(self.action_size)
+        self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
 
     def reset(self, seed: int | Sequence[int], x: float = 0.0, y: float = 0.0) -> np.ndarray:
         """`QuadrupedEnv.reset_at`: standing at (x, y), pitched with the ground, joints perturbed
@@ -151,7 +154,7 @@ class HostRobot:
         qpos[constants.QPOS_JOINTS] = joints
         self.data.ctrl[:] = joints
         mujoco.mj_forward(self.model, self.data)
-        self.phase, self.command = 0.0, np.zeros(self.action_size)
+        self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
         return self._observe()[0]
 
     def rhythm_parameters(self) -> oscillator.RhythmParameters | None:
@@ -183,6 +186,7 @@ class HostRobot:
         finite = np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all()
         fell = not finite or self._fell(body, slope_truth)
         forward_speed = (x - x_last) / self.dt
+        self.mean_speed += self._speed_blend * (forward_speed - self.mean_speed)
         terms = twins.reward_terms(
             x_now=x,
             x_last=x_last,
@@ -191,16 +195,16 @@ class HostRobot:
             body=body,
             slope_estimate=slope_estimate,
             fell=fell,
-            moving=self._moving(forward_speed),
+            moving=self._moving(self.mean_speed),
             weights=self.weights,
             variant=self.config.reward_variant,
         )
         return StepResult(obs, body, slope_estimate, slope_truth, forward_speed, terms, fell)
 
-    def _moving(self, forward_speed: float) -> bool:
+    def _moving(self, mean_speed: float) -> bool:
         """`QuadrupedEnv._moving`: whether the step earns Eq. 9's r_s."""
         min_speed = self.config.survival_min_speed
-        return min_speed == 0 or forward_speed >= min_speed
+        return min_speed == 0 or mean_speed >= min_speed
 
     def _joint_targets(self, params: oscillator.RhythmParameters | None) -> np.ndarray:
         """`QuadrupedEnv.joint_targets` of the current command and phase."""
@@ -253,12 +257,12 @@ def run_episode(
     num_steps: int,
 ) -> dict[str, Any]:
     """One episode of at most `num_steps` control steps from `host.reset(seed)`; returns the
-    fields of `evaluate.EpisodeStats` for it (scalars), accumulated as `evaluate` does."""
+    fields of `evaluation.EpisodeStats` for it (scalars), accumulated as `evaluate` does."""
     obs = host.reset(seed)
     x, y = float(host.data.qpos[0]), float(host.data.qpos[1])
     record = dict(fell=False, finished=False, steps=0, start_x=x, start_y=y, x=x, y=y)
     maxima = np.zeros(len(_MAXIMA))
-    slope_sq_error, reward_terms = 0.0, dict.fromkeys(evaluate.REWARD_TERMS, 0.0)
+    slope_sq_error, reward_terms = 0.0, dict.fromkeys(reward.TERM_NAMES, 0.0)
     course_end_x = host.terrain.course_end_x
     for _ in range(num_steps):
         result = host.step(act(obs))
@@ -320,12 +324,12 @@ def evaluate_mujoco(
             progress(index + 1, episodes)
     fields = {
         name: np.array([record[name] for record in records])
-        for name in evaluate.EpisodeStats.__dataclass_fields__
+        for name in evaluation.EpisodeStats.__dataclass_fields__
         if name != "reward_terms"
     }
-    terms = {t: np.array([r["reward_terms"][t] for r in records]) for t in evaluate.REWARD_TERMS}
-    stats = evaluate.EpisodeStats(**fields, reward_terms=terms)
-    values = evaluate.episode_values(stats, host.dt, num_steps)
+    terms = {t: np.array([r["reward_terms"][t] for r in records]) for t in reward.TERM_NAMES}
+    stats = evaluation.EpisodeStats(**fields, reward_terms=terms)
+    values = evaluation.episode_values(stats, host.dt, num_steps)
     course = host.terrain.course_end_x is not None
     for episode in values:
         episode["success"] = episode["finished_course"] if course else not episode["fell"]
@@ -345,8 +349,8 @@ def evaluate_mujoco(
         "wall_time_s": time.monotonic() - started,
         "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
     }
-    head = {"format": evaluate.FORMAT, "format_version": evaluate.FORMAT_VERSION}
-    return head | evaluate.aggregate(values, stats) | {"setup": setup, "episodes": values}
+    head = {"format": report.FORMAT, "format_version": rollout.FORMAT_VERSION}
+    return head | evaluation.aggregate(values, stats) | {"setup": setup, "episodes": values}
 
 
 # --- CLI -----------------------------------------------------------------------------------------
@@ -354,7 +358,7 @@ def evaluate_mujoco(
 
 def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
     """A CLI parser with --policy, --terrain and --seed (sim2sim's and play's) whose errors are
-    `evaluate.UsageError`s, reported as one line."""
+    `cli.UsageError`s, reported as one line."""
     parser = argparse.ArgumentParser(
         prog=prog, description=description, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -363,8 +367,7 @@ def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
     )
     parser.add_argument("--terrain", help="terrain name or spec (default: the training terrain)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
-    parser.error = evaluate._raise_usage_error  # noqa: SLF001 -- one line, not the usage text
-    return parser
+    return cli.raising(parser)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -398,7 +401,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, FileNotFoundError) as error:
         print(f"quadcos.sim2sim: error: {error}", file=sys.stderr)
         return 2
-    evaluate.write_json(out, result)
+    evaluation.write_json(out, result)
     print(
         f"{result['num_episodes']} episodes on {result['setup']['terrain']} in C MuJoCo: success"
         f" {result['success_rate']:.3f}, falls {result['fall_rate']:.3f}, speed"

@@ -10,7 +10,6 @@ import pytest
 
 from quadcos import numpy_twins as twins
 from quadcos import oscillator, play, reward, sim2sim, slope, terrain
-from quadcos.evaluate import REWARD_TERMS
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FLAT_POLICY = str(ROOT / "experiments" / "policies" / "flat")
@@ -81,8 +80,8 @@ def test_reward_twin(variant, fell):
         **common, pitch=body.pitch, yaw=body.yaw, roll=body.roll, slope=angles[3], weights=weights,
         variant=variant,
     )
-    assert set(host) == set(REWARD_TERMS)
-    for term in REWARD_TERMS:
+    assert set(host) == set(reward.TERM_NAMES)
+    for term in reward.TERM_NAMES:
         assert host[term] == pytest.approx(float(original[term]), abs=1e-4)
 
 
@@ -200,3 +199,29 @@ def test_play_session_steps_pauses_and_restarts():
     session.key(play.KEY_R)
     session.advance()
     assert session.episode == 1 and session.host.data.time == pytest.approx(0.05)
+
+
+def test_survival_for_movement_waits_for_the_low_passed_speed():
+    """With survival_min_speed, r_s starts once the 1-s low-passed speed of a trot from rest
+    reaches it (the MJX env: step 12 of the fixed trot), and then stays."""
+    config = sim2sim.env_config({"survival_min_speed": 0.1})
+    host = sim2sim.HostRobot("flat", config)
+    host.reset(0)
+    trot = np.asarray(
+        oscillator.parameters_to_action(oscillator.FIXED_TROT, config.period_min, host.action_centre)
+    )
+    paid = [host.step(trot).reward_terms["survival"] for _ in range(40)]
+    first = paid.index(10.0)
+    assert 8 <= first <= 16 and set(paid[first:]) == {10.0} and set(paid[:first]) == {0.0}
+
+
+def test_evaluate_cli_runs_c_mujoco_with_engine_mujoco(tmp_path, capsys):
+    from quadcos import evaluate
+
+    out = tmp_path / "trot.json"
+    argv = ["--policy=fixed:trot", "--engine=mujoco", "--num_envs=2", "--seconds=2", f"--out={out}"]
+    assert evaluate.main([*argv, "--no_progress"]) == 0
+    result = json.loads(out.read_text())
+    assert result["setup"]["engine"] == "mujoco" and result["num_episodes"] == 2
+    assert "in C MuJoCo: success 1.000" in capsys.readouterr().out
+    assert evaluate.main([*argv, "--trace=t.json"]) == 2

@@ -10,8 +10,8 @@ of the deepest). Each variant runs episodes 0..N-1 of `mujoco_s4.json` (same res
 import argparse
 import dataclasses
 
-from quadcos import config as config_lib
-from quadcos import evaluate, sim2sim
+from quadcos import overrides as config_lib
+from quadcos import evaluation, sim2sim
 
 S4 = "sections:5@1.4,0@1.4,9@1.2,0@1.4"  # = the registered "s4"
 VARIANTS = {  # name: (env overrides, terrain)
@@ -38,7 +38,7 @@ def main() -> None:
         rows[name] |= {key: result[key] for key in KEYS}
         rows[name]["success"] = [episode["success"] for episode in result["episodes"]]
         print(name, {key: round(result[key], 3) for key in KEYS}, flush=True)
-    evaluate.write_json(args.out, {"episodes": args.episodes, "seconds": 30.0, "variants": rows})
+    evaluation.write_json(args.out, {"episodes": args.episodes, "seconds": 30.0, "variants": rows})
 
 
 if __name__ == "__main__":
