@@ -10,7 +10,7 @@ transitions into the replay buffer, update the observation statistics, then
 `updates_per_step` SAC updates (Haarnoja et al. 2018, arXiv:1812.05905).
 """
 
-from typing import Any, Sequence
+from typing import Any
 
 from brax import envs
 from brax.envs.wrappers import training as training_wrappers
@@ -27,11 +27,13 @@ import ml_collections
 import optax
 
 from quadcos import episodes
+from quadcos.training import networks
 from quadcos.training import replay as replay_lib
 
 Metrics = dict[str, jax.Array]
 PREFILL_ACTIONS = ("uniform", "policy")
-MIN_STD = 0.001  # Brax's NormalTanhDistribution: std = softplus(raw) + min_std
+MIN_STD = networks.MIN_STD
+make_networks = networks.make_networks
 
 
 @flax.struct.dataclass
@@ -62,38 +64,6 @@ class TrainingState:
     gradient_steps: types.UInt64
     nan_resets: types.UInt64
     exploration_noise: jax.Array
-
-
-def make_networks(
-    observation_size: int,
-    action_size: int,
-    policy_hidden_sizes: Sequence[int],
-    q_hidden_sizes: Sequence[int],
-    normalize_observations: bool,
-) -> sac_networks.SACNetworks:
-    """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths."""
-    preprocess = (
-        running_statistics.normalize
-        if normalize_observations
-        else types.identity_observation_preprocessor
-    )
-    policy_side = sac_networks.make_sac_networks(
-        observation_size,
-        action_size,
-        preprocess_observations_fn=preprocess,
-        hidden_layer_sizes=tuple(policy_hidden_sizes),
-    )
-    q_side = sac_networks.make_sac_networks(
-        observation_size,
-        action_size,
-        preprocess_observations_fn=preprocess,
-        hidden_layer_sizes=tuple(q_hidden_sizes),
-    )
-    return sac_networks.SACNetworks(
-        policy_network=policy_side.policy_network,
-        q_network=q_side.q_network,
-        parametric_action_distribution=policy_side.parametric_action_distribution,
-    )
 
 
 def observation_size(env: envs.Env) -> int:
@@ -228,7 +198,7 @@ class SACTrainer:
     def _init_state(self, key: jax.Array) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
         key_noise = jax.random.fold_in(key, 1)
-        policy_params = _initial_output_layer(
+        policy_params = networks.initial_output_layer(
             self.networks.policy_network.init(key_policy),
             self.config.policy_output_scale,
             self.config.init_std,
@@ -264,36 +234,19 @@ class SACTrainer:
     def _exploring_actions(
         self, state: TrainingState, key: jax.Array, uniform: bool = False
     ) -> tuple[jax.Array, TrainingState]:
-        """The exploring actions of all training envs: the policy's tanh-Gaussian samples, or
-        with `uniform` actions uniform in [-1, 1] (the prefill's).
-
-        With `noise_hold_steps` = 1 each step draws afresh (Brax's SAC). With more, each env
-        keeps its draw (a standard normal; mapped through its CDF for `uniform`) and redraws it
-        with probability 1 / noise_hold_steps a step and whenever its episode starts, so that
-        a rhythm controller's parameters stay put long enough for a gait to show.
-        """
-        shape = (self.config.num_envs, self.action_size)
-        if self.config.noise_hold_steps == 1:
-            if uniform:
-                return jax.random.uniform(key, shape, minval=-1.0, maxval=1.0), state
-            policy = self._make_policy((state.normalizer_params, state.policy_params))
-            return policy(state.env_state.obs, key)[0], state
-        key_redraw, key_noise = jax.random.split(key)
-        redraw = (jax.random.uniform(key_redraw, shape[:1]) < 1.0 / self.config.noise_hold_steps) | (
-            state.env_state.done > 0
+        """The exploring actions of all training envs (see `networks.exploring_actions`), with
+        each env's held draw updated in the state."""
+        actions, noise = networks.exploring_actions(
+            self.networks,
+            (state.normalizer_params, state.policy_params),
+            state.env_state.obs,
+            state.exploration_noise,
+            key,
+            hold_steps=self.config.noise_hold_steps,
+            episode_start=state.env_state.done > 0,
+            uniform=uniform,
         )
-        noise = jnp.where(
-            redraw[:, None], jax.random.normal(key_noise, shape), state.exploration_noise
-        )
-        state = state.replace(exploration_noise=noise)
-        if uniform:
-            return 2.0 * jax.scipy.stats.norm.cdf(noise) - 1.0, state
-        logits = self.networks.policy_network.apply(
-            state.normalizer_params, state.policy_params, state.env_state.obs
-        )
-        distribution = self.networks.parametric_action_distribution
-        gaussian = distribution.create_dist(logits)
-        return distribution.postprocess(gaussian.loc + gaussian.scale * noise), state
+        return actions, state.replace(exploration_noise=noise)
 
     def _env_step(
         self, state: TrainingState, actions: jax.Array, key_reset: jax.Array
@@ -541,18 +494,3 @@ class SACTrainer:
                 per_episode = per_episode / jnp.maximum(totals.length, 1.0)
             metrics[f"eval/{name}"] = jnp.mean(per_episode)
         return metrics
-
-
-def _initial_output_layer(params: Any, scale: float, init_std: float | None) -> Any:
-    """The fresh policy's last Dense layer: kernel × `scale` (with scale << 1 the mean action is
-    ~0, the env's action centre, instead of a random offset); with `init_std`, the std half of
-    the bias set so that Brax's softplus(·) + min_std gives that std everywhere."""
-    layers = params["params"]
-    last = max(layers, key=lambda name: int(name.rsplit("_", 1)[1]))
-    layer = {**layers[last], "kernel": layers[last]["kernel"] * scale}
-    if init_std is not None:
-        bias = layer["bias"]
-        action_size = bias.shape[-1] // 2
-        raw_std = jnp.log(jnp.expm1(jnp.asarray(init_std - MIN_STD, bias.dtype)))
-        layer["bias"] = bias.at[action_size:].set(raw_std)
-    return {**params, "params": {**layers, last: layer}}

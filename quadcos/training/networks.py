@@ -1,0 +1,96 @@
+"""The SAC networks (Brax's tanh-Gaussian policy and twin Q), their initialisation, and how the
+training envs explore with them."""
+
+from typing import Any, Sequence
+
+from brax.training import types
+from brax.training.acme import running_statistics
+from brax.training.agents.sac import networks as sac_networks
+import jax
+import jax.numpy as jnp
+
+MIN_STD = 0.001  # Brax's NormalTanhDistribution: std = softplus(raw) + min_std
+
+
+def make_networks(
+    observation_size: int,
+    action_size: int,
+    policy_hidden_sizes: Sequence[int],
+    q_hidden_sizes: Sequence[int],
+    normalize_observations: bool,
+) -> sac_networks.SACNetworks:
+    """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths."""
+    preprocess = (
+        running_statistics.normalize
+        if normalize_observations
+        else types.identity_observation_preprocessor
+    )
+    policy_side = sac_networks.make_sac_networks(
+        observation_size,
+        action_size,
+        preprocess_observations_fn=preprocess,
+        hidden_layer_sizes=tuple(policy_hidden_sizes),
+    )
+    q_side = sac_networks.make_sac_networks(
+        observation_size,
+        action_size,
+        preprocess_observations_fn=preprocess,
+        hidden_layer_sizes=tuple(q_hidden_sizes),
+    )
+    return sac_networks.SACNetworks(
+        policy_network=policy_side.policy_network,
+        q_network=q_side.q_network,
+        parametric_action_distribution=policy_side.parametric_action_distribution,
+    )
+
+
+def initial_output_layer(params: Any, scale: float, init_std: float | None) -> Any:
+    """The fresh policy's last Dense layer: kernel × `scale` (with scale << 1 the mean action is
+    ~0, the env's action centre, instead of a random offset); with `init_std`, the std half of
+    the bias set so that Brax's softplus(·) + min_std gives that std everywhere."""
+    layers = params["params"]
+    last = max(layers, key=lambda name: int(name.rsplit("_", 1)[1]))
+    layer = {**layers[last], "kernel": layers[last]["kernel"] * scale}
+    if init_std is not None:
+        bias = layer["bias"]
+        action_size = bias.shape[-1] // 2
+        raw_std = jnp.log(jnp.expm1(jnp.asarray(init_std - MIN_STD, bias.dtype)))
+        layer["bias"] = bias.at[action_size:].set(raw_std)
+    return {**params, "params": {**layers, last: layer}}
+
+
+def exploring_actions(
+    networks: sac_networks.SACNetworks,
+    params: tuple[Any, Any],
+    obs: jax.Array,
+    noise: jax.Array,
+    key: jax.Array,
+    *,
+    hold_steps: int,
+    episode_start: jax.Array,
+    uniform: bool = False,
+) -> tuple[jax.Array, jax.Array]:
+    """(num_envs, action_size) exploring actions and the envs' held noise after this step.
+
+    The policy's tanh-Gaussian samples (`params` = (normaliser, policy) parameters), or with
+    `uniform` actions uniform in [-1, 1] (the prefill's). With `hold_steps` = 1 each step draws
+    afresh (Brax's SAC). With more, each env keeps its standard-normal draw `noise` (mapped
+    through its CDF for `uniform`) and redraws it with probability 1 / hold_steps a step and
+    whenever its episode starts, so that a rhythm controller's parameters stay put long enough
+    for a gait to show.
+    """
+    if hold_steps == 1:
+        if uniform:
+            return jax.random.uniform(key, noise.shape, minval=-1.0, maxval=1.0), noise
+        policy = sac_networks.make_inference_fn(networks)(params)
+        return policy(obs, key)[0], noise
+    key_redraw, key_noise = jax.random.split(key)
+    redraw = (jax.random.uniform(key_redraw, noise.shape[:1]) < 1.0 / hold_steps) | episode_start
+    noise = jnp.where(redraw[:, None], jax.random.normal(key_noise, noise.shape), noise)
+    if uniform:
+        return 2.0 * jax.scipy.stats.norm.cdf(noise) - 1.0, noise
+    normalizer_params, policy_params = params
+    logits = networks.policy_network.apply(normalizer_params, policy_params, obs)
+    distribution = networks.parametric_action_distribution
+    gaussian = distribution.create_dist(logits)
+    return distribution.postprocess(gaussian.loc + gaussian.scale * noise), noise
