@@ -348,8 +348,13 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
     for key in ("max_envs", "contacts_per_env", "constraints_per_env"):
         value = config.warp[key]
-        if not (isinstance(value, int) and 1 <= value <= 1 << 24):
-            raise ValueError(f"warp.{key} must be a whole number in [1, 2**24]; got {value!r}")
+        if not (isinstance(value, int) and value >= 1):
+            raise ValueError(f"warp.{key} must be a whole number >= 1; got {value!r}")
+    if config.warp.max_envs * config.warp.contacts_per_env >= 2**31:  # Warp indexes with int32
+        raise ValueError(
+            "warp.max_envs × warp.contacts_per_env must be < 2**31; got"
+            f" {config.warp.max_envs} × {config.warp.contacts_per_env}"
+        )
     if config.controller not in CONTROLLERS:
         raise ValueError(
             f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}"

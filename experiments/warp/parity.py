@@ -2,6 +2,7 @@
 physics implementation, then the differences and a figure of one episode's trajectory.
 
     python experiments/warp/parity.py run --num_envs=1024     # on a GPU with warp-lang: eval_*.json, trace_*.json
+    python experiments/warp/parity.py run --num_envs=16 --seconds_scale=0.25   # the CPU check
     python experiments/warp/parity.py report                   # anywhere: parity.json, parity.png
 """
 
@@ -17,21 +18,21 @@ SUCCESS_TOLERANCE = 0.02  # the issue's bounds
 SPEED_TOLERANCE = 0.03
 
 
-def run(num_envs: int) -> None:
-    from quadcos import caches, evaluate
+def run(num_envs: int, seconds_scale: float = 1.0) -> None:
+    from quadcos import caches, evaluation
 
     caches.enable()
     for policy, (terrain, seconds) in CASES.items():
         for impl in IMPLS:
-            result = evaluate.evaluate(
+            result = evaluation.evaluate(
                 str(POLICIES / policy),
                 terrain,
                 num_envs=num_envs,
-                seconds=seconds,
+                seconds=seconds * seconds_scale,
                 env_overrides={"impl": impl},
             )
-            evaluate.write_json(HERE / f"eval_{policy}_{impl}.json", result.to_json())
-            evaluate.write_json(HERE / f"trace_{policy}_{impl}.json", result.trace)
+            evaluation.write_json(HERE / f"eval_{policy}_{impl}.json", result.to_json())
+            evaluation.write_json(HERE / f"trace_{policy}_{impl}.json", result.trace)
             print(policy, impl, json.dumps({k: result.summary[k] for k in ("success_rate", "mean_forward_speed")}))
 
 
@@ -79,5 +80,6 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("mode", choices=("run", "report"))
     parser.add_argument("--num_envs", type=int, default=1024)
+    parser.add_argument("--seconds_scale", type=float, default=1.0, help="shorter episodes (CPU)")
     args = parser.parse_args()
-    run(args.num_envs) if args.mode == "run" else report()
+    run(args.num_envs, args.seconds_scale) if args.mode == "run" else report()
