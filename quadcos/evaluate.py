@@ -212,13 +212,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         if args.engine == "mujoco":
             return _evaluate_in_mujoco(args)
-        if not args.no_progress:
-            print(f"{_PROG}: building the env and compiling the rollout...", file=sys.stderr)
         source = evaluation.resolve_source(args.policy)
         # Builds the env now: a bad terrain or size is reported before anything runs.
         env = evaluation.build_env(source, args.terrain, overrides)
         if args.video:
             video.check_video_support()
+        if not args.no_progress:
+            print(f"{_PROG}: compiling the rollout...", file=sys.stderr)
         result = evaluation.evaluate(
             source,
             num_envs=args.num_envs,
