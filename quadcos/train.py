@@ -29,6 +29,7 @@ import ml_collections
 
 from quadcos import caches
 from quadcos import env as env_lib
+from quadcos import gait_search
 from quadcos import terrain as terrain_lib
 from quadcos.overrides import apply_overrides, flat_keys
 
@@ -249,6 +250,9 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
     try:
         config = apply_overrides(default_config(), base)
         overrides = _expand_groups(overrides, flat_keys(config))
+        centre = overrides.get("env.action_centre")
+        if isinstance(centre, tuple) and all(isinstance(v, (int, float)) for v in centre):
+            overrides["env.action_centre"] = env_lib.centre_spec(centre)  # A_k,A_h,T,φ1,φ3
         non_finite = {
             key: value
             for key, value in overrides.items()
@@ -372,8 +376,22 @@ def _main(argv: list[str]) -> int:
         _check_output_dir(run_dir, args.resume)
         # Warp's contact buffer is shared by a batch's worlds: size it for the largest batch.
         config.env.warp.max_envs = max(
-            config.env.warp.max_envs, config.sac.num_envs, config.sac.num_eval_envs
+            config.env.warp.max_envs,
+            config.sac.num_envs,
+            config.sac.num_eval_envs,
+            gait_search.search_envs(config),
         )
+        search = None
+        if config.env.action_centre == env_lib.SEARCH_CENTRE:
+            search = gait_search.find_gait(config)
+            config.env.action_centre = search["action_centre"]
+            if run_dir is not None:
+                from quadcos.training import files
+
+                run_dir.mkdir(parents=True, exist_ok=True)
+                files.atomic_write_text(
+                    run_dir / gait_search.SEARCH_FILE, json.dumps(search, indent=2) + "\n"
+                )
         env = env_lib.QuadrupedEnv(
             config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
         )
@@ -387,6 +405,9 @@ def _main(argv: list[str]) -> int:
     except (UsageError, ValueError, FileNotFoundError) as error:
         _print_error(error)
         return 2
+    except gait_search.NoGaitFound as error:
+        _print_error(error)
+        return 1
 
     from quadcos import training
 
@@ -403,7 +424,9 @@ def _main(argv: list[str]) -> int:
                 "argv": argv,
                 "impl": env.impl,
                 "caches": cache_dirs,
+                **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
             },
+            elapsed_s=search["setup"]["wall_time_s"] if search else 0.0,
         )
     except training.ConfigError as error:  # raised before anything is written
         _print_error(error)

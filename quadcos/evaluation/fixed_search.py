@@ -26,22 +26,28 @@ def search_fixed(
     seconds: float = 20.0,
     seed: int = 0,
     top: int = 10,
+    include_trot: bool = True,
     env_overrides: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    on_round: Callable[[dict[str, Any]], None] | None = None,
 ) -> dict[str, Any]:
     """Searches constant rhythm parameters (A_k, A_h, T, φ1, φ3) for the best fixed gait.
 
     Each round evaluates `num_candidates` parameter sets on `robots_per_candidate` robots each, all
     in one batch (the same compiled rollout every round). Round 1 draws candidates uniformly from
-    the §3.3 ranges (`oscillator.parameter_bounds`), with `oscillator.FIXED_TROT` as candidate 0;
-    each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
+    the §3.3 ranges (`oscillator.parameter_bounds`), with `oscillator.FIXED_TROT` as candidate 0
+    when `include_trot` (False: nothing known to walk is given); each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
     10 % of each range in round 2, halved every round after). A candidate's score is its robots'
     mean episode reward (Eq. 13 summed over the episode) when none of them fell, else −inf: the
     ranking is the paper's reward among gaits with zero falls.
 
+    `on_round` is called after each round with its entry of "rounds".
+
     Returns:
       {"format", "ranking": the `top` best candidates (parameters, `policy` spec for --policy,
-      score, fall_rate, mean_forward_speed, mean_max_abs_yaw, mean_lateral_drift, ...), "setup"}.
+      score, fall_rate, mean_forward_speed, mean_max_abs_yaw, mean_lateral_drift, ...),
+      "rounds": per round its wall time, candidates' mean fall rate, how many never fell, the
+      best score and that candidate's speed; "setup"}.
     """
     if num_candidates < 1 or robots_per_candidate < 1 or rounds < 1:
         raise ValueError("num_candidates, robots_per_candidate and rounds must be >= 1")
@@ -54,11 +60,13 @@ def search_fixed(
     rng = np.random.default_rng(seed)
     num_envs = num_candidates * robots_per_candidate
     evaluated: list[dict[str, Any]] = []
+    rounds_log: list[dict[str, Any]] = []
     started = time.monotonic()
     for round_index in range(rounds):
         if round_index == 0:
             candidates = rng.uniform(lower, upper, size=(num_candidates, 5))
-            candidates[0] = np.asarray(oscillator.FIXED_TROT)
+            if include_trot:
+                candidates[0] = np.asarray(oscillator.FIXED_TROT)
         else:
             ranked = sorted(evaluated, key=lambda c: c["score"], reverse=True)
             elites = np.array([c["parameters_array"] for c in ranked[: min(elite, num_candidates)]])
@@ -101,6 +109,20 @@ def search_fixed(
                     "mean_lateral_drift": float(np.mean([e["lateral_drift"] for e in group])),
                 }
             )
+        this_round = evaluated[-len(candidates) :]
+        best = max(this_round, key=lambda c: c["score"])
+        rounds_log.append(
+            {
+                "round": round_index + 1,
+                "wall_time_s": time.monotonic() - started,
+                "fall_rate": float(np.mean([c["fall_rate"] for c in this_round])),
+                "num_without_falls": sum(math.isfinite(c["score"]) for c in this_round),
+                "best_score": best["score"] if math.isfinite(best["score"]) else None,
+                "best_forward_speed": best["mean_forward_speed"],
+            }
+        )
+        if on_round is not None:
+            on_round(rounds_log[-1])
     ranked = sorted(evaluated, key=lambda c: c["score"], reverse=True)
     ranking = [
         {key: value for key, value in c.items() if key != "parameters_array"}
@@ -111,6 +133,7 @@ def search_fixed(
         "format": SEARCH_FORMAT,
         "format_version": FORMAT_VERSION,
         "ranking": ranking,
+        "rounds": rounds_log,
         "num_without_falls": sum(math.isfinite(c["score"]) for c in evaluated),
         "num_evaluated": len(evaluated),
         "setup": {
@@ -121,6 +144,7 @@ def search_fixed(
             "elite": elite,
             "seconds": num_steps * env.dt,
             "seed": seed,
+            "include_trot": include_trot,
             "env": env.config.to_dict() | {"terrain": env.terrain.spec},
             "wall_time_s": time.monotonic() - started,
         },

@@ -48,6 +48,14 @@ def check_config(config: ml_collections.ConfigDict) -> None:
             raise ValueError(
                 f"config.noise_hold_steps must be a whole number >= 1, got {config.noise_hold_steps}"
             )
+        search = config.gait_search
+        for name in ("num_candidates", "robots_per_candidate", "rounds", "elite"):
+            if not (isinstance(search[name], int) and search[name] >= 1):
+                raise ValueError(
+                    f"config.gait_search.{name} must be a whole number >= 1, got {search[name]}"
+                )
+        if not 0 < search.seconds < math.inf:
+            raise ValueError(f"config.gait_search.seconds must be finite and > 0, got {search.seconds}")
         if not -(2**63) <= config.seed < 2**63:
             raise ValueError(f"config.seed must fit in 64 bits, got {config.seed}")
         if not (0 <= config.discount <= 1 and 0 < config.tau <= 1):

@@ -74,6 +74,15 @@ def default_config() -> ml_collections.ConfigDict:
     # Seeds network init, env resets, exploration and replay sampling.
     config.seed = 0
 
+    # --- Gait search (only with env.action_centre="search") ------------------------
+    # A from-scratch run's first phase (quadcos.gait_search, timed with the run): a population
+    # search over constant rhythm parameters (A_k, A_h, T, φ1, φ3), round 1 uniform over §3.3's
+    # ranges, later rounds around the `elite` best; a candidate scores its robots' mean Eq. 13
+    # episode reward when none fell. The best becomes the action centre SAC starts from.
+    config.gait_search = ml_collections.ConfigDict(
+        dict(num_candidates=1024, robots_per_candidate=4, rounds=4, elite=16, seconds=20.0)
+    )
+
     # --- Host loop -------------------------------------------------------------
     # Vectorised env steps per compiled chunk; the host sees results (metrics,
     # NaN checks, signals) once per chunk.

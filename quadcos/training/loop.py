@@ -91,6 +91,7 @@ def train(
     progress: bool = True,
     progress_bar: bool = True,
     extra_run_info: dict[str, Any] | None = None,
+    elapsed_s: float = 0.0,
 ) -> TrainResult:
     """Trains a SAC policy on `env`.
 
@@ -109,6 +110,8 @@ def train(
       progress_bar: False prints the one line per evaluation on a terminal too.
       extra_run_info: JSON-serialisable data stored in config.json under
         `run_info` (e.g. the env config).
+      elapsed_s: seconds the run spent before this call (a from-scratch run's gait search):
+        the run's wall_time_s starts there.
 
     Returns:
       The final policy, state and metrics.
@@ -135,7 +138,7 @@ def train(
     )
     run_info = _run_info(config, extra_run_info)
     state = trainer.init()
-    wall_time_offset = 0.0
+    wall_time_offset = elapsed_s
     store = None
     log = None
     if run_dir is not None:

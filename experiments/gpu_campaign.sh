@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# One GPU lease's campaign (issues 13 and 12), started detached so that it outlives the device
+# calls that poll it (each call returns within 10 minutes; the machine stays warm between them):
+#   setsid nohup bash experiments/gpu_campaign.sh > /tmp/campaign.log 2>&1 < /dev/null &
+#   bash experiments/gpu_poll.sh 540      # in each later call: waits, copies finished phases to $OUT
+# Phases run one after another, each with the whole GPU; each leaves /tmp/campaign/<phase>.tar.gz.
+set -uo pipefail
+source experiments/gpu_setup.sh || exit 1
+C=/tmp/campaign
+mkdir -p $C
+note() { echo "$(date +%T) $*" | tee -a $C/status; }
+pack() {  # PHASE: its files under $C/<PHASE> as $C/<PHASE>.tar.gz
+  tar czf $C/$1.tar.gz -C $C $1 && note "$1 done"
+}
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $C/gpu.txt
+python3 -c "import jax, mujoco, warp; print(jax.__version__, mujoco.__version__, warp.__version__)" >> $C/gpu.txt 2>&1
+
+# 1. Issue 13: from scratch on flat (gait search, then SAC; Eq. 9's r_s paid for movement),
+# 3 seeds, one after another.
+note "scratch start"
+for s in 0 1 2; do
+  OUT=$C/scratch TRAIN_SECONDS=${SCRATCH_SECONDS:-200} bash experiments/train_gpu.sh scratch_s$s \
+    --terrain=flat --seed=$s --config.env.action_centre=search --config.env.survival_min_speed=0.1 \
+    --config.sac.eval_interval=1000000
+  note "scratch_s$s: $(tail -n 1 $C/scratch/runs/scratch_s$s/train.log)"
+done
+pack scratch
+
+# 2. Issue 12: throughput rows, Warp and JAX physics, ours and stock Brax SAC.
+note "bench start"
+mkdir -p $C/bench && OUT=$C/bench bash benchmarks/run_h100.sh
+pack bench
+
+# 3. Issue 12: parity of the committed policies (1024 episodes each), start-up cold and warm.
+note "warp start"
+mkdir -p $C/warp && OUT=$C/warp bash experiments/warp/run_gpu.sh
+pack warp
+
+# 4. Issue 13's ablations, one seed each: SAC alone from the standing midpoint (held noise, r_s
+# for movement), and the search + SAC with r_s paid for every step alive.
+note "ablation start"
+OUT=$C/ablation TRAIN_SECONDS=150 bash experiments/train_gpu.sh sac_only_s0 --terrain=flat --seed=0 \
+  --config.env.action_centre=midpoint --config.env.survival_min_speed=0.1 \
+  --config.sac.policy_output_scale=1.0 --config.sac.init_std=None --config.sac.init_alpha=1.0 \
+  --config.sac.prefill_actions=uniform --config.sac.actor_warmup_steps=0 \
+  --config.sac.noise_hold_steps=20 --config.sac.eval_interval=1000000 --num_timesteps=100000000
+OUT=$C/ablation TRAIN_SECONDS=150 bash experiments/train_gpu.sh scratch_alive_s0 --terrain=flat \
+  --seed=0 --config.env.action_centre=search --config.sac.eval_interval=1000000
+pack ablation
+note "campaign done"

@@ -1,0 +1,98 @@
+"""The first phase of a from-scratch run: find a gait, then let SAC learn from it.
+
+With `env.action_centre="search"`, `python -m quadcos.train` knows no walking gait. Before it
+builds the env it searches constant rhythm parameters (A_k, A_h, T, φ1, φ3) with
+`evaluation.search_fixed` — round 1 uniform over §3.3's ranges, no hand-set trot among the
+candidates, later rounds around the best — scored by the run's own reward (Eq. 13) on the run's
+own terrain. The best candidate without falls becomes the action centre (what SAC's zero action
+commands), and the search's wall time starts the run's clock, so a time to walk counts it.
+"""
+
+import logging
+import math
+from typing import Any
+
+import ml_collections
+
+from quadcos import env as env_lib
+from quadcos.overrides import flatten
+
+logger = logging.getLogger("quadcos.train")
+
+SEARCH_FILE = "gait_search.json"
+
+
+class NoGaitFound(RuntimeError):
+    """No candidate of the search finished its episodes without a fall."""
+
+
+def search_envs(config: ml_collections.ConfigDict) -> int:
+    """Robots the search steps at once (for sizing Warp's buffers)."""
+    search = config.sac.gait_search
+    return search.num_candidates * search.robots_per_candidate
+
+
+def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
+    """Runs the search for a run config ({"env", "sac"}) whose action centre is "search".
+
+    Returns:
+      The search result of `evaluation.search_fixed` plus "action_centre": the best candidate as
+      an `env.action_centre` string.
+
+    Raises:
+      NoGaitFound: every candidate fell at least once.
+    """
+    from quadcos import evaluation  # heavy: builds envs; only a from-scratch run needs it
+
+    search = config.sac.gait_search
+    overrides = flatten(config.env.to_dict())
+    for key in ("terrain", "spawn_x_max", "action_centre"):
+        overrides.pop(key)
+    logger.info(
+        "gait search: %d candidates x %d robots x %g s, %d rounds, on %s",
+        search.num_candidates,
+        search.robots_per_candidate,
+        search.seconds,
+        search.rounds,
+        config.env.terrain,
+    )
+
+    def report(entry: dict[str, Any]) -> None:
+        best = entry["best_score"]
+        logger.info(
+            "gait search round %d/%d (%.0f s): %d of %d candidates never fell; best %s at %.2f m/s",
+            entry["round"],
+            search.rounds,
+            entry["wall_time_s"],
+            entry["num_without_falls"],
+            search.num_candidates,
+            "none" if best is None else f"{best:,.0f}",
+            entry["best_forward_speed"],
+        )
+
+    result = evaluation.search_fixed(
+        config.env.terrain,
+        num_candidates=search.num_candidates,
+        robots_per_candidate=search.robots_per_candidate,
+        rounds=search.rounds,
+        elite=search.elite,
+        seconds=search.seconds,
+        seed=config.sac.seed,
+        include_trot=False,
+        env_overrides=overrides,
+        on_round=report,
+    )
+    best = result["ranking"][0]
+    if best["score"] is None or not math.isfinite(best["score"]):
+        raise NoGaitFound(
+            f"the gait search found no candidate without falls in {search.rounds} rounds of"
+            f" {search.num_candidates}; raise config.sac.gait_search.rounds or .num_candidates"
+        )
+    centre = env_lib.centre_spec(best["parameters"].values())
+    logger.info(
+        "gait search: action centre %s (%.2f m/s, no falls) after %.0f s",
+        centre,
+        best["mean_forward_speed"],
+        result["setup"]["wall_time_s"],
+    )
+    return result | {"action_centre": centre}
