@@ -79,6 +79,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         seconds=search.seconds,
         seed=config.sac.seed,
         include_trot=False,
+        symmetric=bool(search.symmetric),
         env_overrides=overrides,
         on_round=report,
     )

@@ -27,6 +27,7 @@ def search_fixed(
     seed: int = 0,
     top: int = 10,
     include_trot: bool = True,
+    symmetric: bool = False,
     env_overrides: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_round: Callable[[dict[str, Any]], None] | None = None,
@@ -36,7 +37,9 @@ def search_fixed(
     Each round evaluates `num_candidates` parameter sets on `robots_per_candidate` robots each, all
     in one batch (the same compiled rollout every round). Round 1 draws candidates uniformly from
     the §3.3 ranges (`oscillator.parameter_bounds`), with `oscillator.FIXED_TROT` as candidate 0
-    when `include_trot` (False: nothing known to walk is given); each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
+    when `include_trot` (False: nothing known to walk is given); `symmetric` keeps every
+    candidate on φ3 = φ1 − π (wrapped into its range), where the two diagonal leg pairs move
+    alike half a cycle apart — mirror-symmetric gaits, which do not turn by construction. Each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
     10 % of each range in round 2, halved every round after). A candidate's score is its robots'
     mean episode reward (Eq. 13 summed over the episode) when none of them fell, else −inf: the
     ranking is the paper's reward among gaits with zero falls.
@@ -74,6 +77,8 @@ def search_fixed(
             parents = elites[rng.integers(len(elites), size=num_candidates)]
             candidates = np.clip(parents + rng.normal(size=parents.shape) * std, lower, upper)
             candidates[: len(elites)] = elites
+        if symmetric:
+            candidates[:, 4] = _wrap(candidates[:, 3] - np.pi, lower[4], upper[4])
         per_robot = np.repeat(candidates, robots_per_candidate, axis=0).astype(np.float32)
 
         def round_progress(done: int, total: int, round_index: int = round_index) -> None:
@@ -145,8 +150,13 @@ def search_fixed(
             "seconds": num_steps * env.dt,
             "seed": seed,
             "include_trot": include_trot,
+            "symmetric": symmetric,
             "env": env.config.to_dict() | {"terrain": env.terrain.spec},
             "wall_time_s": time.monotonic() - started,
         },
     }
 
+
+def _wrap(phase: np.ndarray, low: float, high: float) -> np.ndarray:
+    """Shifts phases that left [low, high] by one cycle back in (the range spans two cycles)."""
+    return np.where(phase < low, phase + 2 * np.pi, np.where(phase > high, phase - 2 * np.pi, phase))

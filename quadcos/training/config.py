@@ -79,8 +79,16 @@ def default_config() -> ml_collections.ConfigDict:
     # search over constant rhythm parameters (A_k, A_h, T, φ1, φ3), round 1 uniform over §3.3's
     # ranges, later rounds around the `elite` best; a candidate scores its robots' mean Eq. 13
     # episode reward when none fell. The best becomes the action centre SAC starts from.
+    # symmetric: candidates keep φ3 = φ1 − π (mirror-symmetric gaits; SAC may leave it later).
     config.gait_search = ml_collections.ConfigDict(
-        dict(num_candidates=1024, robots_per_candidate=4, rounds=4, elite=16, seconds=20.0)
+        dict(
+            num_candidates=2048,
+            robots_per_candidate=2,
+            rounds=6,
+            elite=16,
+            seconds=5.0,
+            symmetric=True,
+        )
     )
 
     # --- Host loop -------------------------------------------------------------
