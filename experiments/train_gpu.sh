@@ -16,5 +16,6 @@ start=$(date +%s)
 timeout -s TERM "${TRAIN_SECONDS:-3600}" python3 -m quadcos.train --preset=gpu --output_dir="$run" --no_progress "$@" > "$out/train.log" 2>&1
 echo "exit $? wall_time_s $(( $(date +%s) - start ))" >> "$out/train.log"
 cp "$run/config.json" "$run/metrics.jsonl" "$out/"
+[ -f "$run/gait_search.json" ] && cp "$run/gait_search.json" "$out/"
 [ -d "$run/policy" ] && cp -r "$run/policy" "$out/"
 tail -n 1 "$out/train.log"

@@ -2,8 +2,8 @@
 physics implementation, then the differences and a figure of one episode's trajectory.
 
     python experiments/warp/parity.py run --num_envs=1024     # on a GPU with warp-lang: eval_*.json, trace_*.json
-    python experiments/warp/parity.py run --num_envs=16 --seconds_scale=0.25   # the CPU check
-    python experiments/warp/parity.py report                   # anywhere: parity.json, parity.png
+    python experiments/warp/parity.py run --num_envs=16 --seconds_scale=0.25 --dir=experiments/warp/cpu16  # the CPU check
+    python experiments/warp/parity.py report [--dir=...]       # anywhere: parity.json, parity.png
 """
 
 import argparse
@@ -18,7 +18,7 @@ SUCCESS_TOLERANCE = 0.02  # the issue's bounds
 SPEED_TOLERANCE = 0.03
 
 
-def run(num_envs: int, seconds_scale: float = 1.0) -> None:
+def run(out: Path, num_envs: int, seconds_scale: float = 1.0) -> None:
     from quadcos import caches, evaluation
 
     caches.enable()
@@ -31,15 +31,15 @@ def run(num_envs: int, seconds_scale: float = 1.0) -> None:
                 seconds=seconds * seconds_scale,
                 env_overrides={"impl": impl},
             )
-            evaluation.write_json(HERE / f"eval_{policy}_{impl}.json", result.to_json())
-            evaluation.write_json(HERE / f"trace_{policy}_{impl}.json", result.trace)
+            evaluation.write_json(out / f"eval_{policy}_{impl}.json", result.to_json())
+            evaluation.write_json(out / f"trace_{policy}_{impl}.json", result.trace)
             print(policy, impl, json.dumps({k: result.summary[k] for k in ("success_rate", "mean_forward_speed")}))
 
 
-def report() -> None:
+def report(out: Path) -> None:
     rows = {}
     for policy in CASES:
-        summary = {impl: json.loads((HERE / f"eval_{policy}_{impl}.json").read_text()) for impl in IMPLS}
+        summary = {impl: json.loads((out / f"eval_{policy}_{impl}.json").read_text()) for impl in IMPLS}
         success = {impl: summary[impl]["success_rate"] for impl in IMPLS}
         speed = {impl: summary[impl]["mean_forward_speed"] for impl in IMPLS}
         rows[policy] = {
@@ -51,12 +51,12 @@ def report() -> None:
             "within_tolerance": abs(success["warp"] - success["jax"]) <= SUCCESS_TOLERANCE
             and abs(speed["warp"] / speed["jax"] - 1) <= SPEED_TOLERANCE,
         }
-    (HERE / "parity.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (out / "parity.json").write_text(json.dumps(rows, indent=1) + "\n")
     print(json.dumps(rows, indent=1))
-    _figure()
+    _figure(out)
 
 
-def _figure() -> None:
+def _figure(out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -66,14 +66,14 @@ def _figure() -> None:
     fig, axes = plt.subplots(len(CASES), 2, figsize=(10, 6), constrained_layout=True)
     for row, policy in enumerate(CASES):
         for impl, style in zip(IMPLS, ("-", "--")):
-            series = json.loads((HERE / f"trace_{policy}_{impl}.json").read_text())["series"]
+            series = json.loads((out / f"trace_{policy}_{impl}.json").read_text())["series"]
             time = np.asarray(series["time"])
             axes[row, 0].plot(time, series["cog_x"], style, label=f"impl={impl}")
             axes[row, 1].plot(time, series["pitch"], style, label=f"impl={impl}")
         axes[row, 0].set(title=f"{policy}: CoG x", xlabel="t (s)", ylabel="x (m)")
         axes[row, 1].set(title=f"{policy}: pitch", xlabel="t (s)", ylabel="rad")
         axes[row, 0].legend()
-    fig.savefig(HERE / "parity.png", dpi=120)
+    fig.savefig(out / "parity.png", dpi=120)
 
 
 if __name__ == "__main__":
@@ -81,5 +81,7 @@ if __name__ == "__main__":
     parser.add_argument("mode", choices=("run", "report"))
     parser.add_argument("--num_envs", type=int, default=1024)
     parser.add_argument("--seconds_scale", type=float, default=1.0, help="shorter episodes (CPU)")
+    parser.add_argument("--dir", type=Path, default=HERE, help="where the JSON and figure go")
     args = parser.parse_args()
-    run(args.num_envs, args.seconds_scale) if args.mode == "run" else report()
+    args.dir.mkdir(parents=True, exist_ok=True)
+    run(args.dir, args.num_envs, args.seconds_scale) if args.mode == "run" else report(args.dir)

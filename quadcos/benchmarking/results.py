@@ -164,14 +164,21 @@ def markdown_table(results: dict[str, Any]) -> str:
         lines.append(f"| {int(count):,} | {physics} | {env} |")
     lines += [
         "",
-        "| envs | batch | updates/step | quadcos env-steps/s | stock Brax env-steps/s | ours / stock |",
-        "|---:|---:|---:|---:|---:|---:|",
+        "| terrain | impl | envs | batch | updates/step | quadcos env-steps/s | stock Brax"
+        " env-steps/s | ours / stock | quadcos start → first step |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for row in sorted(results["train"], key=_row_key):
+    for row in sorted(results["train"], key=lambda row: (_row_key(row)[3:], _row_key(row))):
         ours, stock = row["quadcos_env_steps_per_s"], row["stock_brax_env_steps_per_s"]
         ratio = f"{ours / stock:.2f}" if ours and stock else "—"
+        terrain, impl, cache = _row_key(row)[3:]
+        context = f"{terrain} | {impl}"
         sizes = f"{row['num_envs']:,} | {row['batch_size']:,} | {row['updates_per_step']}"
-        lines.append(f"| {sizes} | {format_rate(ours)} | {format_rate(stock)} | {ratio} |")
+        start = row.get("quadcos_start_to_first_step_s")
+        start = f"{format_seconds(start)} ({cache} cache)" if start is not None else "—"
+        lines.append(
+            f"| {context} | {sizes} | {format_rate(ours)} | {format_rate(stock)} | {ratio} | {start} |"
+        )
     compile_s = results["compile_s"]
     ours, stock = format_seconds(compile_s.get("quadcos")), format_seconds(compile_s.get("stock_brax"))
     walk = _outcome(results, "time_to_walk_flat_s", "walk")

@@ -1,0 +1,111 @@
+"""Fig. 7 from scratch: learning curves of the GPU runs in gpu/ (gait search, then SAC) beside the
+trot-start run of ../flat_gpu (u8), and each seed's time to walk.
+
+    python experiments/from_scratch/fig7.py     # -> fig7_from_scratch.png, fig7_summary.json
+
+A run's curve starts with its gait search: one point per search round (the best candidate's
+5-s episodes, and the fraction of all candidates' robots that fell), then SAC's evaluations
+(1024 deterministic 20-s episodes). "Walking" is the issue's target: at most 1 % of the
+evaluation episodes fall and the mean forward speed is at least 0.5 m/s.
+"""
+
+import json
+import re
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+RUNS = {f"scratch s{seed}": HERE / "gpu" / f"scratch_s{seed}" for seed in range(3)}
+ABLATIONS = {
+    "full 5-D box s0": HERE / "gpu" / "scratch_full_box_s0",
+    "r_s alive s0": HERE / "gpu" / "scratch_alive_s0",
+}
+TROT_START = HERE.parent / "flat_gpu" / "out" / "u8"
+MAX_FALL_RATE = 0.01
+MIN_SPEED = 0.5
+_ROUND = re.compile(
+    r"gait search round (\d+)/\d+ \(([\d.]+) s\): (\d+) of (\d+) candidates never fell; best (\S+) at (-?[\d.]+) m/s"
+)
+
+
+def search_rounds(run: Path) -> list[dict]:
+    """The search rounds logged in a run's train.log."""
+    rounds = []
+    for match in _ROUND.finditer((run / "train.log").read_text()):
+        index, seconds, never_fell, candidates, _, speed = match.groups()
+        rounds.append(
+            {
+                "round": int(index),
+                "wall_time_s": float(seconds),
+                "candidates_that_fell": 1 - int(never_fell) / int(candidates),
+                "best_speed": float(speed),
+            }
+        )
+    return rounds
+
+
+def evaluations(run: Path) -> list[dict]:
+    rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    return [row for row in rows if "eval/fall_rate" in row]
+
+
+def time_to_walk(rows: list[dict]) -> dict | None:
+    for row in rows:
+        if row["eval/fall_rate"] <= MAX_FALL_RATE and row["eval/forward_speed"] >= MIN_SPEED:
+            return {"env_steps": row["step"], "wall_time_s": row["wall_time_s"]}
+    return None
+
+
+def main() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    curves = {**RUNS, **ABLATIONS, "trot start (u8)": TROT_START}
+    summary = {}
+    fig, axes = plt.subplots(2, 3, figsize=(15, 8), constrained_layout=True)
+    for name, run in curves.items():
+        rows = evaluations(run)
+        style = {"ls": "--"} if name not in RUNS else {}
+        config = json.loads((run / "config.json").read_text())
+        summary[name] = {
+            "run": str(run.relative_to(HERE.parent)),
+            "action_centre": config["run_info"]["env"]["action_centre"],
+            "gait_search_s": config["run_info"].get("gait_search_s"),
+            "time_to_walk": time_to_walk(rows),
+            "final": {
+                key: rows[-1][f"eval/{key}"]
+                for key in ("episode_reward", "fall_rate", "forward_speed")
+            },
+            "final_env_steps": rows[-1]["step"],
+        }
+        for column, key in enumerate(("episode_reward", "fall_rate", "forward_speed")):
+            values = [row[f"eval/{key}"] for row in rows]
+            line = axes[0, column].plot(
+                [row["step"] / 1e6 for row in rows], values, marker=".", label=name, **style
+            )
+            axes[1, column].plot(
+                [row["wall_time_s"] for row in rows], values, marker=".", color=line[0].get_color(), **style
+            )
+            if name in RUNS and key != "episode_reward":
+                rounds = search_rounds(run)
+                search = [r["candidates_that_fell" if key == "fall_rate" else "best_speed"] for r in rounds]
+                axes[1, column].plot(
+                    [r["wall_time_s"] for r in rounds], search, "x:", color=line[0].get_color()
+                )
+    for column, label in enumerate(("episode reward (20 s)", "fall rate", "forward speed (m/s)")):
+        axes[0, column].set(xlabel="env steps (M), SAC", ylabel=label)
+        axes[1, column].set(xlabel="wall time (s) from the search's start", ylabel=label)
+    axes[0, 1].axhline(MAX_FALL_RATE, color="grey", lw=0.5)
+    axes[0, 2].axhline(MIN_SPEED, color="grey", lw=0.5)
+    axes[0, 0].legend(fontsize=8)
+    axes[1, 1].set_title("x: gait search rounds (share of candidates that fell)", fontsize=9)
+    axes[1, 2].set_title("x: gait search rounds (best candidate's 5-s speed)", fontsize=9)
+    fig.suptitle("Flat, from scratch: gait search then SAC (1024 eval episodes), H100, Warp physics")
+    fig.savefig(HERE / "fig7_from_scratch.png", dpi=110)
+    (HERE / "fig7_summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    print(json.dumps(summary, indent=1))
+
+
+if __name__ == "__main__":
+    main()
