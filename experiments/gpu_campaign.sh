@@ -28,7 +28,7 @@ pack scratch
 
 # 2. Issue 12: throughput rows, Warp and JAX physics, ours and stock Brax SAC.
 note "bench start"
-mkdir -p $C/bench && OUT=$C/bench bash benchmarks/run_h100.sh
+mkdir -p $C/bench && OUT=$C/bench bash benchmarks/h100/run.sh
 pack bench
 
 # 3. Issue 13's ablations, one seed each, in the background: SAC alone from the standing

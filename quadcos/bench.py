@@ -44,7 +44,7 @@ from typing import Any
 
 import jax
 
-from quadcos import backends, caches, cli, training
+from quadcos import backends, caches, cli, gait_search, train, training
 from quadcos.benchmarking import physics, trainers
 from quadcos.benchmarking import results as results_lib
 from quadcos.benchmarking.settings import (
@@ -53,6 +53,7 @@ from quadcos.benchmarking.settings import (
     Settings,
     TrainRow,
     make_bench_env,
+    searches_gait,
     settings_from_args,
     trainer_config,
 )
@@ -204,7 +205,18 @@ def run(
             "slope5": ("slope5", "time_to_cross_slope5_s"),
         }[section]
         section_start = time.perf_counter()
-        env = make_bench_env(terrain, settings.training_preset)
+        centre = None
+        if searches_gait(settings.training_preset):  # part of the timed section
+            found = gait_search.find_gait(
+                train.build_config(TRAIN_PRESETS[settings.training_preset], {"env.terrain": terrain})
+            )
+            centre = found["action_centre"]
+            details[f"{section}_gait_search"] = {
+                "action_centre": centre,
+                "seconds": found["setup"]["wall_time_s"],
+                "rounds": found["rounds"],
+            }
+        env = make_bench_env(terrain, settings.training_preset, action_centre=centre)
         trainer = training.SACTrainer(env, trainer_config(settings.training_preset))
         goal = terrain_goal(env)
         outcome = time_to_success(

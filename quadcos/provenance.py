@@ -1,9 +1,11 @@
 """Where a result came from: the versions of the libraries that made it and the git revision."""
 
 import importlib.metadata
+import os
 import pathlib
 import platform
 import subprocess
+import time
 from collections.abc import Iterable
 
 
@@ -38,3 +40,14 @@ def _git(*args: str) -> str:
         timeout=10,
         check=True,
     ).stdout.strip()
+
+
+def process_start() -> float:
+    """`time.monotonic()` at this process's start (Linux: /proc/self/stat); now where unknown."""
+    try:
+        fields = pathlib.Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()
+        start_s = int(fields[19]) / os.sysconf("SC_CLK_TCK")  # field 22: starttime, boot ticks
+        age = time.clock_gettime(time.CLOCK_BOOTTIME) - start_s
+    except (OSError, ValueError, IndexError, AttributeError):
+        return time.monotonic()
+    return time.monotonic() - max(age, 0.0)

@@ -29,12 +29,13 @@ import ml_collections
 
 from quadcos import caches
 from quadcos import env as env_lib
-from quadcos import gait_search
+from quadcos import gait_search, provenance
 from quadcos import terrain as terrain_lib
 from quadcos.overrides import apply_overrides, flat_keys
 
 # Presets: overrides of the default config, applied before the flags.
-# SAC set up to start from the env's action centre (the fixed trot) and explore around it: a fresh
+# SAC set up to start from the env's action centre (the fixed trot, or the gait a search found) and
+# explore around it: a fresh
 # policy's mean is the centre with a small exploration std, the prefill acts with it, and the
 # actor waits until the critics have seen its data (experiments/README.md, "learning to walk").
 _START_FROM_THE_TROT: dict[str, Any] = {
@@ -108,6 +109,17 @@ PRESETS: dict[str, dict[str, Any]] = {
         "sac.eval_episode_length": 400,
         "sac.checkpoint_interval": 2_000_000,
     },
+}
+# From scratch on one GPU (experiments/from_scratch): no gait is given. The run first searches
+# constant rhythm parameters (quadcos.gait_search, a few seconds on a GPU), then SAC starts from
+# the gait found, exploring around it as the trot start does around the trot. Eq. 9's r_s is paid
+# only while the robot moves (≥ 0.1 m/s, low-passed over 1 s): paid for standing too, SAC
+# unlearns the found gait and stands (experiments/from_scratch, run scratch_alive_s0).
+PRESETS["scratch"] = {
+    **PRESETS["gpu"],
+    "env.action_centre": "search",
+    "env.survival_min_speed": 0.1,
+    "sac.eval_interval": 1_000_000,
 }
 
 # Short flags -> the config key each one sets.
@@ -426,7 +438,7 @@ def _main(argv: list[str]) -> int:
                 "caches": cache_dirs,
                 **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
             },
-            elapsed_s=search["setup"]["wall_time_s"] if search else 0.0,
+            started_at=provenance.process_start(),
         )
     except training.ConfigError as error:  # raised before anything is written
         _print_error(error)

@@ -3,6 +3,9 @@ trot-start run of ../flat_gpu (u8), and each seed's time to walk.
 
     python experiments/from_scratch/fig7.py     # -> fig7_from_scratch.png, fig7_summary.json
 
+and prints a Markdown table of the final policies' 1024-episode evaluations (gpu/eval_*.json,
+made on the CPU with `quadcos.evaluate`) beside the trot-start policies' (../flat/eval_flat*.json).
+
 A run's curve starts with its gait search: one point per search round (the best candidate's
 5-s episodes, and the fraction of all candidates' robots that fell), then SAC's evaluations
 (1024 deterministic 20-s episodes). "Walking" is the issue's target: at most 1 % of the
@@ -20,6 +23,23 @@ ABLATIONS = {
     "r_s alive s0": HERE / "gpu" / "scratch_alive_s0",
 }
 TROT_START = HERE.parent / "flat_gpu" / "out" / "u8"
+EVALUATIONS = {
+    **{f"scratch s{seed}": HERE / "gpu" / f"eval_scratch_s{seed}.json" for seed in range(3)},
+    "full 5-D box s0": HERE / "gpu" / "eval_scratch_full_box_s0.json",
+    **{
+        f"trot start {name} (CPU, experiments/flat)": HERE.parent / "flat" / f"eval_{name}.json"
+        for name in ("flat", "flat_s1", "flat_s2")
+    },
+}
+_COLUMNS = (
+    "success_rate",
+    "fall_rate",
+    "mean_forward_speed",
+    "mean_max_abs_roll",
+    "mean_max_abs_yaw",
+    "mean_max_abs_pitch_error",
+    "mean_lateral_drift",
+)
 MAX_FALL_RATE = 0.01
 MIN_SPEED = 0.5
 _ROUND = re.compile(
@@ -105,6 +125,17 @@ def main() -> None:
     fig.savefig(HERE / "fig7_from_scratch.png", dpi=110)
     (HERE / "fig7_summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     print(json.dumps(summary, indent=1))
+    print(evaluation_table())
+
+
+def evaluation_table() -> str:
+    lines = ["| policy | " + " | ".join(_COLUMNS) + " |", "|---" * (len(_COLUMNS) + 1) + "|"]
+    for name, path in EVALUATIONS.items():
+        if path.is_file():
+            result = json.loads(path.read_text())
+            cells = " | ".join(f"{result[key]:.3f}" for key in _COLUMNS)
+            lines.append(f"| {name} ({result['num_episodes']} episodes) | {cells} |")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

@@ -89,7 +89,8 @@ BENCH_PRESETS: dict[str, dict[str, Any]] = {
         "train_seconds": 15.0,
         "stock_epoch_steps": 50,
         "stock_timeout_s": 300.0,
-        "training_preset": "gpu",
+        # From scratch (gait search, then SAC); `--training_preset=gpu` gives the trot start's row.
+        "training_preset": "scratch",
         "walk_timeout_s": 420.0,
         "walk_eval_interval": 1_000_000,
         "walk_eval_episodes": 1_024,
@@ -119,9 +120,20 @@ def _preset_overrides(preset: str, prefix: str) -> dict[str, Any]:
     }
 
 
-def make_bench_env(terrain: str, preset: str, impl: str = "auto") -> env_lib.QuadrupedEnv:
-    """The env as `python -m quadcos.train --preset=PRESET --terrain=TERRAIN` builds it."""
-    return env_lib.make_env(terrain, **{**_preset_overrides(preset, "env."), "impl": impl})
+def make_bench_env(
+    terrain: str, preset: str, impl: str = "auto", action_centre: str | None = None
+) -> env_lib.QuadrupedEnv:
+    """The env as `python -m quadcos.train --preset=PRESET --terrain=TERRAIN` builds it; a
+    from-scratch preset's (action centre "search") needs the `action_centre` its search found."""
+    overrides = {**_preset_overrides(preset, "env."), "impl": impl}
+    if action_centre is not None:
+        overrides["action_centre"] = action_centre
+    return env_lib.make_env(terrain, **overrides)
+
+
+def searches_gait(preset: str) -> bool:
+    """Whether a run of the training preset starts with a gait search (from scratch)."""
+    return TRAIN_PRESETS[preset].get("env.action_centre") == env_lib.SEARCH_CENTRE
 
 
 def trainer_config(preset: str, row: TrainRow | None = None) -> ml_collections.ConfigDict:

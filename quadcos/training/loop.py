@@ -81,6 +81,14 @@ class TrainResult:
     chunk_traces: int
 
 
+def _run_age(restored_s: float | None, started_at: float | None) -> float:
+    """Seconds the run has lasted when its clock starts: a resumed run's recorded time, else the
+    time since `started_at`."""
+    if restored_s is not None:
+        return restored_s
+    return 0.0 if started_at is None else time.monotonic() - started_at
+
+
 def train(
     env: envs.Env,
     config: ml_collections.ConfigDict | None = None,
@@ -91,7 +99,7 @@ def train(
     progress: bool = True,
     progress_bar: bool = True,
     extra_run_info: dict[str, Any] | None = None,
-    elapsed_s: float = 0.0,
+    started_at: float | None = None,
 ) -> TrainResult:
     """Trains a SAC policy on `env`.
 
@@ -110,8 +118,8 @@ def train(
       progress_bar: False prints the one line per evaluation on a terminal too.
       extra_run_info: JSON-serialisable data stored in config.json under
         `run_info` (e.g. the env config).
-      elapsed_s: seconds the run spent before this call (a from-scratch run's gait search):
-        the run's wall_time_s starts there.
+      started_at: `time.monotonic()` at the run's start (quadcos.train: the process's start, so
+        a from-scratch run's gait search and every compilation count); None: this call.
 
     Returns:
       The final policy, state and metrics.
@@ -138,7 +146,7 @@ def train(
     )
     run_info = _run_info(config, extra_run_info)
     state = trainer.init()
-    wall_time_offset = elapsed_s
+    wall_time_offset = None
     store = None
     log = None
     if run_dir is not None:
@@ -174,7 +182,7 @@ def train(
                 store,
                 log,
                 stop,
-                host.Clock(wall_time_offset),
+                host.Clock(_run_age(wall_time_offset, started_at)),
                 host.Progress(config.num_timesteps, enabled=progress, bar=progress_bar),
             )
     finally:

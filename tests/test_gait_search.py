@@ -1,0 +1,90 @@
+"""A from-scratch run's gait search (`env.action_centre="search"`) and numeric action centres."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from quadcos import env as env_lib
+from quadcos import oscillator
+from quadcos.benchmarking.settings import searches_gait
+from tests.cli_runs import run_cli
+
+
+def test_a_numeric_action_centre_is_the_gait_its_zero_action_commands():
+    spec = "0.38877,0.195895,0.50539,1.8099,-1.33169"
+    centre = env_lib.action_centre(spec, oscillator.PERIOD_MIN)
+    np.testing.assert_allclose(centre, [0.38877, 0.195895, 0.50539, 1.8099, -1.33169])
+    assert env_lib.centre_spec(centre) == spec
+    params = oscillator.action_to_parameters(np.zeros(5), oscillator.PERIOD_MIN, centre)
+    np.testing.assert_allclose(params, centre, rtol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "spec, message",
+    [
+        ("search", "resolved by quadcos.train"),
+        ("0.4,0.15,0.6", "unknown action_centre '0.4,0.15,0.6'"),
+        ("0.4,0.15,0.6,1.5,x", "unknown action_centre"),
+        ("0.4,0.15,0.1,1.5,-1.5", "period = 0.1 is not strictly inside (0.2, 2)"),
+        ("0.5,0.15,0.6,1.5,-1.5", "amplitude_knee = 0.5 is not strictly inside"),
+    ],
+)
+def test_a_bad_action_centre_is_named(spec, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        env_lib.action_centre(spec, oscillator.PERIOD_MIN)
+
+
+def test_only_the_scratch_preset_searches():
+    assert searches_gait("scratch")
+    assert not any(searches_gait(preset) for preset in ("smoke", "cpu", "gpu"))
+
+
+def test_bad_search_settings_are_refused_before_anything_runs(tmp_path):
+    result = run_cli(
+        "--preset=smoke",
+        "--config.sac.gait_search.rounds=0",
+        f"--output_dir={tmp_path / 'run'}",
+    )
+    assert result.returncode == 2
+    assert "config.sac.gait_search.rounds must be a whole number >= 1" in result.stderr
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.slow
+def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path):
+    run_dir = tmp_path / "scratch"
+    result = run_cli(
+        "--preset=smoke",
+        "--config.env.action_centre=search",
+        "--config.env.survival_min_speed=0.1",
+        "--config.sac.gait_search.num_candidates=6",
+        "--config.sac.gait_search.robots_per_candidate=1",
+        "--config.sac.gait_search.rounds=2",
+        "--config.sac.gait_search.elite=2",
+        "--config.sac.gait_search.seconds=0.5",
+        f"--output_dir={run_dir}",
+        "--no_progress",
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "gait search round 2/2" in result.stderr
+
+    search = json.loads((run_dir / "gait_search.json").read_text())
+    assert not search["setup"]["include_trot"] and search["setup"]["symmetric"]
+    assert [entry["round"] for entry in search["rounds"]] == [1, 2]
+    assert search["num_evaluated"] == 12
+    for candidate in search["ranking"]:
+        p = candidate["parameters"]
+        # Mirror-symmetric: φ3 = φ1 − π up to whole cycles, inside [−2π, 2π].
+        assert math.cos(p["phi3"] - p["phi1"] + math.pi) == pytest.approx(1.0, abs=1e-5)
+        assert abs(p["phi3"]) <= 2 * math.pi
+        assert tuple(p.values()) != tuple(oscillator.FIXED_TROT)
+
+    config = json.loads((run_dir / "config.json").read_text())
+    centre = config["run_info"]["env"]["action_centre"]
+    assert centre == search["action_centre"] == search["ranking"][0]["policy"].removeprefix("fixed:")
+    env_lib.action_centre(centre, oscillator.PERIOD_MIN)  # a valid centre: evaluate/resume use it
+    rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    # The run's clock counts from process start: the search's seconds come before step 0.
+    assert rows[0]["wall_time_s"] >= config["run_info"]["gait_search_s"] > 0
