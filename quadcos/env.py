@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import ml_collections
 
-from quadcos import backends, constants, oscillator, reward, robot, slope
+from quadcos import backends, constants, oscillator, randomization, reward, robot, slope
 from quadcos import terrain as terrain_lib
 from quadcos.overrides import apply_overrides
 from quadcos.quiet import warp_absence_unprinted
@@ -92,6 +92,9 @@ def default_config() -> ml_collections.ConfigDict:
     config.fall_min_height = 0.35  # m: torso centre above the ground below it
     config.fall_max_roll = 0.8  # rad
     config.fall_max_pitch_error = 0.8  # rad: |pitch − true slope|
+    # Domain randomisation (friction, torso mass and CoM, servo gain, damping, motor strength,
+    # latency, pushes), off by default: quadcos.randomization.
+    config.randomization = randomization.default_config()
     return config
 
 
@@ -128,6 +131,12 @@ class QuadrupedEnv(base.Env):
             ls_iterations=config.ls_iterations or None,
         )
         self.impl = backends.resolve_impl(config.impl)
+        self.randomized = bool(config.randomization.enabled)
+        if self.randomized and self.impl == "warp":
+            raise ValueError(
+                "domain randomisation gives each robot its own model fields, which the Warp"
+                " implementation does not take: use impl='jax' with randomization.enabled"
+            )
         self.model = backends.put_model(self.mj_model, self.impl)
         self.substeps = round(config.control_dt / config.physics_dt)
         tau = config.survival_speed_tau
@@ -181,7 +190,12 @@ class QuadrupedEnv(base.Env):
         qpos = qpos.at[constants.QPOS_JOINTS].set(joints)
         data = backends.make_data(self.mj_model, self.impl, self.config)
         data = data.replace(qpos=qpos, ctrl=joints)
-        data = mjx.forward(self.model, data)
+        info = {}
+        if self.randomized:
+            rng, draw_key = jax.random.split(rng)
+            physics = randomization.sample(draw_key, self.config.randomization, self.config.physics_dt)
+            info = {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
+        data = mjx.forward(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
         observed = self._observe(data, phase, command)
@@ -194,7 +208,7 @@ class QuadrupedEnv(base.Env):
             reward=zero,
             done=zero,
             metrics=metrics,
-            info={"phase": phase, "command": command, "mean_speed": zero},
+            info={"phase": phase, "command": command, "mean_speed": zero, **info},
         )
 
     def step(self, state: base.State, action: jax.Array) -> base.State:
@@ -207,7 +221,13 @@ class QuadrupedEnv(base.Env):
         phase = jnp.where(just_reset, 0.0, state.info["phase"])
         command = jnp.where(just_reset, 0.0, state.info["command"])
         mean_speed = jnp.where(just_reset, 0.0, state.info["mean_speed"])
-        data, phase, command = self._actuate(before, phase, command, action)
+        info = self._perturb(state.info, just_reset)
+        if self.randomized:
+            torso_force = before.xfrc_applied.at[self._torso_body, :3].set(info["physics"].push)
+            before = before.replace(xfrc_applied=torso_force)
+        data, phase, command = self._actuate(before, phase, command, action, info)
+        if self.randomized:
+            info["action"] = jnp.clip(action, -1.0, 1.0)
         observed = self._observe(data, phase, command)
         position = data.qpos[constants.QPOS_POSITION]
         slope_truth = self.terrain.slope_at(position[0], position[1])
@@ -242,7 +262,7 @@ class QuadrupedEnv(base.Env):
             reward=sum(terms.values()),
             done=fell.astype(jnp.float32),
             metrics=metrics,
-            info={**state.info, "phase": phase, "command": command, "mean_speed": mean_speed},
+            info={**info, "phase": phase, "command": command, "mean_speed": mean_speed},
         )
 
     def action_for(self, params: oscillator.RhythmParameters) -> jax.Array:
@@ -265,25 +285,54 @@ class QuadrupedEnv(base.Env):
             phase, params.amplitude_hip, params.amplitude_knee, phases
         )
 
+    def _model(self, info: dict[str, Any]) -> mjx.Model:
+        """The MJX model this robot steps: the env's, or with its randomised physics."""
+        if not self.randomized:
+            return self.model
+        return randomization.apply(self.model, info["physics"], self._torso_body)
+
+    def _perturb(self, info: dict[str, Any], just_reset: jax.Array) -> dict[str, Any]:
+        """A randomised robot's physics for this step: drawn anew after a reset (Brax's
+        auto-reset keeps `info`), then the push process advanced."""
+        if not self.randomized:
+            return info
+        config = self.config.randomization
+        rng, draw_key, push_key = jax.random.split(info["rng"], 3)
+        fresh = randomization.sample(draw_key, config, self.config.physics_dt)
+        physics = jax.tree.map(lambda a, b: jnp.where(just_reset, a, b), fresh, info["physics"])
+        physics = randomization.next_push(push_key, physics, config, self.dt)
+        action = jnp.where(just_reset, 0.0, info["action"])  # what acts during the latency
+        return {**info, "physics": physics, "rng": rng, "action": action}
+
     def _actuate(
-        self, data: mjx.Data, phase: jax.Array, command: jax.Array, action: jax.Array
+        self,
+        data: mjx.Data,
+        phase: jax.Array,
+        command: jax.Array,
+        action: jax.Array,
+        info: dict[str, Any],
     ) -> tuple[mjx.Data, jax.Array, jax.Array]:
-        """`substeps` physics steps; the command (the filtered action) moves towards `action`."""
+        """`substeps` physics steps; the command (the filtered action) moves towards `action`
+        (towards the previous action for a randomised robot's first `latency_steps`)."""
         dt = self.config.physics_dt
         tau = self.config.action_filter_tau
         blend = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0
         action = jnp.clip(action, -1.0, 1.0)
+        model = self._model(info)
+        latency = info["physics"].latency_steps if self.randomized else 0
+        previous = info["action"] if self.randomized else action
 
-        def substep(carry, _):
+        def substep(carry, index):
             data, phase, command = carry
-            command = command + blend * (action - command)
+            target = jnp.where(index < latency, previous, action)
+            command = command + blend * (target - command)
             data = data.replace(ctrl=self.joint_targets(command, phase, data.time))
-            data = mjx.step(self.model, data)
+            data = mjx.step(model, data)
             period = self._period(command)
             return (data, oscillator.advance_phase(phase, period, dt), command), period
 
         (data, phase, command), periods = jax.lax.scan(
-            substep, (data, phase, command), None, length=self.substeps
+            substep, (data, phase, command), jnp.arange(self.substeps)
         )
         if self.config.oscillator_form == "literal":
             phase = jnp.mod(oscillator.TWO_PI * data.time / periods[-1], oscillator.TWO_PI)
@@ -368,6 +417,7 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         )
     if config.action_centre != SEARCH_CENTRE:
         action_centre(config.action_centre, config.period_min)
+    randomization.validate(config.randomization)
     if config.reward_variant not in reward.VARIANTS:
         raise ValueError(
             f"unknown reward_variant {config.reward_variant!r}; known: {', '.join(reward.VARIANTS)}"

@@ -1,0 +1,115 @@
+"""Domain randomisation: per-robot physics drawn at reset, applied inside each robot's step."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import quadcos
+from quadcos import constants, randomization
+
+
+def _config(**values):
+    config = randomization.default_config()
+    config.update(values)
+    return config
+
+
+def test_draws_stay_in_their_ranges_and_fixed_ranges_fix_the_value():
+    config = _config(friction=(0.4, 0.4), latency_s=(0.02, 0.04), com_offset_m=0.01)
+    draws = jax.vmap(lambda key: randomization.sample(key, config, 0.005))(
+        jax.random.split(jax.random.PRNGKey(0), 256)
+    )
+    np.testing.assert_allclose(draws.friction, 0.4)
+    assert set(np.unique(draws.latency_steps)) <= {4, 5, 6, 7, 8}
+    assert len(np.unique(draws.latency_steps)) > 1
+    for name in ("torso_mass_scale", "kp_scale", "damping_scale", "strength_scale"):
+        low, high = config[name]
+        values = np.asarray(getattr(draws, name))
+        assert low <= values.min() < values.max() <= high, name
+    assert np.abs(draws.com_offset).max() <= 0.01
+    np.testing.assert_array_equal(draws.push, 0.0)
+
+
+def test_a_draw_changes_only_the_model_fields_it_names():
+    env = quadcos.make_env("flat")
+    physics = randomization.Physics(
+        friction=jnp.float32(0.5),
+        torso_mass_scale=jnp.float32(1.2),
+        com_offset=jnp.array([0.01, 0.0, -0.02]),
+        kp_scale=jnp.float32(0.9),
+        damping_scale=jnp.float32(1.1),
+        strength_scale=jnp.float32(0.8),
+        latency_steps=jnp.int32(2),
+        push=jnp.zeros(3),
+        push_left_s=jnp.float32(0.0),
+    )
+    torso = env.mj_model.body(constants.TORSO_BODY).id
+    model = randomization.apply(env.model, physics, torso)
+    np.testing.assert_allclose(model.geom_friction[:, 0], 0.5)
+    np.testing.assert_allclose(model.geom_friction[:, 1:], env.model.geom_friction[:, 1:])
+    np.testing.assert_allclose(model.body_mass[torso], 1.2 * env.model.body_mass[torso], rtol=1e-6)
+    others = np.arange(env.mj_model.nbody) != torso
+    np.testing.assert_array_equal(model.body_mass[others], env.model.body_mass[others])
+    np.testing.assert_allclose(model.body_ipos[torso], env.model.body_ipos[torso] + physics.com_offset)
+    np.testing.assert_allclose(model.actuator_gainprm[:, 0], 0.9 * 400.0, rtol=1e-6)
+    np.testing.assert_allclose(model.actuator_biasprm[:, 1], -0.9 * 400.0, rtol=1e-6)
+    np.testing.assert_allclose(model.dof_damping, 1.1 * env.model.dof_damping, rtol=1e-6)
+    np.testing.assert_allclose(model.actuator_forcerange, 0.8 * env.model.actuator_forcerange)
+
+
+def test_pushes_start_run_for_their_duration_and_stop():
+    config = _config(push_interval_s=1e-9, push_force_n=50.0, push_duration_s=0.1)
+    physics = randomization.sample(jax.random.PRNGKey(0), config, 0.005)
+    forces = []
+    for step in range(4):
+        physics = randomization.next_push(jax.random.PRNGKey(step), physics, config, 0.05)
+        forces.append(float(jnp.linalg.norm(physics.push)))
+    # Starts at once (interval ~0), acts for 0.1 s = 2 control steps, then a new push starts.
+    np.testing.assert_allclose(forces, [50.0, 50.0, 50.0, 50.0], rtol=1e-5)
+    config.push_interval_s = 1e9  # a push under way ends and none follows
+    physics = randomization.next_push(jax.random.PRNGKey(9), physics, config, 0.05)
+    physics = randomization.next_push(jax.random.PRNGKey(10), physics, config, 0.05)
+    assert float(jnp.linalg.norm(physics.push)) == 0.0
+
+
+@pytest.mark.parametrize(
+    "key, value, message",
+    [
+        ("randomization.friction", (1.0, 0.5), "randomization.friction must be (low, high)"),
+        ("randomization.latency_s", (-0.01, 0.0), "randomization.latency_s must be"),
+        ("randomization.push_force_n", -1.0, "randomization.push_force_n must be finite and >= 0"),
+    ],
+)
+def test_bad_ranges_are_named(key, value, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        quadcos.env.validate_config(
+            quadcos.env.apply_overrides(quadcos.env.default_config(), {key: value})
+        )
+
+
+@pytest.mark.slow
+def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways():
+    overrides = {
+        "randomization.enabled": True,
+        "randomization.friction": (0.2, 1.5),
+        "randomization.push_interval_s": 0.0,  # no pushes here: set per robot below
+    }
+    env = quadcos.make_env("flat", **overrides)
+    reset = jax.jit(jax.vmap(env.reset))
+    state = reset(jax.random.split(jax.random.PRNGKey(1), 4))
+    assert len(np.unique(state.info["physics"].friction)) == 4
+    # Four robots with the same draw; robot 0 is pushed along +y with 200 N, the others are not.
+    step = jax.jit(jax.vmap(env.step))
+    action = jnp.zeros((4, env.action_size))
+    # (The first step after a reset draws afresh, as after Brax's auto-reset.)
+    state = step(reset(jnp.stack([jax.random.PRNGKey(2)] * 4)), action)
+    push = jnp.zeros((4, 3)).at[0, 1].set(200.0)
+    physics = state.info["physics"]._replace(push=push, push_left_s=jnp.full(4, 0.05))
+    state = state.replace(info={**state.info, "physics": physics})
+    for _ in range(3):
+        state = step(state, action)
+    y = np.asarray(state.pipeline_state.qpos[:, 1])
+    np.testing.assert_allclose(y[1:], y[1], atol=1e-6)  # same draw, same motion
+    assert y[0] - y[1] > 0.02, y
+    assert np.isfinite(np.asarray(state.obs)).all() and not np.asarray(state.done).any()
