@@ -1,5 +1,5 @@
 """Fig. 7 from scratch: learning curves of the GPU runs in gpu/ (gait search, then SAC) beside the
-trot-start run of ../flat_gpu (u8), and each seed's time to walk.
+trot-start runs of ../flat (3 seeds, the same 10 M env steps), and each seed's time to walk.
 
     python experiments/from_scratch/fig7.py     # -> fig7_from_scratch.png, fig7_summary.json
 
@@ -22,7 +22,7 @@ ABLATIONS = {
     "full 5-D box s0": HERE / "gpu" / "scratch_full_box_s0",
     "r_s alive s0": HERE / "gpu" / "scratch_alive_s0",
 }
-TROT_START = HERE.parent / "flat_gpu" / "out" / "u8"
+TROT_START = {f"trot start s{seed}": HERE.parent / "flat" / f"flat_s{seed}" for seed in range(3)}
 EVALUATIONS = {
     **{f"scratch s{seed}": HERE / "gpu" / f"eval_scratch_s{seed}.json" for seed in range(3)},
     "full 5-D box s0": HERE / "gpu" / "eval_scratch_full_box_s0.json",
@@ -81,12 +81,12 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    curves = {**RUNS, **ABLATIONS, "trot start (u8)": TROT_START}
+    curves = {**RUNS, **ABLATIONS, **TROT_START}
     summary = {}
     fig, axes = plt.subplots(2, 3, figsize=(15, 8), constrained_layout=True)
     for name, run in curves.items():
         rows = evaluations(run)
-        style = {"ls": "--"} if name not in RUNS else {}
+        style = {} if name in RUNS else {"ls": ":" if name in TROT_START else "--"}
         config = json.loads((run / "config.json").read_text())
         summary[name] = {
             "run": str(run.relative_to(HERE.parent)),
@@ -121,7 +121,10 @@ def main() -> None:
     axes[0, 0].legend(fontsize=8)
     axes[1, 1].set_title("x: gait search rounds (share of candidates that fell)", fontsize=9)
     axes[1, 2].set_title("x: gait search rounds (best candidate's 5-s speed)", fontsize=9)
-    fig.suptitle("Flat, from scratch: gait search then SAC (1024 eval episodes), H100, Warp physics")
+    fig.suptitle(
+        "Flat, 1024 eval episodes. From scratch (gait search, then SAC): H100, Warp physics;"
+        " trot start (dotted): H200, JAX physics, clock from its training loop's start"
+    )
     fig.savefig(HERE / "fig7_from_scratch.png", dpi=110)
     (HERE / "fig7_summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     print(json.dumps(summary, indent=1))
