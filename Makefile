@@ -15,17 +15,12 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e ".[test,plots]"
 	touch $(STAMP)
 
-# Two workers (pytest-xdist), a test file per worker at a time: on two cores most of the suite is
-# XLA compiling, one program per core. TEST_WORKERS=0 runs in one process.
-TEST_WORKERS ?= 2
-PYTEST := $(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
-
 test: $(STAMP)
-	$(PYTEST)
+	$(BIN)/python -m pytest -q
 
 # Everything but the end-to-end tests marked slow (those run in `make test`).
 test-fast: $(STAMP)
-	$(PYTEST) -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow"
 
 # The paper's flat experiment at CPU scale (see README for how long it takes). A second
 # `make train` writes runs/flat-2 (then -3, ...) and says so; the run directory ends up on stdout.

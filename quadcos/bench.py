@@ -87,6 +87,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--stock_epoch_steps", type=int, help="vectorised steps per stock epoch")
     parser.add_argument("--stock_timeout_s", type=float, help="cap per stock row, compile included")
     parser.add_argument("--training_preset", choices=tuple(TRAIN_PRESETS))
+    parser.add_argument(
+        "--walk_training_preset",
+        choices=tuple(TRAIN_PRESETS),
+        help="what the walk and slope5 sections train with (gpu bench preset: scratch)",
+    )
     parser.add_argument("--terrain", default="flat", help="terrain of physics/env/train/stock")
     parser.add_argument("--impl", default="auto", choices=backends.IMPLS, help="MJX implementation")
     parser.add_argument("--walk_timeout_s", type=float, help="cap of the walk / slope5 sections")
@@ -206,9 +211,10 @@ def run(
         }[section]
         section_start = time.perf_counter()
         centre = None
-        if searches_gait(settings.training_preset):  # part of the timed section
+        preset = settings.walk_training_preset
+        if searches_gait(preset):  # part of the timed section
             found = gait_search.find_gait(
-                train.build_config(TRAIN_PRESETS[settings.training_preset], {"env.terrain": terrain})
+                train.build_config(TRAIN_PRESETS[preset], {"env.terrain": terrain})
             )
             centre = found["action_centre"]
             details[f"{section}_gait_search"] = {
@@ -216,8 +222,8 @@ def run(
                 "seconds": found["setup"]["wall_time_s"],
                 "rounds": found["rounds"],
             }
-        env = make_bench_env(terrain, settings.training_preset, action_centre=centre)
-        trainer = training.SACTrainer(env, trainer_config(settings.training_preset))
+        env = make_bench_env(terrain, preset, action_centre=centre)
+        trainer = training.SACTrainer(env, trainer_config(preset))
         goal = terrain_goal(env)
         outcome = time_to_success(
             trainer,

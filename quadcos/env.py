@@ -459,18 +459,18 @@ def action_centre(spec: str, period_min: float) -> oscillator.RhythmParameters |
     """
     if spec in ACTION_CENTRES:
         return ACTION_CENTRES[spec]
-    known = f"known: {', '.join(ACTION_CENTRES)} or five numbers A_k,A_h,T,phi1,phi3"
+    names = f"{', '.join(ACTION_CENTRES)} or five numbers A_k,A_h,T,phi1,phi3"
     if spec == SEARCH_CENTRE:
         raise ValueError(
             "action_centre 'search' is resolved by quadcos.train (its gait search) before the env"
-            f" is built; an env takes {known}"
+            f" is built; an env takes {names}"
         )
     try:
         values = [float(part) for part in str(spec).split(",")]
     except ValueError:
         values = []
     if len(values) != 5:
-        raise ValueError(f"unknown action_centre {spec!r}; {known}")
+        raise ValueError(f"unknown action_centre {spec!r}; known: {names}")
     lower, upper = oscillator.parameter_bounds(period_min)
     for name, value, low, high in zip(oscillator.RhythmParameters._fields, values, lower, upper):
         if not low < value < high:

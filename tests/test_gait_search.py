@@ -8,7 +8,7 @@ import pytest
 
 from quadcos import env as env_lib
 from quadcos import oscillator
-from quadcos.benchmarking.settings import searches_gait
+from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from tests.cli_runs import run_cli
 
 
@@ -36,9 +36,13 @@ def test_a_bad_action_centre_is_named(spec, message):
         env_lib.action_centre(spec, oscillator.PERIOD_MIN)
 
 
-def test_only_the_scratch_preset_searches():
+def test_only_the_scratch_preset_searches_and_the_gpu_bench_walks_with_it():
     assert searches_gait("scratch")
     assert not any(searches_gait(preset) for preset in ("smoke", "cpu", "gpu"))
+    # Throughput rows keep the gpu preset (an env needs a concrete centre); time to walk is
+    # measured from scratch.
+    assert BENCH_PRESETS["gpu"]["training_preset"] == "gpu"
+    assert BENCH_PRESETS["gpu"]["walk_training_preset"] == "scratch"
 
 
 def test_bad_search_settings_are_refused_before_anything_runs(tmp_path):

@@ -53,7 +53,10 @@ class Settings:
       train_seconds: timed training seconds per row (after the compiling first chunk / epoch).
       stock_epoch_steps: vectorised env steps per stock Brax epoch (the unit it reports in).
       stock_timeout_s: a stock row stops at its first report after this many seconds.
-      training_preset: the `quadcos.train` preset whose `sac.*` / `env.*` values are used.
+      training_preset: the `quadcos.train` preset whose `sac.*` / `env.*` values the physics,
+        env, train and stock sections use.
+      walk_training_preset: the preset the walk and slope5 sections train with (from scratch:
+        its gait search is part of the timed section).
       walk_timeout_s: the walk and slope5 sections give up after this many seconds.
       walk_eval_interval: env steps between evaluations of the walk and slope5 sections.
       walk_eval_episodes: evaluation episodes per evaluation.
@@ -73,6 +76,7 @@ class Settings:
     walk_timeout_s: float
     walk_eval_interval: int
     walk_eval_episodes: int
+    walk_training_preset: str
     sections: tuple[str, ...]
     terrain: str = "flat"
     impl: str = "auto"
@@ -89,8 +93,9 @@ BENCH_PRESETS: dict[str, dict[str, Any]] = {
         "train_seconds": 15.0,
         "stock_epoch_steps": 50,
         "stock_timeout_s": 300.0,
-        # From scratch (gait search, then SAC); `--training_preset=gpu` gives the trot start's row.
-        "training_preset": "scratch",
+        "training_preset": "gpu",
+        # From scratch (gait search, then SAC); `--walk_training_preset=gpu`: the trot start's row.
+        "walk_training_preset": "scratch",
         "walk_timeout_s": 420.0,
         "walk_eval_interval": 1_000_000,
         "walk_eval_episodes": 1_024,
@@ -105,6 +110,7 @@ BENCH_PRESETS: dict[str, dict[str, Any]] = {
         "stock_epoch_steps": 20,
         "stock_timeout_s": 300.0,
         "training_preset": "cpu",
+        "walk_training_preset": "cpu",
         "walk_timeout_s": 300.0,
         "walk_eval_interval": 25_000,
         "walk_eval_episodes": 64,
@@ -204,6 +210,7 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         walk_timeout_s=preset["walk_timeout_s"],
         walk_eval_interval=preset["walk_eval_interval"],
         walk_eval_episodes=preset["walk_eval_episodes"],
+        walk_training_preset=preset["walk_training_preset"],
         sections=tuple(name for name in SECTIONS if name in chosen),
         terrain=args.terrain,
         impl=args.impl,
