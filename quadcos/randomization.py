@@ -38,7 +38,7 @@ RANGES = ("friction", "torso_mass_scale", "kp_scale", "damping_scale", "strength
 def default_config() -> ml_collections.ConfigDict:
     config = ml_collections.ConfigDict()
     config.enabled = False
-    config.friction = (0.4, 1.25)
+    config.friction = (0.4, 1.5)  # the MJCF's is 1.5 (ground and feet)
     config.torso_mass_scale = (0.85, 1.25)  # the MJCF's torso is 12 kg of the robot's 16 kg
     config.com_offset_m = 0.03  # ± on each axis of the torso's centre of mass
     config.kp_scale = (0.9, 1.1)

@@ -1,0 +1,83 @@
+"""A policy under the perturbations of issue 16's robustness table, one at a time.
+
+    python experiments/robustness/measure.py --policy=experiments/policies/flat --num_envs=256 \
+        --out=experiments/robustness/flat_nominal_training.json
+
+Each condition is `quadcos.evaluate`'s deterministic evaluation (flat, 20-s episodes, the same
+seeds) with `env.randomization` enabled and every range fixed to one value: the nominal robot
+(friction 1.5 as in the MJCF, scales 1, no latency, no pushes) except for the one perturbation.
+"""
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+NOMINAL = {
+    "randomization.enabled": True,
+    "randomization.friction": (1.5, 1.5),
+    "randomization.torso_mass_scale": (1.0, 1.0),
+    "randomization.com_offset_m": 0.0,
+    "randomization.kp_scale": (1.0, 1.0),
+    "randomization.damping_scale": (1.0, 1.0),
+    "randomization.strength_scale": (1.0, 1.0),
+    "randomization.latency_s": (0.0, 0.0),
+    "randomization.push_interval_s": 0.0,
+}
+CONDITIONS = {
+    "nominal": {},
+    "friction 0.4": {"randomization.friction": (0.4, 0.4)},
+    "friction 1.0": {"randomization.friction": (1.0, 1.0)},
+    "friction 1.5": {"randomization.friction": (1.5, 1.5)},
+    "torso mass +20 %": {"randomization.torso_mass_scale": (1.2, 1.2)},
+    "motor strength -20 %": {"randomization.strength_scale": (0.8, 0.8)},
+    "latency 40 ms": {"randomization.latency_s": (0.04, 0.04)},
+    # 50 N for 0.1 s, every 2 s on average (about ten pushes per 20-s episode).
+    "pushes 50 N, 0.1 s": {
+        "randomization.push_force_n": 50.0,
+        "randomization.push_duration_s": 0.1,
+        "randomization.push_interval_s": 2.0,
+    },
+}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--policy", required=True)
+    parser.add_argument("--num_envs", type=int, default=256)
+    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args()
+
+    from quadcos import caches, evaluation
+
+    caches.enable()
+    rows = {}
+    for name, overrides in CONDITIONS.items():
+        started = time.monotonic()
+        result = evaluation.evaluate(
+            args.policy,
+            "flat",
+            num_envs=args.num_envs,
+            seconds=args.seconds,
+            env_overrides={**NOMINAL, **overrides},
+        )
+        summary = result.summary
+        rows[name] = {
+            "overrides": {key: value for key, value in overrides.items()},
+            "episodes": args.num_envs,
+            "success_rate": summary["success_rate"],
+            "fall_rate": summary["fall_rate"],
+            "mean_forward_speed": summary["mean_forward_speed"],
+            "wall_time_s": time.monotonic() - started,
+        }
+        print(f"{name}: success {summary['success_rate']:.3f}, speed"
+              f" {summary['mean_forward_speed']:.3f} m/s", flush=True)
+    Path(args.out).write_text(
+        json.dumps({"policy": args.policy, "seconds": args.seconds, "conditions": rows}, indent=1)
+        + "\n"
+    )
+
+
+if __name__ == "__main__":
+    main()
