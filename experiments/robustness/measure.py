@@ -1,7 +1,8 @@
 """A policy under the perturbations of issue 16's robustness table, one at a time.
 
     python experiments/robustness/measure.py --policy=experiments/policies/flat --num_envs=256 \
-        --out=experiments/robustness/flat_nominal_training.json
+        --out=experiments/robustness/flat_trained_without.json
+    python experiments/robustness/measure.py --table experiments/robustness/*.json   # Markdown
 
 Each condition is `quadcos.evaluate`'s deterministic evaluation (flat, 20-s episodes, the same
 seeds) with `env.randomization` enabled and every range fixed to one value: the nominal robot
@@ -43,11 +44,17 @@ CONDITIONS = {
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--policy", required=True)
+    parser.add_argument("--table", nargs="+", help="print the Markdown table of these outputs")
+    parser.add_argument("--policy")
     parser.add_argument("--num_envs", type=int, default=256)
     parser.add_argument("--seconds", type=float, default=20.0)
-    parser.add_argument("--out", required=True)
+    parser.add_argument("--out")
     args = parser.parse_args()
+    if args.table:
+        print(table([json.loads(Path(path).read_text()) for path in args.table]))
+        return
+    if not (args.policy and args.out):
+        parser.error("--policy and --out are needed to measure")
 
     from quadcos import caches, evaluation
 
@@ -77,6 +84,19 @@ def main() -> None:
         json.dumps({"policy": args.policy, "seconds": args.seconds, "conditions": rows}, indent=1)
         + "\n"
     )
+
+
+def table(results: list[dict]) -> str:
+    """success / speed (m/s) per condition (rows) and policy (columns)."""
+    header = "| condition | " + " | ".join(f"`{r['policy']}`: success, speed" for r in results) + " |"
+    lines = [header, "|---" * (len(results) + 1) + "|"]
+    for name in CONDITIONS:
+        cells = []
+        for result in results:
+            row = result["conditions"].get(name)
+            cells.append("—" if row is None else f"{row['success_rate']:.3f}, {row['mean_forward_speed']:.3f}")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
