@@ -8,8 +8,10 @@ own terrain. The best candidate without falls becomes the action centre (what SA
 commands), and the search's wall time starts the run's clock, so a time to walk counts it.
 """
 
+import json
 import logging
 import math
+import pathlib
 from typing import Any
 
 import ml_collections
@@ -97,3 +99,21 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         result["setup"]["wall_time_s"],
     )
     return result | {"action_centre": centre}
+
+
+def resolve_centre(
+    config: ml_collections.ConfigDict, run_dir: pathlib.Path | None
+) -> dict[str, Any] | None:
+    """For a run config whose action centre is "search": runs `find_gait`, puts the gait found
+    in `config.env.action_centre` and writes the search to `run_dir`/gait_search.json. Other
+    configs: nothing (None)."""
+    if config.env.action_centre != env_lib.SEARCH_CENTRE:
+        return None
+    search = find_gait(config)
+    config.env.action_centre = search["action_centre"]
+    if run_dir is not None:
+        from quadcos.training import files
+
+        run_dir.mkdir(parents=True, exist_ok=True)
+        files.atomic_write_text(run_dir / SEARCH_FILE, json.dumps(search, indent=2) + "\n")
+    return search

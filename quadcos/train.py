@@ -393,17 +393,7 @@ def _main(argv: list[str]) -> int:
             config.sac.num_eval_envs,
             gait_search.search_envs(config),
         )
-        search = None
-        if config.env.action_centre == env_lib.SEARCH_CENTRE:
-            search = gait_search.find_gait(config)
-            config.env.action_centre = search["action_centre"]
-            if run_dir is not None:
-                from quadcos.training import files
-
-                run_dir.mkdir(parents=True, exist_ok=True)
-                files.atomic_write_text(
-                    run_dir / gait_search.SEARCH_FILE, json.dumps(search, indent=2) + "\n"
-                )
+        search = gait_search.resolve_centre(config, run_dir)  # None: a centre was given
         env = env_lib.QuadrupedEnv(
             config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
         )
