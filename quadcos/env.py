@@ -319,12 +319,12 @@ class QuadrupedEnv(base.Env):
         blend = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0
         action = jnp.clip(action, -1.0, 1.0)
         model = self._model(info)
-        latency = info["physics"].latency_steps if self.randomized else 0
-        previous = info["action"] if self.randomized else action
 
         def substep(carry, index):
             data, phase, command = carry
-            target = jnp.where(index < latency, previous, action)
+            target = action
+            if self.randomized:  # the previous action acts for the first latency_steps
+                target = jnp.where(index < info["physics"].latency_steps, info["action"], action)
             command = command + blend * (target - command)
             data = data.replace(ctrl=self.joint_targets(command, phase, data.time))
             data = mjx.step(model, data)
