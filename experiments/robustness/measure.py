@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 NOMINAL = {
+    "impl": "jax",  # per-robot physics: MJX's JAX implementation (Warp takes no per-robot model)
     "randomization.enabled": True,
     "randomization.friction": (1.5, 1.5),
     "randomization.torso_mass_scale": (1.0, 1.0),
@@ -88,7 +89,8 @@ def main() -> None:
 
 def table(results: list[dict]) -> str:
     """success / speed (m/s) per condition (rows) and policy (columns)."""
-    header = "| condition | " + " | ".join(f"`{r['policy']}`: success, speed" for r in results) + " |"
+    header = "| condition | " + " | ".join(f"`{_label(r['policy'])}`: success, speed" for r in results)
+    header += " |"
     lines = [header, "|---" * (len(results) + 1) + "|"]
     for name in CONDITIONS:
         cells = []
@@ -97,6 +99,12 @@ def table(results: list[dict]) -> str:
             cells.append("—" if row is None else f"{row['success_rate']:.3f}, {row['mean_forward_speed']:.3f}")
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _label(policy: str) -> str:
+    """A policy's run name: the directory above `policy/` (a run's), else the path."""
+    path = Path(policy)
+    return path.parent.name if path.name == "policy" else policy
 
 
 if __name__ == "__main__":
