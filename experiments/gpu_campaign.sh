@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# One GPU lease's campaign (issues 13 and 12), started detached so that it outlives the device
-# calls that poll it (each call returns within 10 minutes; the machine stays warm between them):
+# One GPU lease's campaign (session 6: issues 16 and 13), started detached so that it outlives the
+# device calls that poll it (each call returns within 10 minutes; the machine stays warm between):
 #   setsid nohup bash experiments/gpu_campaign.sh > /tmp/campaign.log 2>&1 < /dev/null &
 #   bash experiments/gpu_poll.sh 540      # in each later call: waits, copies finished phases to $OUT
-# Phases run one after another, each with the whole GPU; each leaves /tmp/campaign/<phase>.tar.gz.
+# Each phase leaves /tmp/campaign/<phase>.tar.gz. (Session 5's campaign — from-scratch flat runs,
+# the bench, parity, start-up — is this file's previous version in git.)
 set -uo pipefail
 source experiments/gpu_setup.sh || exit 1
 C=/tmp/campaign
@@ -15,57 +16,54 @@ pack() {  # PHASE: its files under $C/<PHASE> as $C/<PHASE>.tar.gz
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $C/gpu.txt
 python3 -c "import jax, mujoco, warp; print(jax.__version__, mujoco.__version__, warp.__version__)" >> $C/gpu.txt 2>&1
 
-# 1. Issue 13: from scratch on flat (gait search, then SAC; Eq. 9's r_s paid for movement),
-# 3 seeds, one after another.
-note "scratch start"
-for s in 0 1 2; do
-  OUT=$C/scratch TRAIN_SECONDS=${SCRATCH_SECONDS:-170} bash experiments/train_gpu.sh scratch_s$s \
-    --terrain=flat --seed=$s --config.env.action_centre=search --config.env.survival_min_speed=0.1 \
+# 1. Two streams sharing the GPU (neither is timed against a target).
+#    a. Issue 16: the flat gpu preset (trot start) trained with domain randomisation (JAX physics:
+#       per-robot model fields), then the robustness table's conditions, 1024 episodes each, for
+#       it and for the committed flat policy trained without (two processes side by side).
+#    b. Issue 13, deliverable 5: DRL-only (joint targets) with the from-scratch learner's settings
+#       (--preset=scratch less the gait search, which has no rhythm to search for joints: r_s paid
+#       for movement), 10 M env steps as the scratch runs, seeds 0 and 1.
+if [ -z "${ONLY_SLOPE5:-}" ]; then  # ONLY_SLOPE5=1: phase 2 alone (the second lease of session 6)
+export XLA_PYTHON_CLIENT_MEM_FRACTION=0.22
+note "phase 1 start"
+mkdir -p $C/robust/runs $C/drl
+(
+  OUT=$C/robust TRAIN_SECONDS=330 bash experiments/train_gpu.sh flat_randomized_s0 --terrain=flat \
+    --seed=0 --config.env.impl=jax --config.env.randomization.enabled=True
+  note "flat_randomized_s0: $(tail -n 1 $C/robust/runs/flat_randomized_s0/train.log)"
+  python3 experiments/robustness/measure.py --policy=$C/robust/runs/flat_randomized_s0/policy \
+    --num_envs=1024 --out=$C/robust/flat_trained_with.json > $C/robust/flat_trained_with.log 2>&1 &
+  python3 experiments/robustness/measure.py --policy=experiments/policies/flat \
+    --num_envs=1024 --out=$C/robust/flat_trained_without.json > $C/robust/flat_trained_without.log 2>&1
+  wait
+  note "robustness measured"
+  pack robust
+) &
+for s in 0 1; do
+  OUT=$C/drl TRAIN_SECONDS=300 bash experiments/train_gpu.sh joint_scratch_s$s --terrain=flat \
+    --seed=$s --controller=joint --config.env.survival_min_speed=0.1 \
     --config.sac.eval_interval=1000000
-  note "scratch_s$s: $(tail -n 1 $C/scratch/runs/scratch_s$s/train.log)"
+  note "joint_scratch_s$s: $(tail -n 1 $C/drl/runs/joint_scratch_s$s/train.log)"
 done
-pack scratch
-
-# 2. Issue 12: throughput rows, Warp and JAX physics, ours and stock Brax SAC.
-note "bench start"
-mkdir -p $C/bench && OUT=$C/bench bash benchmarks/h100/run.sh
-pack bench
-
-# 3. Issue 13's ablations, one seed each, in the background: SAC alone from the standing
-# midpoint (held noise, r_s for movement); the search in all of §3.3's 5-D box (not symmetric);
-# the search with r_s paid for every step alive. Meanwhile (sharing the GPU) issue 12's parity:
-# the committed policies with both physics implementations, 1024 episodes each.
-note "ablation + parity start"
-ablate() {  # NAME FLAGS...
-  local name=$1; shift
-  OUT=$C/ablation TRAIN_SECONDS=${ABLATION_SECONDS:-120} bash experiments/train_gpu.sh $name \
-    --terrain=flat --seed=0 --config.sac.eval_interval=1000000 "$@"
-  note "$name: $(tail -n 1 $C/ablation/runs/$name/train.log)"
-}
-( ablate sac_only_s0 --config.env.action_centre=midpoint --config.env.survival_min_speed=0.1 \
-    --config.sac.policy_output_scale=1.0 --config.sac.init_std=None --config.sac.init_alpha=1.0 \
-    --config.sac.prefill_actions=uniform --config.sac.actor_warmup_steps=0 \
-    --config.sac.noise_hold_steps=20 --num_timesteps=100000000
-  ablate scratch_full_box_s0 --config.env.action_centre=search --config.env.survival_min_speed=0.1 \
-    --config.sac.gait_search.symmetric=False
-  ablate scratch_alive_s0 --config.env.action_centre=search
-  pack ablation ) &
-mkdir -p $C/warp
-python3 experiments/warp/parity.py run --num_envs=1024 2>&1 | grep -v "^Module" | tee $C/warp/parity.log
-cp experiments/warp/eval_*.json experiments/warp/trace_*.json $C/warp/
+pack drl
 wait
+unset XLA_PYTHON_CLIENT_MEM_FRACTION
+fi
 
-# 4. Issue 12: process start -> end of a 100 k-step gpu-preset run, JAX cache cold, then warm.
-note "startup start"
-for state in cold warm; do
-  [ $state = cold ] && rm -rf /tmp/startup_cache/jax
-  rm -rf /tmp/startup_run
-  start=$(date +%s.%N)
-  QUADCOS_CACHE_DIR=/tmp/startup_cache WARP_CACHE_PATH=/tmp/qcache/warp python3 -m quadcos.train \
-    --preset=gpu --num_timesteps=100000 --output_dir=/tmp/startup_run --no_progress \
-    > $C/warp/startup_$state.log 2>&1
-  echo "$state exit $? wall_s $(python3 -c "import time;print(round(time.time()-$start,1))")" | tee -a $C/warp/startup.txt
-  cp /tmp/startup_run/metrics.jsonl $C/warp/startup_metrics_$state.jsonl 2>/dev/null
+# 2. Issue 13, alone on the GPU (timed: >= 99 % cross slope5 within 10 minutes): slope5 from
+#    scratch (gait search on the training course, then SAC), random spawns along the course, the
+#    training course of experiments/slope5; then its final policy on slope5 and S-4.
+note "slope5 start"
+mkdir -p $C/slope5
+OUT=$C/slope5 TRAIN_SECONDS=${SLOPE5_SECONDS:-420} bash experiments/train_gpu.sh scratch_slope5_s0 \
+  "--terrain=sections:5@3,0@3,-5@3;run_out=10" --config.sac.episode_length=400 \
+  --config.env.spawn_x_max=10 --seed=0 --config.env.action_centre=search \
+  --config.env.survival_min_speed=0.1 --config.sac.eval_interval=1000000
+note "scratch_slope5_s0: $(tail -n 1 $C/slope5/runs/scratch_slope5_s0/train.log)"
+for course in slope5:40 s4:30; do
+  python3 -m quadcos.evaluate --no_progress --num_envs=1024 \
+    --policy=$C/slope5/runs/scratch_slope5_s0/policy --terrain=${course%:*} \
+    --seconds=${course#*:} --out=$C/slope5/eval_${course%:*}.json 2>&1 | tail -n 30 > $C/slope5/eval_${course%:*}.log
 done
-pack warp
+pack slope5
 note "campaign done"

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from quadcos import constants, evaluate, oscillator, plots, reward, video
+from quadcos import env as env_lib
 from quadcos import evaluation as evaluation_lib
 from quadcos.evaluation import rollout as rollout_lib
 
@@ -227,6 +228,9 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
     assert trot["fall_rate"] == 0.0 and ranking[0]["score"] >= trot["score"]
     best = evaluation_lib.parse_fixed(ranking[0]["policy"].removeprefix("fixed:"))
     assert best == pytest.approx(tuple(ranking[0]["parameters"].values()), abs=1e-5)
+    # Every candidate can be an action centre: strictly inside §3.3's box, never on an end.
+    for entry in ranking:
+        env_lib.action_centre(env_lib.centre_spec(entry["parameters"].values()), oscillator.PERIOD_MIN)
 
 
 @pytest.mark.parametrize(

@@ -60,6 +60,9 @@ def search_fixed(
     env = build_env(source, terrain, env_overrides)
     num_steps = math.ceil(seconds / env.dt - 1e-9)
     lower, upper = oscillator.parameter_bounds(env.config.period_min)
+    # Candidates stay strictly inside the box (0.1 % of each range from its ends), so that the
+    # best can be an action centre (`env.action_centre` needs a span on both sides).
+    inner = 1e-3 * (upper - lower)
     rng = np.random.default_rng(seed)
     num_envs = num_candidates * robots_per_candidate
     evaluated: list[dict[str, Any]] = []
@@ -79,6 +82,7 @@ def search_fixed(
             candidates[: len(elites)] = elites
         if symmetric:
             candidates[:, 4] = _wrap(candidates[:, 3] - np.pi, lower[4], upper[4])
+        candidates = np.clip(candidates, lower + inner, upper - inner)
         per_robot = np.repeat(candidates, robots_per_candidate, axis=0).astype(np.float32)
 
         def round_progress(done: int, total: int, round_index: int = round_index) -> None:
