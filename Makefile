@@ -15,12 +15,16 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e ".[test,plots]"
 	touch $(STAMP)
 
+# Two pytest workers (pytest-xdist), a test file each at a time: the suite is compile-bound and
+# XLA compiles one program on one core.
+PYTEST := $(BIN)/python -m pytest -q -n 2 --dist loadfile
+
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(PYTEST)
 
 # Everything but the end-to-end tests marked slow (those run in `make test`).
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(PYTEST) -m "not slow"
 
 # The paper's flat experiment at CPU scale (see README for how long it takes). A second
 # `make train` writes runs/flat-2 (then -3, ...) and says so; the run directory ends up on stdout.

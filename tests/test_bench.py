@@ -186,9 +186,10 @@ def test_rollout_evaluator_the_untrained_policy_trots_on_flat():
 
 @pytest.mark.slow
 def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(tmp_path, capsys, monkeypatch):
-    # main() sets the XLA_FLAGS default that `quadcos.train` sets (restored after the test), so the
-    # smoke-sized trainer it compiles is the one the CLI tests' smoke run finds in the cache.
-    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    # XLA_FLAGS as conftest set it (main() keeps a set value, as `quadcos.train` does, and is
+    # restored after the test), so the smoke-sized trainer it compiles is the one the CLI tests'
+    # smoke run finds in the cache.
+    monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
     out = tmp_path / "cpu.json"
     argv = [
         "--preset=cpu",

@@ -1,6 +1,7 @@
 """`python -m quadcos.train`: a smoke run end to end, resume, and one-line errors for bad input."""
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -40,20 +41,20 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
 
 
 @pytest.mark.slow
-def test_resume_extends_a_finished_run(smoke_run):
+def test_resume_extends_a_finished_run(smoke_run, tmp_path):
+    run_dir = tmp_path / "smoke"
+    shutil.copytree(smoke_run, run_dir)  # the shared run stays as it is
     before = [
-        json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()
+        json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()
     ]
-    result = run_cli(
-        f"--output_dir={smoke_run}", "--resume", "--num_timesteps=2048", "--no_progress"
-    )
+    result = run_cli(f"--output_dir={run_dir}", "--resume", "--num_timesteps=2048", "--no_progress")
     assert result.returncode == 0, result.stderr[-3000:]
     steps = [
-        json.loads(line)["step"] for line in (smoke_run / "metrics.jsonl").read_text().splitlines()
+        json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()
     ]
     assert steps[: len(before)] == before
     assert steps[-1] >= 2048 and steps == sorted(steps), (steps, result.stderr[-3000:])
-    config = json.loads((smoke_run / "config.json").read_text())
+    config = json.loads((run_dir / "config.json").read_text())
     assert config["config"]["num_envs"] == 4  # the run's own preset survived the resume
 
 
