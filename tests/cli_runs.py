@@ -25,11 +25,17 @@ def cache_env() -> dict[str, str]:
     }
 
 
+def cli_command(*args: str) -> list[str]:
+    return [sys.executable, "-m", "quadcos.train", *args]
+
+
+def cli_env() -> dict[str, str]:
+    """The environment of a CLI run: this one, the checkout importable, the tests' cache."""
+    return {**os.environ, "PYTHONPATH": str(ROOT), **cache_env()}
+
+
 def start_cli(*args: str, **popen_kwargs) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": str(ROOT), **cache_env()}
-    return subprocess.Popen(
-        [sys.executable, "-m", "quadcos.train", *args], env=env, cwd=ROOT, **popen_kwargs
-    )
+    return subprocess.Popen(cli_command(*args), env=cli_env(), cwd=ROOT, **popen_kwargs)
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:

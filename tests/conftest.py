@@ -5,8 +5,9 @@ tests that need a finished run."""
 import os
 import pathlib
 import shlex
+import shutil
+import signal
 import subprocess
-import sys
 import tempfile
 import time
 
@@ -18,7 +19,7 @@ os.environ.setdefault("XLA_FLAGS", "--xla_backend_optimization_level=0")
 import jax  # noqa: E402
 import pytest
 
-from tests.cli_runs import ROOT, cache_env
+from tests.cli_runs import ROOT, cli_command, cli_env
 
 _CACHE = pathlib.Path(
     os.environ.get(
@@ -42,23 +43,25 @@ def pytest_sessionstart(session):
         return  # an xdist worker: its controller started the run
     directory = pathlib.Path(tempfile.mkdtemp(prefix="quadcos-smoke-"))
     os.environ[_SMOKE_RUN] = str(directory / "smoke")
-    command = " ".join(
-        shlex.quote(arg)
-        for arg in (sys.executable, "-m", "quadcos.train", *_SMOKE_ARGS, f"--output_dir={directory / 'smoke'}")
-    )
+    command = shlex.join(cli_command(*_SMOKE_ARGS, f"--output_dir={directory / 'smoke'}"))
     # The exit status lands in a file: a worker, not being the parent, cannot wait for it.
     session.config.smoke_process = subprocess.Popen(
-        ["/bin/sh", "-c", f"{command} > {directory / 'log'} 2>&1; echo $? > {directory / 'exit'}"],
-        env={**os.environ, "PYTHONPATH": str(ROOT), **cache_env()},
+        ["/bin/sh", "-c", f"{command} > {directory}/log 2>&1; echo $? > {directory}/exit"],
+        env=cli_env(),
         cwd=ROOT,
+        start_new_session=True,  # its own process group: the end of the session stops all of it
     )
+    session.config.smoke_directory = directory
 
 
 def pytest_sessionfinish(session):
     process = getattr(session.config, "smoke_process", None)
-    if process is not None and process.poll() is None:
-        process.kill()
+    if process is None:
+        return
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGKILL)
         process.wait()
+    shutil.rmtree(session.config.smoke_directory, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")
@@ -71,6 +74,6 @@ def smoke_run() -> pathlib.Path:
     while not exit_file.exists() or not exit_file.read_text().strip():
         assert time.monotonic() < deadline, "the smoke run did not finish in 15 minutes"
         time.sleep(0.5)
-    log = (run_dir.parent / "log").read_text()
-    assert exit_file.read_text().strip() == "0", log[-3000:]
+    if exit_file.read_text().strip() != "0":
+        pytest.fail((run_dir.parent / "log").read_text()[-3000:])
     return run_dir
