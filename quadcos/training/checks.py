@@ -81,7 +81,10 @@ def check_memory(trainer: sac.SACTrainer) -> None:
     state = jax.eval_shape(trainer.init)
     replay_bytes = _nbytes(state.replay)
     env_bytes = _nbytes(state.env_state) * (1 + config.num_eval_envs / config.num_envs)
-    total = _nbytes(state) - _nbytes(state.env_state) + env_bytes
+    # Spread over the devices (the replicated networks are small beside the buffer and envs).
+    shards = trainer.layout.shards
+    total = (_nbytes(state) - _nbytes(state.env_state) + env_bytes) / shards
+    replay_bytes, env_bytes = replay_bytes / shards, env_bytes / shards
     device = jax.devices()[0]
     capacity = _memory_bytes(device)
     if total > capacity:
@@ -89,7 +92,9 @@ def check_memory(trainer: sac.SACTrainer) -> None:
             f"the run needs about {total / 1e9:.3g} GB (replay buffer of {config.replay_size}"
             f" transitions: {replay_bytes / 1e9:.3g} GB; {config.num_envs} training and"
             f" {config.num_eval_envs} evaluation envs: {env_bytes / 1e9:.3g} GB) but the"
-            f" {device.platform} device has {capacity / 1e9:.3g} GB;"
+            f" {device.platform} device has {capacity / 1e9:.3g} GB"
+            + (f" (per device, over {shards})" if shards > 1 else "")
+            + ";"
             " lower config.replay_size or config.num_envs"
         )
 
@@ -133,6 +138,8 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
             raise ValueError(f"config.{name} must be >= 1, got {config[name]}")
     if config.actor_warmup_steps < 0:
         raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")
+    if config.num_devices is not None and config.num_devices < 1:
+        raise ValueError(f"config.num_devices must be >= 1 or None (all), got {config.num_devices}")
     if config.replay_size < config.num_envs:
         raise ValueError(
             f"config.replay_size ({config.replay_size}) must hold one step of all"

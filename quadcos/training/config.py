@@ -73,6 +73,10 @@ def default_config() -> ml_collections.ConfigDict:
     config.max_grad_norm = config_dict.placeholder(float)
     # Seeds network init, env resets, exploration and replay sampling.
     config.seed = 0
+    # Devices the run spreads over, data-parallel (quadcos.training.parallel); None: every device
+    # of every process. num_envs, batch_size, replay_size and num_eval_envs stay global and must
+    # divide evenly by it.
+    config.num_devices = config_dict.placeholder(int)
 
     # --- Gait search (only with env.action_centre="search") ------------------------
     # A from-scratch run's first phase (quadcos.gait_search, timed with the run): a population

@@ -241,7 +241,7 @@ def run_chunks(
         on_start(state)
     # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
     unfinished = num_timesteps is None or step < num_timesteps
-    prefill = int(state.replay.size) < trainer.config.min_replay_size and unfinished
+    prefill = trainer.replay_size(state) < trainer.config.min_replay_size and unfinished
     if num_timesteps is not None:
         first_chunk_step = step + prefill * trainer.num_prefill_steps * trainer.config.num_envs
         _log_final_step(trainer.config, num_timesteps, first_chunk_step)
@@ -324,7 +324,7 @@ def _train_loop(
                     **window.means(),
                     "train/nan_resets": int(state.nan_resets),
                     "train/gradient_steps": int(state.gradient_steps),
-                    "train/replay_size": int(state.replay.size),
+                    "train/replay_size": trainer.replay_size(state),
                     **evaluate(state),
                 }
             )

@@ -2,7 +2,9 @@
 
 Built from Brax's SAC pieces (networks, losses, gradient updates, running
 statistics, training wrappers) because stock `brax.training.agents.sac.train`
-calls `jax.device_put_replicated`, which JAX 0.10 removed. Single device.
+calls `jax.device_put_replicated`, which JAX 0.10 removed. One device, or data-parallel over
+several (`config.num_devices`, `quadcos.training.parallel`): each device steps and stores its
+slice of the envs and replay buffer; gradients are averaged across devices.
 
 One chunk is `steps_per_chunk` iterations of: act with the stochastic policy
 in all training envs, guard against non-finite env outputs, insert the
@@ -14,7 +16,6 @@ from typing import Any
 
 from brax import envs
 from brax.envs.wrappers import training as training_wrappers
-from brax.training import gradients
 from brax.training import types
 from brax.training.acme import running_statistics
 from brax.training.acme import specs
@@ -26,9 +27,11 @@ import jax.numpy as jnp
 import ml_collections
 import optax
 
-from quadcos import episodes
 from quadcos.training import networks
+from quadcos.training import parallel
+from quadcos.training import periodic_eval
 from quadcos.training import replay as replay_lib
+from quadcos.training import updates
 
 Metrics = dict[str, jax.Array]
 PREFILL_ACTIONS = ("uniform", "policy")
@@ -47,7 +50,11 @@ class TrainingState:
     counts transitions (prefill included), `gradient_steps` SAC updates and
     `nan_resets` envs reset by the NaN guard. `exploration_noise` (num_envs, action_size) is each
     env's standard-normal exploration draw, held for `noise_hold_steps` steps on average.
-    """
+
+    On several devices `env_state`, `exploration_noise` and `replay` are split along their first
+    axis (the replay's positions have one entry per device); everything else is replicated.
+    Global shapes do not depend on the device count except the replay's positions.
+        """
 
     policy_params: types.Params
     policy_optimizer_state: optax.OptState
@@ -100,16 +107,6 @@ def where_per_env(mask: jax.Array, new: jax.Array, old: jax.Array) -> jax.Array:
     return jnp.where(mask, new, old).astype(old.dtype)
 
 
-@flax.struct.dataclass
-class EvalTotals:
-    """Per-episode sums over the alive steps of evaluation episodes."""
-
-    reward: jax.Array
-    length: jax.Array
-    metrics: dict[str, jax.Array]
-    alive: jax.Array
-
-
 class SACTrainer:
     """The compiled pieces of SAC training for one env and one config.
 
@@ -147,6 +144,13 @@ class SACTrainer:
         )
         self._make_policy = sac_networks.make_inference_fn(self.networks)
 
+        self.layout = parallel.make_layout(config.num_devices)
+        parallel.check_divisible(config, self.layout.shards)
+        self._axis = self.layout.axis_name
+        shards = self.layout.shards
+        self._local_envs = config.num_envs // shards
+        self._local_batch = config.batch_size // shards
+
         self._policy_optimizer = _optimizer(config.learning_rate.actor, config.max_grad_norm)
         self._q_optimizer = _optimizer(config.learning_rate.critic, config.max_grad_norm)
         self._alpha_optimizer = optax.adam(config.learning_rate.alpha)
@@ -160,14 +164,16 @@ class SACTrainer:
             if config.target_entropy is None
             else -2.0 * config.target_entropy,
         )
-        self._alpha_update = gradients.gradient_update_fn(
-            alpha_loss, self._alpha_optimizer, pmap_axis_name=None
-        )
-        self._critic_update = gradients.gradient_update_fn(
-            critic_loss, self._q_optimizer, pmap_axis_name=None
-        )
-        self._actor_update = gradients.gradient_update_fn(
-            actor_loss, self._policy_optimizer, pmap_axis_name=None
+        self._sgd_step = updates.SACUpdate(
+            alpha_loss=alpha_loss,
+            critic_loss=critic_loss,
+            actor_loss=actor_loss,
+            alpha_optimizer=self._alpha_optimizer,
+            q_optimizer=self._q_optimizer,
+            policy_optimizer=self._policy_optimizer,
+            tau=config.tau,
+            actor_warmup_steps=config.actor_warmup_steps,
+            axis_name=self._axis,
         )
 
         dummy_obs = jnp.zeros((self.observation_size,))
@@ -179,23 +185,62 @@ class SACTrainer:
             next_observation=dummy_obs,
             extras={"state_extras": {"truncation": jnp.zeros(())}, "policy_extras": {}},
         )
-        self.replay = replay_lib.RingReplay(config.replay_size, dummy_transition)
+        # Each device's slice of the buffer is a ring of its own.
+        self.replay = replay_lib.RingReplay(config.replay_size // shards, dummy_transition)
         self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
 
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
-        self._init = jax.jit(self._init_state)
-        self.prefill = jax.jit(self._prefill, donate_argnums=0)
-        self.train_chunk = jax.jit(self._train_chunk, donate_argnums=0)
-        self.evaluate = jax.jit(self._evaluate)
+        local_state = jax.eval_shape(self._init_state, self._key_init, 0)
+        specs = parallel.state_specs(
+            local_state, ("env_state", "exploration_noise", "replay"), self._local_envs
+        )
+        replicated = jax.sharding.PartitionSpec()
+        self._init = parallel.sharded(
+            lambda key: self._init_state(key, parallel.shard_index(self._axis)),
+            self.layout,
+            in_specs=replicated,
+            out_specs=specs,
+        )
+        self.prefill = parallel.sharded(
+            self._prefill, self.layout, in_specs=(specs,), out_specs=specs, donate_argnums=0
+        )
+        self.train_chunk = parallel.sharded(
+            self._train_chunk,
+            self.layout,
+            in_specs=(specs,),
+            out_specs=(specs, replicated),
+            donate_argnums=0,
+        )
+        self.evaluate = parallel.sharded(
+            self._evaluate,
+            self.layout,
+            in_specs=(replicated, replicated),
+            out_specs=replicated,
+        )
 
     def init(self) -> TrainingState:
-        """Returns the initial training state (empty replay buffer), committed to the default
-        device as a restored checkpoint is: a fresh and a resumed run then call the compiled
-        functions with the same signature and share the persistent compilation cache."""
-        return jax.device_put(self._init(self._key_init), jax.devices()[0])
+        """Returns the initial training state (empty replay buffer). On one device it is
+        committed to the default device as a restored checkpoint is: a fresh and a resumed run
+        then call the compiled functions with the same signature and share the persistent
+        compilation cache. On several, spread over the mesh."""
+        if self.layout.mesh is None:
+            return jax.device_put(self._init(self._key_init), jax.devices()[0])
+        key = jax.device_put(self._key_init, self.layout.replicated())
+        return self._init(key)
 
-    def _init_state(self, key: jax.Array) -> TrainingState:
+    def replay_size(self, state: TrainingState) -> int:
+        """Transitions in the replay buffer, over all devices."""
+        return int(jnp.sum(state.replay.size))
+
+    def _device_key(self, key: jax.Array) -> jax.Array:
+        """A key of this device's own (the key itself on one device)."""
+        return key if self._axis is None else jax.random.fold_in(key, jax.lax.axis_index(self._axis))
+
+    def _init_state(self, key: jax.Array, shard: jax.Array | int) -> TrainingState:
+        """The initial state of device `shard`'s slice (all of it on one device): its envs are
+        those a one-device run of the same seed starts with."""
+        shards = self.layout.shards
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
         key_noise = jax.random.fold_in(key, 1)
         policy_params = networks.initial_output_layer(
@@ -217,17 +262,29 @@ class SACTrainer:
             normalizer_params=running_statistics.init_state(
                 specs.Array((self.observation_size,), jnp.dtype("float32"))
             ),
-            env_state=self.env.reset(jax.random.split(key_env, self.config.num_envs)),
-            replay=self.replay.init(),
+            env_state=self.env.reset(
+                parallel.local_rows(jax.random.split(key_env, self.config.num_envs), shard, shards)
+            ),
+            replay=self._local_replay(self.replay.init()),
             key=key_train,
             env_steps=types.UInt64(hi=0, lo=0),
             gradient_steps=types.UInt64(hi=0, lo=0),
             nan_resets=types.UInt64(hi=0, lo=0),
-            exploration_noise=jax.random.normal(
-                key_noise, (self.config.num_envs, self.action_size)
+            exploration_noise=parallel.local_rows(
+                jax.random.normal(key_noise, (self.config.num_envs, self.action_size)),
+                shard,
+                shards,
             ),
         )
         return _strongly_typed(state)
+
+    def _local_replay(self, replay: replay_lib.ReplayState) -> replay_lib.ReplayState:
+        """On several devices a ring's positions get the device axis (one entry per device)."""
+        if self._axis is None:
+            return replay
+        return replay.replace(
+            insert_position=replay.insert_position[None], size=replay.size[None]
+        )
 
     # --- Acting ----------------------------------------------------------------
 
@@ -279,15 +336,20 @@ class SACTrainer:
 
         clean_obs = jnp.where(finite[:, None], transitions.observation, 0.0)
         updated_normalizer = running_statistics.update(
-            state.normalizer_params, clean_obs, weights=finite.astype(jnp.float32)
+            state.normalizer_params,
+            clean_obs,
+            weights=finite.astype(jnp.float32),
+            pmap_axis_name=self._axis,
+        )
+        num_finite, reward_sum = parallel.psum(
+            (jnp.sum(finite), jnp.sum(jnp.where(finite, transitions.reward, 0.0))), self._axis
         )
         # With no valid row Welford would divide 0 by a zero count.
         normalizer_params = jax.tree.map(
-            lambda new, old: jnp.where(jnp.any(finite), new, old),
+            lambda new, old: jnp.where(num_finite > 0, new, old),
             updated_normalizer,
             state.normalizer_params,
         )
-        num_finite = jnp.sum(finite)
         state = state.replace(
             env_state=_strongly_typed(next_env_state),
             replay=self.replay.insert(state.replay, transitions, finite),
@@ -295,14 +357,13 @@ class SACTrainer:
             env_steps=state.env_steps + self.config.num_envs,
             nan_resets=state.nan_resets + (self.config.num_envs - num_finite).astype(jnp.uint32),
         )
-        reward = jnp.sum(jnp.where(finite, transitions.reward, 0.0)) / jnp.maximum(num_finite, 1)
-        return state, {"reward": reward}
+        return state, {"reward": reward_sum / jnp.maximum(num_finite, 1)}
 
     def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:
         """Replaces the whole state of the masked envs by a fresh reset state."""
 
         def reset_masked() -> envs.State:
-            fresh = self.env.reset(jax.random.split(key, self.config.num_envs))
+            fresh = self.env.reset(jax.random.split(key, self._local_envs))
             fresh = fresh.replace(done=jnp.ones_like(fresh.done))
             return jax.tree.map(
                 lambda new, old: where_per_env(mask, new, old),
@@ -318,6 +379,7 @@ class SACTrainer:
 
         def step(state: TrainingState, _) -> tuple[TrainingState, None]:
             key, key_action, key_reset = jax.random.split(state.key, 3)
+            key_action, key_reset = self._device_key(key_action), self._device_key(key_reset)
             uniform = self.config.prefill_actions == "uniform"
             actions, state = self._exploring_actions(state, key_action, uniform=uniform)
             state, _ = self._env_step(state.replace(key=key), actions, key_reset)
@@ -327,81 +389,6 @@ class SACTrainer:
         return _strongly_typed(state)
 
     # --- Learning --------------------------------------------------------------
-
-    def _sgd_step(
-        self,
-        state: TrainingState,
-        batch: tuple[types.Transition, jax.Array],
-    ) -> tuple[TrainingState, Metrics]:
-        """One SAC update of temperature, critics, actor and target critics."""
-        transitions, key = batch
-        key_alpha, key_critic, key_actor = jax.random.split(key, 3)
-        alpha_loss, log_alpha, alpha_optimizer_state = self._alpha_update(
-            state.log_alpha,
-            state.policy_params,
-            state.normalizer_params,
-            transitions,
-            key_alpha,
-            optimizer_state=state.alpha_optimizer_state,
-        )
-        alpha = jnp.exp(state.log_alpha)
-        critic_loss, q_params, q_optimizer_state = self._critic_update(
-            state.q_params,
-            state.policy_params,
-            state.normalizer_params,
-            state.target_q_params,
-            alpha,
-            transitions,
-            key_critic,
-            optimizer_state=state.q_optimizer_state,
-        )
-        actor_loss, policy_params, policy_optimizer_state = self._actor_update(
-            state.policy_params,
-            state.normalizer_params,
-            state.q_params,
-            alpha,
-            transitions,
-            key_actor,
-            optimizer_state=state.policy_optimizer_state,
-        )
-        # During the warm-up only the critics learn: an actor that climbs an untrained Q
-        # walks away from the action centre's gait before the critic can value it.
-        warm = (state.gradient_steps.hi > 0) | (
-            state.gradient_steps.lo >= self.config.actor_warmup_steps
-        )
-        (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state) = jax.tree.map(
-            lambda new, old: jnp.where(warm, new, old),
-            (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state),
-            (
-                state.log_alpha,
-                state.alpha_optimizer_state,
-                state.policy_params,
-                state.policy_optimizer_state,
-            ),
-        )
-        tau = self.config.tau
-        target_q_params = jax.tree.map(
-            lambda target, q: (1 - tau) * target + tau * q,
-            state.target_q_params,
-            q_params,
-        )
-        state = state.replace(
-            policy_params=policy_params,
-            policy_optimizer_state=policy_optimizer_state,
-            q_params=q_params,
-            q_optimizer_state=q_optimizer_state,
-            target_q_params=target_q_params,
-            log_alpha=log_alpha,
-            alpha_optimizer_state=alpha_optimizer_state,
-            gradient_steps=state.gradient_steps + 1,
-        )
-        metrics = {
-            "critic_loss": critic_loss,
-            "actor_loss": actor_loss,
-            "alpha_loss": alpha_loss,
-            "alpha": jnp.exp(log_alpha),
-        }
-        return state, metrics
 
     def _train_chunk(self, state: TrainingState) -> tuple[TrainingState, Metrics]:
         """`steps_per_chunk` x (one env step of all envs + SAC updates).
@@ -414,16 +401,17 @@ class SACTrainer:
         config = self.config
 
         def step(state: TrainingState, _) -> tuple[TrainingState, Metrics]:
-            key, key_action, key_reset, key_sample, key_sgd = jax.random.split(state.key, 5)
+            key, *keys = jax.random.split(state.key, 5)
+            key_action, key_reset, key_sample, key_sgd = map(self._device_key, keys)
             actions, state = self._exploring_actions(state, key_action)
             state, env_metrics = self._env_step(state.replace(key=key), actions, key_reset)
 
             transitions = self.replay.sample(
-                state.replay, key_sample, config.updates_per_step * config.batch_size
+                state.replay, key_sample, config.updates_per_step * self._local_batch
             )
             transitions = jax.tree.map(
                 lambda x: jnp.reshape(
-                    x, (config.updates_per_step, config.batch_size) + x.shape[1:]
+                    x, (config.updates_per_step, self._local_batch) + x.shape[1:]
                 ),
                 transitions,
             )
@@ -442,55 +430,17 @@ class SACTrainer:
         normalizer_params: running_statistics.RunningStatisticsState,
         policy_params: types.Params,
     ) -> Metrics:
-        """Deterministic episodes (tanh of the Gaussian mean) on the eval env.
-
-        Runs `num_eval_envs` episodes for `eval_episode_length` steps each, from
-        the same initial states every time. An episode is alive until the env
-        reports done; steps after that are ignored.
-
-        Returns:
-          Averages over episodes of: `eval/episode_reward` (sum of rewards),
-          `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode
-          ended with done before the time limit), and for each key of the env's
-          `state.metrics`, `eval/<key>`: the per-episode sum for keys starting
-          with `reward/`, else the per-episode mean over alive steps.
-        """
-        config = self.config
+        """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean): this
+        device's share of `num_eval_envs` episodes, averaged over all devices."""
         policy = self._make_policy((normalizer_params, policy_params), deterministic=True)
-        env_state = self.eval_env.reset(jax.random.split(self._eval_key, config.num_eval_envs))
-        zeros = jnp.zeros((config.num_eval_envs,))
-        totals = EvalTotals(
-            reward=zeros,
-            length=zeros,
-            metrics={name: zeros for name in env_state.metrics},
-            alive=jnp.ones((config.num_eval_envs,), bool),
-        )
-
-        def update(totals: EvalTotals, next_env_state: envs.State, _) -> EvalTotals:
-            # `where`, not multiplication: a fallen env may produce NaN.
-            alive_sum = lambda total, value: total + jnp.where(totals.alive, value, 0.0)
-            return EvalTotals(
-                reward=alive_sum(totals.reward, next_env_state.reward),
-                length=alive_sum(totals.length, 1.0),
-                metrics=jax.tree.map(alive_sum, totals.metrics, next_env_state.metrics),
-                alive=totals.alive & (next_env_state.done == 0),
-            )
-
-        _, totals, _ = episodes.run_episodes(
-            self.eval_env.step,
+        metrics = periodic_eval.evaluate(
+            self.eval_env,
             lambda obs: policy(obs, self._eval_key)[0],
-            env_state,
-            totals,
-            update,
-            config.eval_episode_length,
+            self._eval_key,
+            num_episodes=self.config.num_eval_envs,
+            episode_length=self.config.eval_episode_length,
+            shard=parallel.shard_index(self._axis),
+            shards=self.layout.shards,
         )
-        metrics = {
-            "eval/episode_reward": jnp.mean(totals.reward),
-            "eval/episode_length": jnp.mean(totals.length),
-            "eval/fall_rate": jnp.mean(~totals.alive),
-        }
-        for name, per_episode in totals.metrics.items():
-            if not name.startswith("reward/"):
-                per_episode = per_episode / jnp.maximum(totals.length, 1.0)
-            metrics[f"eval/{name}"] = jnp.mean(per_episode)
-        return metrics
+        # Every device ran as many episodes: the mean of the devices' means is the mean.
+        return parallel.pmean(metrics, self._axis)

@@ -1,0 +1,80 @@
+"""Training-time evaluation: deterministic episodes of the current policy, with their totals."""
+
+from collections.abc import Callable
+
+from brax import envs
+import flax
+import jax
+import jax.numpy as jnp
+
+from quadcos import episodes
+from quadcos.training import parallel
+
+Metrics = dict[str, jax.Array]
+
+
+@flax.struct.dataclass
+class EvalTotals:
+    """Per-episode sums over the alive steps of evaluation episodes."""
+
+    reward: jax.Array
+    length: jax.Array
+    metrics: dict[str, jax.Array]
+    alive: jax.Array
+
+
+def evaluate(
+    eval_env: envs.Env,
+    policy: Callable[[jax.Array], jax.Array],
+    key: jax.Array,
+    *,
+    num_episodes: int,
+    episode_length: int,
+    shard: jax.Array | int = 0,
+    shards: int = 1,
+) -> Metrics:
+    """Runs slice `shard` of `shards` of `num_episodes` episodes of `policy` (batched obs →
+    actions) on the batched `eval_env` for `episode_length` steps each, from the same initial
+    states (drawn from `key`) every time. An episode is alive until the env reports done; steps
+    after that are ignored.
+
+    Returns:
+      Averages over this slice's episodes of: `eval/episode_reward` (sum of rewards),
+      `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode ended with done
+      before the time limit), and for each key of the env's `state.metrics`, `eval/<key>`: the
+      per-episode sum for keys starting with `reward/`, else the per-episode mean over alive
+      steps.
+    """
+    keys = parallel.local_rows(jax.random.split(key, num_episodes), shard, shards)
+    env_state = eval_env.reset(keys)
+    zeros = jnp.zeros((keys.shape[0],))
+    totals = EvalTotals(
+        reward=zeros,
+        length=zeros,
+        metrics={name: zeros for name in env_state.metrics},
+        alive=jnp.ones((keys.shape[0],), bool),
+    )
+
+    def update(totals: EvalTotals, next_env_state: envs.State, _) -> EvalTotals:
+        # `where`, not multiplication: a fallen env may produce NaN.
+        alive_sum = lambda total, value: total + jnp.where(totals.alive, value, 0.0)
+        return EvalTotals(
+            reward=alive_sum(totals.reward, next_env_state.reward),
+            length=alive_sum(totals.length, 1.0),
+            metrics=jax.tree.map(alive_sum, totals.metrics, next_env_state.metrics),
+            alive=totals.alive & (next_env_state.done == 0),
+        )
+
+    _, totals, _ = episodes.run_episodes(
+        eval_env.step, policy, env_state, totals, update, episode_length
+    )
+    metrics = {
+        "eval/episode_reward": jnp.mean(totals.reward),
+        "eval/episode_length": jnp.mean(totals.length),
+        "eval/fall_rate": jnp.mean(~totals.alive),
+    }
+    for name, per_episode in totals.metrics.items():
+        if not name.startswith("reward/"):
+            per_episode = per_episode / jnp.maximum(totals.length, 1.0)
+        metrics[f"eval/{name}"] = jnp.mean(per_episode)
+    return metrics

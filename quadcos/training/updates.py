@@ -1,0 +1,125 @@
+"""One SAC update (Haarnoja et al. 2018, arXiv:1812.05905) with Brax's losses.
+
+The temperature, critic and actor gradients are all taken at the state before the update (as in
+Brax's SAC), so on several devices they are averaged together, with the losses, in one collective
+(`parallel.pmean`) before any optimiser step: every device then applies the same update.
+"""
+
+from collections.abc import Callable
+import dataclasses
+from typing import Any
+
+from brax.training import types
+import jax
+import jax.numpy as jnp
+import optax
+
+from quadcos.training import parallel
+
+Metrics = dict[str, jax.Array]
+
+
+@dataclasses.dataclass(frozen=True)
+class SACUpdate:
+    """`__call__(state, (transitions, key))` → (state, metrics): one gradient step of SAC.
+
+    Attributes:
+      alpha_loss, critic_loss, actor_loss: Brax's `sac.losses.make_losses`.
+      alpha_optimizer, q_optimizer, policy_optimizer: their optax optimisers.
+      tau: Polyak rate of the target critics.
+      actor_warmup_steps: updates during which only the critics learn.
+      axis_name: the device axis the gradients are averaged over (None: one device).
+    """
+
+    alpha_loss: Callable[..., jax.Array]
+    critic_loss: Callable[..., jax.Array]
+    actor_loss: Callable[..., jax.Array]
+    alpha_optimizer: optax.GradientTransformation
+    q_optimizer: optax.GradientTransformation
+    policy_optimizer: optax.GradientTransformation
+    tau: float
+    actor_warmup_steps: int
+    axis_name: str | None
+
+    def __call__(self, state: Any, batch: tuple[types.Transition, jax.Array]) -> tuple[Any, Metrics]:
+        transitions, key = batch
+        key_alpha, key_critic, key_actor = jax.random.split(key, 3)
+        alpha = jnp.exp(state.log_alpha)
+        alpha_loss, alpha_grad = jax.value_and_grad(self.alpha_loss)(
+            state.log_alpha, state.policy_params, state.normalizer_params, transitions, key_alpha
+        )
+        critic_loss, q_grad = jax.value_and_grad(self.critic_loss)(
+            state.q_params,
+            state.policy_params,
+            state.normalizer_params,
+            state.target_q_params,
+            alpha,
+            transitions,
+            key_critic,
+        )
+        actor_loss, policy_grad = jax.value_and_grad(self.actor_loss)(
+            state.policy_params,
+            state.normalizer_params,
+            state.q_params,
+            alpha,
+            transitions,
+            key_actor,
+        )
+        losses, (alpha_grad, q_grad, policy_grad) = parallel.pmean(
+            ((alpha_loss, critic_loss, actor_loss), (alpha_grad, q_grad, policy_grad)),
+            self.axis_name,
+        )
+        alpha_loss, critic_loss, actor_loss = losses
+        log_alpha, alpha_optimizer_state = _apply(
+            self.alpha_optimizer, alpha_grad, state.log_alpha, state.alpha_optimizer_state
+        )
+        q_params, q_optimizer_state = _apply(
+            self.q_optimizer, q_grad, state.q_params, state.q_optimizer_state
+        )
+        policy_params, policy_optimizer_state = _apply(
+            self.policy_optimizer, policy_grad, state.policy_params, state.policy_optimizer_state
+        )
+        # During the warm-up only the critics learn: an actor that climbs an untrained Q
+        # walks away from the action centre's gait before the critic can value it.
+        warm = (state.gradient_steps.hi > 0) | (
+            state.gradient_steps.lo >= self.actor_warmup_steps
+        )
+        (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state) = jax.tree.map(
+            lambda new, old: jnp.where(warm, new, old),
+            (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state),
+            (
+                state.log_alpha,
+                state.alpha_optimizer_state,
+                state.policy_params,
+                state.policy_optimizer_state,
+            ),
+        )
+        target_q_params = jax.tree.map(
+            lambda target, q: (1 - self.tau) * target + self.tau * q,
+            state.target_q_params,
+            q_params,
+        )
+        state = state.replace(
+            policy_params=policy_params,
+            policy_optimizer_state=policy_optimizer_state,
+            q_params=q_params,
+            q_optimizer_state=q_optimizer_state,
+            target_q_params=target_q_params,
+            log_alpha=log_alpha,
+            alpha_optimizer_state=alpha_optimizer_state,
+            gradient_steps=state.gradient_steps + 1,
+        )
+        metrics = {
+            "critic_loss": critic_loss,
+            "actor_loss": actor_loss,
+            "alpha_loss": alpha_loss,
+            "alpha": jnp.exp(log_alpha),
+        }
+        return state, metrics
+
+
+def _apply(
+    optimizer: optax.GradientTransformation, grad: Any, params: Any, optimizer_state: Any
+) -> tuple[Any, Any]:
+    updates, optimizer_state = optimizer.update(grad, optimizer_state)
+    return optax.apply_updates(params, updates), optimizer_state
