@@ -1,69 +1,51 @@
 #!/usr/bin/env bash
-# One GPU lease's campaign (session 6: issues 16 and 13), started detached so that it outlives the
-# device calls that poll it (each call returns within 10 minutes; the machine stays warm between):
+# One GPU lease's campaign (session 7: issue 15, scale-out on nvidia-h200-x2), started detached so
+# that it outlives the device calls that poll it (each call returns within 10 minutes):
 #   setsid nohup bash experiments/gpu_campaign.sh > /tmp/campaign.log 2>&1 < /dev/null &
 #   bash experiments/gpu_poll.sh 540      # in each later call: waits, copies finished phases to $OUT
-# Each phase leaves /tmp/campaign/<phase>.tar.gz. (Session 5's campaign — from-scratch flat runs,
-# the bench, parity, start-up — is this file's previous version in git.)
+# Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
+# previous versions in git.)
+#
+# The bench (python -m quadcos.bench) on 1 and 2 H200s at equal per-device envs (4096 a GPU, batch
+# 8192 a GPU, 8 updates a step), flat and slope5, and the walk / slope5 sections (the default
+# learner: --preset=scratch, 4096 envs in all) on 1 GPU and on 2; benchmarks/scaling.sh combines.
 set -uo pipefail
 source experiments/gpu_setup.sh || exit 1
+export NCCL_NVLS_ENABLE=0  # NVLink multicast stays off (KINDS.md)
 C=/tmp/campaign
-mkdir -p $C
+S=$C/scaling
+mkdir -p $S
 note() { echo "$(date +%T) $*" | tee -a $C/status; }
-pack() {  # PHASE: its files under $C/<PHASE> as $C/<PHASE>.tar.gz
-  tar czf $C/$1.tar.gz -C $C $1 && note "$1 done"
-}
+pack() { tar czf $C/$1.tar.gz -C $C $1 && note "$1 done"; }
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $C/gpu.txt
-python3 -c "import jax, mujoco, warp; print(jax.__version__, mujoco.__version__, warp.__version__)" >> $C/gpu.txt 2>&1
+python3 -c "import jax, mujoco, warp; print(jax.__version__, mujoco.__version__, warp.__version__, jax.devices())" >> $C/gpu.txt 2>&1
+bench() {  # NAME ARGS...: one bench process, its JSON and log under $S
+  local name=$1; shift
+  python3 -m quadcos.bench --walk_timeout_s 480 --out $S/$name.json "$@" > $S/$name.log 2>&1
+  note "$name: exit $? $(grep -c FAILED $S/$name.log) failed"
+}
 
-# 1. Two streams sharing the GPU (neither is timed against a target).
-#    a. Issue 16: the flat gpu preset (trot start) trained with domain randomisation (JAX physics:
-#       per-robot model fields), then the robustness table's conditions, 1024 episodes each, for
-#       it and for the committed flat policy trained without (two processes side by side).
-#    b. Issue 13, deliverable 5: DRL-only (joint targets) with the from-scratch learner's settings
-#       (--preset=scratch less the gait search, which has no rhythm to search for joints: r_s paid
-#       for movement), 10 M env steps as the scratch runs, seeds 0 and 1.
-if [ -z "${ONLY_SLOPE5:-}" ]; then  # ONLY_SLOPE5=1: phase 2 alone (the second lease of session 6)
-export XLA_PYTHON_CLIENT_MEM_FRACTION=0.22
-note "phase 1 start"
-mkdir -p $C/robust/runs $C/drl
-(
-  OUT=$C/robust TRAIN_SECONDS=330 bash experiments/train_gpu.sh flat_randomized_s0 --terrain=flat \
-    --seed=0 --config.env.impl=jax --config.env.randomization.enabled=True
-  note "flat_randomized_s0: $(tail -n 1 $C/robust/runs/flat_randomized_s0/train.log)"
-  python3 experiments/robustness/measure.py --policy=$C/robust/runs/flat_randomized_s0/policy \
-    --num_envs=1024 --out=$C/robust/flat_trained_with.json > $C/robust/flat_trained_with.log 2>&1 &
-  python3 experiments/robustness/measure.py --policy=experiments/policies/flat \
-    --num_envs=1024 --out=$C/robust/flat_trained_without.json > $C/robust/flat_trained_without.log 2>&1
-  wait
-  note "robustness measured"
-  pack robust
-) &
-for s in 0 1; do
-  OUT=$C/drl TRAIN_SECONDS=300 bash experiments/train_gpu.sh joint_scratch_s$s --terrain=flat \
-    --seed=$s --controller=joint --config.env.survival_min_speed=0.1 \
-    --config.sac.eval_interval=1000000
-  note "joint_scratch_s$s: $(tail -n 1 $C/drl/runs/joint_scratch_s$s/train.log)"
-done
-pack drl
-wait
-unset XLA_PYTHON_CLIENT_MEM_FRACTION
+# 0. Two GPUs, flat, the train row alone first: if Warp cannot run under shard_map, everything
+#    below uses the JAX physics (IMPL=jax) so that 1 and 2 GPUs stay comparable.
+IMPL=auto
+bench flat_2dev --num_devices 2 --only train --terrain flat --train_rows 8192x16384x8
+if grep -q FAILED $S/flat_2dev.log; then
+  IMPL=jax
+  note "2 GPUs failed with impl=auto; JAX physics for every run"
+  bench flat_2dev --num_devices 2 --only train --terrain flat --train_rows 8192x16384x8 --impl jax
 fi
-
-# 2. Issue 13, alone on the GPU (timed: >= 99 % cross slope5 within 10 minutes): slope5 from
-#    scratch (gait search on the training course, then SAC), random spawns along the course, the
-#    training course of experiments/slope5; then its final policy on slope5 and S-4.
-note "slope5 start"
-mkdir -p $C/slope5
-OUT=$C/slope5 TRAIN_SECONDS=${SLOPE5_SECONDS:-420} bash experiments/train_gpu.sh scratch_slope5_s0 \
-  "--terrain=sections:5@3,0@3,-5@3;run_out=10" --config.sac.episode_length=400 \
-  --config.env.spawn_x_max=10 --seed=0 --config.env.action_centre=search \
-  --config.env.survival_min_speed=0.1 --config.sac.eval_interval=1000000
-note "scratch_slope5_s0: $(tail -n 1 $C/slope5/runs/scratch_slope5_s0/train.log)"
-for course in slope5:40 s4:30; do
-  python3 -m quadcos.evaluate --no_progress --num_envs=1024 \
-    --policy=$C/slope5/runs/scratch_slope5_s0/policy --terrain=${course%:*} \
-    --seconds=${course#*:} --out=$C/slope5/eval_${course%:*}.json 2>&1 | tail -n 30 > $C/slope5/eval_${course%:*}.log
-done
-pack slope5
+# 1. One GPU each, side by side (separate GPUs, 32 cores): flat train + walk; slope5 train + slope5.
+CUDA_VISIBLE_DEVICES=0 bench flat_1dev --num_devices 1 --only train,walk --terrain flat \
+  --train_rows 4096x8192x8 --impl $IMPL &
+CUDA_VISIBLE_DEVICES=1 bench slope5_1dev --num_devices 1 --only train,slope5 --terrain slope5 \
+  --train_rows 4096x8192x8 --impl $IMPL
+wait
+# 2. Two GPUs: time to walk, then slope5 train + time to cross.
+bench walk_2dev --num_devices 2 --only walk --impl $IMPL
+bench slope5_2dev --num_devices 2 --only train,slope5 --terrain slope5 \
+  --train_rows 8192x16384x8 --impl $IMPL
+python3 -m quadcos.benchmarking.scaling --out $S/h200x2.json \
+  $S/flat_1dev.json $S/flat_2dev.json $S/walk_2dev.json $S/slope5_1dev.json $S/slope5_2dev.json \
+  > $S/table.md 2>&1
+pack scaling
 note "campaign done"

@@ -94,6 +94,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--terrain", default="flat", help="terrain of physics/env/train/stock")
     parser.add_argument("--impl", default="auto", choices=backends.IMPLS, help="MJX implementation")
+    parser.add_argument(
+        "--num_devices",
+        type=int,
+        default=1,
+        help="devices the train / walk / slope5 trainers spread over (rows stay global)",
+    )
     parser.add_argument("--walk_timeout_s", type=float, help="cap of the walk / slope5 sections")
     parser.add_argument("--walk_eval_interval", type=int, help="env steps between evaluations")
     parser.add_argument("--walk_eval_episodes", type=int, help="episodes per evaluation")
@@ -167,6 +173,7 @@ def run(
             startup_s,
             settings.terrain,
             settings.impl,
+            settings.num_devices,
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
@@ -223,7 +230,7 @@ def run(
                 "rounds": found["rounds"],
             }
         env = make_bench_env(terrain, preset, action_centre=centre)
-        trainer = training.SACTrainer(env, trainer_config(preset))
+        trainer = training.SACTrainer(env, trainer_config(preset, num_devices=settings.num_devices))
         goal = terrain_goal(env)
         outcome = time_to_success(
             trainer,

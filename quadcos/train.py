@@ -21,16 +21,17 @@ import os
 import pathlib
 import re
 import sys
-import tempfile
 from collections.abc import Iterator, Sequence
 from typing import Any
 
 import ml_collections
 
-from quadcos import caches
+from quadcos import caches, cli, run_dirs
 from quadcos import env as env_lib
 from quadcos import gait_search, provenance
 from quadcos import terrain as terrain_lib
+from quadcos.cli import UsageError
+from quadcos.training import parallel
 from quadcos.overrides import apply_overrides, flat_keys
 
 # Presets: overrides of the default config, applied before the flags.
@@ -131,14 +132,11 @@ FLAGS = {
     "reward": "env.reward_variant",
     "controller": "env.controller",
     "save_replay": "sac.save_replay",
+    "num_devices": "sac.num_devices",
 }
 
 
 logger = logging.getLogger("quadcos.train")  # also when run as __main__
-
-
-class UsageError(ValueError):
-    """A user error on the command line: reported as one line, exit status 2."""
 
 
 def default_config() -> ml_collections.ConfigDict:
@@ -222,6 +220,18 @@ def _parser() -> argparse.ArgumentParser:
         help="sizes for: smoke (tiny test run), cpu (default), gpu",
     )
     parser.add_argument(
+        "--num_devices",
+        type=int,
+        help="devices to spread the run over, data-parallel (default: all, of every process)",
+    )
+    parser.add_argument(
+        "--coordinator",
+        metavar="HOST:PORT",
+        help="several processes (hosts): process 0's address, for jax.distributed.initialize",
+    )
+    parser.add_argument("--num_processes", type=int, help="with --coordinator: processes in all")
+    parser.add_argument("--process_id", type=int, help="with --coordinator: this one, 0 to N-1")
+    parser.add_argument(
         "--print_config", action="store_true", help="print the resolved config as JSON and exit"
     )
     parser.add_argument(
@@ -232,8 +242,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
     """Parse the command line into (flags, the config overrides it names). Raises UsageError."""
-    parser = _parser()
-    parser.error = _raise_usage_error  # one line, no SystemExit from inside the library
+    parser = cli.raising(_parser())  # one line, no SystemExit from inside the library
     args, rest = parser.parse_known_args(argv)
     overrides = {}
     for flag, key in FLAGS.items():
@@ -248,10 +257,6 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
         key, text = item[len("--config.") :].split("=", 1)
         overrides[key] = _parse_value(text)
     return args, overrides
-
-
-def _raise_usage_error(message: str):
-    raise UsageError(message)
 
 
 def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collections.ConfigDict:
@@ -307,58 +312,6 @@ def _expand_groups(overrides: dict[str, Any], known: list[str]) -> dict[str, Any
     return expanded
 
 
-def _check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
-    if run_dir is None:
-        raise UsageError("--output_dir is required")
-    if run_dir.exists() and not run_dir.is_dir():
-        raise UsageError(f"--output_dir {run_dir} is not a directory")
-    if not resume and run_dir.exists() and any(run_dir.iterdir()):
-        raise UsageError(
-            f"--output_dir {run_dir} already holds files; pass --resume to continue that run, or choose another directory"
-        )
-    existing = next(
-        path for path in (run_dir.absolute(), *run_dir.absolute().parents) if path.exists()
-    )
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UsageError(
-            f"--output_dir {run_dir} cannot be created: {existing} is not a writable directory"
-        )
-    try:  # os.access does not see read-only or virtual file systems (/proc)
-        with tempfile.NamedTemporaryFile(dir=existing, prefix=".quadcos-write-test-"):
-            pass
-    except OSError as error:
-        raise UsageError(
-            f"--output_dir {run_dir} cannot be written: a file in {existing} cannot be"
-            f" created ({error.strerror or error})"
-        ) from None
-
-
-def _numbered_dir(run_dir: pathlib.Path) -> pathlib.Path:
-    """`run_dir` if it holds no files, else the first free `run_dir`-2, -3, ..."""
-    candidate, number = run_dir, 1
-    while candidate.exists() and (not candidate.is_dir() or any(candidate.iterdir())):
-        number += 1
-        candidate = run_dir.with_name(f"{run_dir.name}-{number}")
-    if candidate != run_dir:
-        logger.info("%s already holds a run; this run goes to %s", run_dir, candidate)
-    return candidate
-
-
-def _finished_run_message(run_dir: pathlib.Path, num_timesteps: int) -> str | None:
-    """What to tell a --resume of a run that has its policy and a checkpoint at or past
-    `num_timesteps`; None when there is training left to do."""
-    checkpoints = run_dir / "checkpoints"
-    names = [path.name for path in checkpoints.iterdir()] if checkpoints.is_dir() else []
-    steps = [int(name) for name in names if name.isdigit()]
-    if not (run_dir / "policy").is_dir() or not steps or max(steps) < num_timesteps:
-        return None
-    return (
-        f"{run_dir} is finished (env step {max(steps):,} of num_timesteps={num_timesteps:,});"
-        f" nothing was changed. To train it further, raise the total: --output_dir={run_dir}"
-        f" --resume --num_timesteps={2 * num_timesteps}"
-    )
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -380,12 +333,17 @@ def _main(argv: list[str]) -> int:
         if args.print_config:
             print(json.dumps(config.to_dict(), indent=2))
             return 0
-        if args.resume and (message := _finished_run_message(run_dir, config.sac.num_timesteps)):
+        if args.resume and (message := run_dirs.finished_run_message(run_dir, config.sac.num_timesteps)):
             logger.info("%s", message)
             return 0
-        if args.numbered and not args.resume and run_dir is not None:
-            run_dir = _numbered_dir(run_dir)
-        _check_output_dir(run_dir, args.resume)
+        if args.numbered and args.coordinator:
+            raise UsageError("--numbered with --coordinator: give every process the same --output_dir")
+        parallel.initialize_distributed(args.coordinator, args.num_processes, args.process_id)
+        writer = parallel.is_writer()  # the other processes neither check nor number run_dir
+        if args.numbered and not args.resume and run_dir is not None and writer:
+            run_dir = run_dirs.numbered_dir(run_dir)
+        if writer or run_dir is None:
+            run_dirs.check_output_dir(run_dir, args.resume)
         # Warp's contact buffer is shared by a batch's worlds: size it for the largest batch.
         config.env.warp.max_envs = max(
             config.env.warp.max_envs,
@@ -405,10 +363,10 @@ def _main(argv: list[str]) -> int:
                 ml_collections.ConfigDict({**config.env.to_dict(), "spawn_x_max": 0.0}),
             )
     except (UsageError, ValueError, FileNotFoundError) as error:
-        _print_error(error)
+        cli.print_error("quadcos.train", error)
         return 2
     except gait_search.NoGaitFound as error:
-        _print_error(error)
+        cli.print_error("quadcos.train", error)
         return 1
 
     from quadcos import training
@@ -431,20 +389,15 @@ def _main(argv: list[str]) -> int:
             started_at=provenance.process_start(),
         )
     except training.ConfigError as error:  # raised before anything is written
-        _print_error(error)
+        cli.print_error("quadcos.train", error)
         return 2
     except training.NonFiniteLossError as error:
-        _print_error(error)
+        cli.print_error("quadcos.train", error)
         return 1
-    logger.info("env step %s: policy in %s", f"{result.env_steps:,}", run_dir / "policy")
-    print(run_dir)
+    if writer:
+        logger.info("env step %s: policy in %s", f"{result.env_steps:,}", run_dir / "policy")
+        print(run_dir)
     return 0
-
-
-def _print_error(error: Exception) -> None:
-    """One line on stderr, even when the message (e.g. MuJoCo's XML parser's) has several."""
-    lines = (line.strip() for line in str(error).splitlines())
-    print(f"quadcos.train: error: {'; '.join(filter(None, lines))}", file=sys.stderr)
 
 
 class _Formatter(logging.Formatter):

@@ -32,6 +32,7 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
     return {
         "device": device.device_kind,
         "platform": device.platform,
+        "device_count": jax.device_count(),
         "host": {"cpu": _cpu_model(), "cores": os.cpu_count()},
         "substeps_per_env_step": substeps,
         "physics_steps_per_s": {},

@@ -63,6 +63,8 @@ class Settings:
       sections: the sections to run, in order.
       terrain: the terrain of the physics, env, train and stock sections.
       impl: the MJX implementation ("auto", "jax" or "warp"; see quadcos.backends).
+      num_devices: devices the train, walk and slope5 sections' trainers spread over
+        (data-parallel; rows stay global: per-device envs = num_envs / num_devices).
     """
 
     env_counts: tuple[int, ...]
@@ -80,6 +82,7 @@ class Settings:
     sections: tuple[str, ...]
     terrain: str = "flat"
     impl: str = "auto"
+    num_devices: int = 1
 
 
 _GPU_ROWS = "4096x8192x1,4096x8192x8,16384x16384x4"
@@ -142,9 +145,12 @@ def searches_gait(preset: str) -> bool:
     return TRAIN_PRESETS[preset].get("env.action_centre") == env_lib.SEARCH_CENTRE
 
 
-def trainer_config(preset: str, row: TrainRow | None = None) -> ml_collections.ConfigDict:
-    """`quadcos.training.default_config()` with the preset's `sac.*` values, then `row`'s sizes."""
-    overrides = _preset_overrides(preset, "sac.")
+def trainer_config(
+    preset: str, row: TrainRow | None = None, num_devices: int = 1
+) -> ml_collections.ConfigDict:
+    """`quadcos.training.default_config()` with the preset's `sac.*` values, then `row`'s sizes,
+    spread over `num_devices`."""
+    overrides = {**_preset_overrides(preset, "sac."), "num_devices": num_devices}
     if row is not None:
         overrides |= {
             "num_envs": row.num_envs,
@@ -195,6 +201,8 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
     for name in ("steps", "stock_epoch_steps", "walk_eval_interval", "walk_eval_episodes"):
         if preset[name] < 1:
             raise ValueError(f"--{name} must be >= 1, got {preset[name]}")
+    if args.num_devices < 1:
+        raise ValueError(f"--num_devices must be >= 1, got {args.num_devices}")
     for name in ("train_seconds", "stock_timeout_s", "walk_timeout_s"):
         if not preset[name] >= 0:
             raise ValueError(f"--{name} must be >= 0, got {preset[name]}")
@@ -214,4 +222,5 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         sections=tuple(name for name in SECTIONS if name in chosen),
         terrain=args.terrain,
         impl=args.impl,
+        num_devices=args.num_devices,
     )

@@ -24,8 +24,10 @@ def measure_trainer(
     startup_s: float,
     terrain: str = "flat",
     impl: str = "auto",
+    num_devices: int = 1,
 ) -> dict[str, float]:
-    """Our trainer's training throughput for one row, and its time to the first training step.
+    """Our trainer's training throughput for one row (over `num_devices`), and its time to the
+    first training step.
 
     Builds the env and trainer from nothing, runs `init` and `prefill`, then chunks of
     `steps_per_chunk` vectorised env steps (each with `updates_per_step` SAC updates); the first
@@ -36,7 +38,7 @@ def measure_trainer(
       section start -> first chunk done), timed_chunks.
     """
     section_start = time.perf_counter()
-    config = trainer_config(preset, row)
+    config = trainer_config(preset, row, num_devices)
     trainer = training.SACTrainer(make_bench_env(terrain, preset, impl), config)
     state = trainer.prefill(trainer.init())
     jax.block_until_ready(state)

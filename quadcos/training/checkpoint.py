@@ -14,6 +14,7 @@ from typing import Any
 import jax
 import orbax.checkpoint as ocp
 
+from quadcos.training import replay as replay_lib
 from quadcos.training.sac import TrainingState
 
 logger = logging.getLogger(__name__)
@@ -130,12 +131,15 @@ class CheckpointStore:
                 abstract = [
                     ocp.utils.to_shape_dtype_struct(leaf) for leaf in _stored_leaves(template_tree)
                 ]
+                replay_slots = self._saved_replay_layout(step, template_tree, abstract)
                 self._check_shapes(step, abstract)
                 stored = self._manager.restore(
                     step,
                     args=ocp.args.Composite(state=ocp.args.StandardRestore(abstract)),
                 ).state
                 restored = _refill(template_tree, list(stored))
+                if replay_slots:
+                    restored["replay"] = _relaid_replay(restored["replay"], template.replay)
             except ShapeMismatchError:
                 raise
             except Exception as error:  # orbax/tensorstore raise many types
@@ -151,6 +155,31 @@ class CheckpointStore:
                 continue
             return Restored(state=template.replace(**restored), step=step, meta=meta)
         return None
+
+    def _saved_replay_layout(
+        self, step: int, template_tree: dict[str, Any], abstract: list[Any]
+    ) -> list[int]:
+        """Where a stored replay buffer was saved on another number of devices (its positions
+        have another shape), reads those positions as saved (`abstract` is changed in place) and
+        returns their indices; else []."""
+        if "replay" not in template_tree:
+            return []
+        stored = [tuple(leaf.shape) for leaf in self._manager.item_metadata(step)["state"]]
+        paths = [
+            path for path, leaf in jax.tree_util.tree_flatten_with_path(template_tree)[0] if leaf.size
+        ]
+        slots = [
+            index
+            for index, path in enumerate(paths)
+            if path[0].key == "replay"
+            and path[-1].name in ("insert_position", "size")
+            and index < len(stored)
+            and stored[index] != abstract[index].shape
+            and len(stored[index]) <= 1
+        ]
+        for index in slots:
+            abstract[index] = jax.ShapeDtypeStruct(stored[index], abstract[index].dtype)
+        return slots
 
     def _check_shapes(self, step: int, abstract: list[Any]) -> None:
         stored = [tuple(leaf.shape) for leaf in self._manager.item_metadata(step)["state"]]
@@ -185,6 +214,15 @@ class CheckpointStore:
 
     def __exit__(self, *exc_info) -> None:
         self.close()
+
+
+def _relaid_replay(stored: replay_lib.ReplayState, template: replay_lib.ReplayState) -> Any:
+    """A replay buffer saved on another number of devices, laid out as `template`'s rings."""
+    shards = 1 if template.size.ndim == 0 else template.size.shape[0]
+    relaid = replay_lib.reshard(jax.device_get(stored), shards)
+    return jax.tree.map(
+        lambda new, like: jax.device_put(new.astype(like.dtype), like.sharding), relaid, template
+    )
 
 
 @contextlib.contextmanager

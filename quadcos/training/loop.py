@@ -30,6 +30,7 @@ from quadcos.training import config as config_lib
 from quadcos.training import files
 from quadcos.training import host
 from quadcos.training import metrics_log
+from quadcos.training import parallel
 from quadcos.training import policy as policy_lib
 from quadcos.training import sac
 from quadcos.training.checks import ConfigError, check_config, check_memory
@@ -149,6 +150,9 @@ def train(
     wall_time_offset = None
     store = None
     log = None
+    # Over several processes (hosts) only process 0 writes config, metrics and policy; the
+    # checkpoints are orbax's, written together (each process its shards of the envs).
+    writer = parallel.is_writer()
     if run_dir is not None:
         run_dir = Path(run_dir)
         run_dir.mkdir(parents=True, exist_ok=True)
@@ -167,12 +171,13 @@ def train(
                 wall_time_offset = restored.meta["wall_time_s"]
                 keep_rows_up_to = restored.step
                 logger.info("resuming from %s", store.path(restored.step))
-        elif store.steps() or (run_dir / "metrics.jsonl").exists():
+        elif store.steps() or (writer and (run_dir / "metrics.jsonl").exists()):
             raise FileExistsError(
                 f"{run_dir} already holds a run; pass resume=True or use another directory"
             )
-        files.atomic_write_text(run_dir / "config.json", json.dumps(run_info, indent=2) + "\n")
-        log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
+        if writer:
+            files.atomic_write_text(run_dir / "config.json", json.dumps(run_info, indent=2) + "\n")
+            log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
 
     try:
         with host.SignalStop() as stop:
@@ -183,7 +188,7 @@ def train(
                 log,
                 stop,
                 host.Clock(_run_age(wall_time_offset, started_at)),
-                host.Progress(config.num_timesteps, enabled=progress, bar=progress_bar),
+                host.Progress(config.num_timesteps, enabled=progress and writer, bar=progress_bar),
             )
     finally:
         if log is not None:
@@ -192,7 +197,7 @@ def train(
             store.close()
 
     policy = policy_lib.Policy.from_training_state(state, spec, run_info)
-    if run_dir is not None:
+    if run_dir is not None and writer:
         policy_lib.save_policy(run_dir / "policy", policy)
     return TrainResult(
         policy=policy,

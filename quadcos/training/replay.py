@@ -15,6 +15,7 @@ from typing import Generic, TypeVar
 import flax
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import flatten_util
 
 Sample = TypeVar("Sample")
@@ -77,3 +78,35 @@ class RingReplay(Generic[Sample]):
         """Draws `batch_size` transitions uniformly, with replacement."""
         index = jax.random.randint(key, (batch_size,), 0, state.size)
         return self._unflatten(state.data[index])
+
+
+def reshard(stored: ReplayState, shards: int) -> ReplayState:
+    """A buffer saved as some number of rings (positions of shape () for one device, (k,) for
+    k) laid out again as `shards` rings of the same total capacity, on the host: a checkpoint
+    saved on k devices resumes on any other count. Every stored transition is kept; the newest
+    are dealt round-robin to the new rings so that each ring overwrites its oldest first."""
+    data = np.asarray(stored.data)
+    positions = np.atleast_1d(np.asarray(stored.insert_position))
+    sizes = np.atleast_1d(np.asarray(stored.size))
+    old_capacity = data.shape[0] // positions.shape[0]
+    # Each old ring's rows newest first, then interleaved across rings by recency.
+    newest_first = []
+    for ring, (position, size) in enumerate(zip(positions, sizes)):
+        rows = data[ring * old_capacity : (ring + 1) * old_capacity]
+        order = (position - 1 - np.arange(size)) % old_capacity if size else np.zeros(0, int)
+        newest_first.append(rows[order])
+    depth = max(len(rows) for rows in newest_first)
+    merged = [rows[age] for age in range(depth) for rows in newest_first if age < len(rows)]
+    capacity = data.shape[0] // shards
+    new_data = np.zeros_like(data)
+    new_sizes = np.zeros(shards, np.int32)
+    for ring in range(shards):
+        rows = merged[ring::shards][:capacity][::-1]  # oldest first
+        new_data[ring * capacity : ring * capacity + len(rows)] = rows
+        new_sizes[ring] = len(rows)
+    new_positions = (new_sizes % capacity).astype(np.int32)
+    if shards == 1:
+        return ReplayState(
+            data=new_data, insert_position=new_positions[0], size=new_sizes[0]
+        )
+    return ReplayState(data=new_data, insert_position=new_positions, size=new_sizes)

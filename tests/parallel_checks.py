@@ -1,0 +1,134 @@
+"""Data-parallel training on the toy env, run by tests/test_parallel.py in a subprocess whose
+XLA_FLAGS give the CPU two devices (they must be set before JAX starts), or as one process of a
+`jax.distributed` run. Prints one JSON object of measurements for the test to assert on.
+
+    python tests/parallel_checks.py devices RUN_DIR
+    python tests/parallel_checks.py process RUN_DIR COORDINATOR NUM_PROCESSES PROCESS_ID
+"""
+
+import json
+import pathlib
+import shutil
+import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+
+from quadcos import training  # noqa: E402
+from quadcos.training import parallel  # noqa: E402
+from tests.toy_env import PointEnv  # noqa: E402
+
+CHUNK = 800  # 16 envs x 50 steps
+
+
+def toy_config(**overrides):
+    """test_training's toy shapes (16 envs, batch 128), learning in a few thousand steps."""
+    config = training.default_config()
+    config.num_envs = 16
+    config.episode_length = 20
+    config.batch_size = 128
+    config.replay_size = 20_000
+    config.min_replay_size = CHUNK
+    config.hidden_sizes.policy = (32, 32)
+    config.hidden_sizes.q = (32, 32)
+    config.learning_rate.actor = 1e-3
+    config.learning_rate.critic = 1e-3
+    config.learning_rate.alpha = 1e-3
+    config.discount = 0.9
+    config.reward_scaling = 5.0
+    config.steps_per_chunk = CHUNK // config.num_envs
+    config.num_eval_envs = 32
+    config.eval_episode_length = 20
+    config.num_timesteps = CHUNK + 4 * CHUNK
+    config.eval_interval = CHUNK
+    config.checkpoint_interval = 2 * CHUNK
+    for name, value in overrides.items():
+        config[name] = value
+    return config
+
+
+def replicas_identical(tree) -> bool:
+    """Whether every device holds the same values of every (replicated) leaf."""
+    for leaf in jax.tree.leaves(tree):
+        shards = [np.asarray(shard.data) for shard in leaf.addressable_shards]
+        if not all(np.array_equal(shards[0], shard) for shard in shards[1:]):
+            return False
+    return True
+
+
+def replicated_state(state):
+    return (
+        state.policy_params,
+        state.q_params,
+        state.target_q_params,
+        state.log_alpha,
+        state.policy_optimizer_state,
+        state.q_optimizer_state,
+        state.normalizer_params,
+        state.key,
+    )
+
+
+def devices(run_dir: pathlib.Path) -> dict:
+    env = PointEnv()
+    out = {"device_count": jax.device_count()}
+    for count in (1, 2):
+        result = training.train(env, toy_config(num_devices=count), progress=False)
+        out[f"d{count}"] = {
+            "first_eval_reward": result.history[0]["eval/episode_reward"],
+            "final_eval_reward": result.metrics["eval/episode_reward"],
+            "critic_loss": [row["train/critic_loss"] for row in result.history[1:]],
+            "replay_sizes": np.atleast_1d(np.asarray(result.state.replay.size)).tolist(),
+            "env_steps": result.env_steps,
+            "obs_sharding": str(result.state.env_state.obs.sharding.spec)
+            if count == 2
+            else None,
+            "replicas_identical": replicas_identical(replicated_state(result.state)),
+        }
+    # A checkpoint with its replay buffer, saved on 2 devices, resumed on 1, and back on 2.
+    resumed = {}
+    config = toy_config(num_devices=2, save_replay=True, num_timesteps=3 * CHUNK)
+    training.train(env, config, run_dir, progress=False)
+    for count, until in ((1, 5 * CHUNK), (2, 7 * CHUNK)):
+        config = toy_config(num_devices=count, save_replay=True, num_timesteps=until)
+        result = training.train(env, config, run_dir, resume=True, progress=False)
+        resumed[f"on_{count}"] = {
+            "env_steps": result.env_steps,
+            "replay_size": int(np.sum(np.asarray(result.state.replay.size))),
+            "rows": len(result.history),
+            "final_eval_reward": result.metrics["eval/episode_reward"],
+        }
+    out["resumed"] = resumed
+    try:
+        training.train(env, toy_config(num_devices=2, num_envs=15), progress=False)
+        out["odd_num_envs_error"] = None
+    except ValueError as error:
+        out["odd_num_envs_error"] = str(error)
+    return out
+
+
+def process(run_dir: pathlib.Path, coordinator: str, num_processes: int, process_id: int) -> dict:
+    parallel.initialize_distributed(coordinator, num_processes, process_id)
+    result = training.train(PointEnv(), toy_config(), run_dir, progress=False)
+    return {
+        "process_index": jax.process_index(),
+        "device_count": jax.device_count(),
+        "local_device_count": jax.local_device_count(),
+        "env_steps": result.env_steps,
+        "final_eval_reward": result.metrics.get("eval/episode_reward"),
+        "policy_checksum": float(
+            sum(np.abs(np.asarray(leaf)).sum() for leaf in jax.tree.leaves(result.policy.params))
+        ),
+    }
+
+
+if __name__ == "__main__":
+    mode, run_dir = sys.argv[1], pathlib.Path(sys.argv[2])
+    if mode == "devices":
+        shutil.rmtree(run_dir, ignore_errors=True)
+        print(json.dumps(devices(run_dir)))
+    else:
+        coordinator, num_processes, process_id = sys.argv[3], int(sys.argv[4]), int(sys.argv[5])
+        print(json.dumps(process(run_dir, coordinator, num_processes, process_id)))

@@ -1,0 +1,121 @@
+"""Data-parallel SAC on the CPU: two devices of one process (XLA's forced host device count) and
+two processes on localhost (`jax.distributed`, Gloo collectives), each against one device."""
+
+import json
+import os
+import pathlib
+import socket
+import subprocess
+import sys
+
+import pytest
+
+from tests.cli_runs import ROOT, cli_env
+
+pytestmark = pytest.mark.slow
+
+SCRIPT = ROOT / "tests" / "parallel_checks.py"
+# How far two devices may end from one after 4,000 toy env steps: their runs differ only in
+# which device samples which transitions (each device samples its own half of the buffer). A
+# learned policy scores about -3, a random one about -9.
+RETURN_TOLERANCE = 1.0
+
+
+def _env(device_count: int) -> dict[str, str]:
+    """The tests' environment and compilation cache, with `device_count` CPU devices."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    return {
+        **cli_env(),
+        "XLA_FLAGS": f"{flags} --xla_force_host_platform_device_count={device_count}",
+    }
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("localhost", 0))
+        return sock.getsockname()[1]
+
+
+def _result(process: subprocess.Popen) -> dict:
+    out, err = process.communicate(timeout=600)
+    assert process.returncode == 0, err[-3000:]
+    return json.loads(out.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """Runs both checks, one after the other (the two processes of the second wait on each
+    other's collectives: they get a core each), and returns their JSON results."""
+    base = tmp_path_factory.mktemp("parallel")
+    command = [sys.executable, str(SCRIPT)]
+    pipes = dict(cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    devices = _result(subprocess.Popen([*command, "devices", str(base / "devices")], env=_env(2), **pipes))
+    coordinator = f"localhost:{_free_port()}"
+    processes = [
+        subprocess.Popen(
+            [*command, "process", str(base / "processes"), coordinator, "2", str(index)],
+            env=_env(1),
+            **pipes,
+        )
+        for index in range(2)
+    ]
+    return {
+        "devices": devices,
+        "processes": [_result(process) for process in processes],
+        "process_dir": base / "processes",
+    }
+
+
+def test_two_devices_keep_one_set_of_parameters_and_learn_as_one(runs):
+    result = runs["devices"]
+    one, two = result["d1"], result["d2"]
+    assert result["device_count"] == 2
+    assert two["obs_sharding"] == "P('devices',)"  # the envs are split, not copied
+    assert two["replicas_identical"] and one["replicas_identical"]
+    # Each device keeps half of the buffer; together they hold every transition.
+    assert two["replay_sizes"] == [2000, 2000] and one["replay_sizes"] == [4000]
+    assert one["env_steps"] == two["env_steps"] == 4000
+    # The same initial policy and evaluation episodes, split over the devices.
+    assert two["first_eval_reward"] == pytest.approx(one["first_eval_reward"], abs=1e-4)
+    for run in (one, two):
+        assert run["final_eval_reward"] > run["first_eval_reward"] + 4.0
+    assert two["final_eval_reward"] == pytest.approx(one["final_eval_reward"], abs=RETURN_TOLERANCE)
+    for loss_one, loss_two in zip(one["critic_loss"], two["critic_loss"]):
+        assert loss_two == pytest.approx(loss_one, rel=0.3)
+
+
+def test_checkpoints_resume_on_another_device_count(runs):
+    resumed = runs["devices"]["resumed"]
+    # Saved on 2 devices at 2,400 env steps with the replay buffer, resumed on 1 to 4,000, then
+    # on 2 to 5,600: every stored transition kept at each change, nothing refilled.
+    assert resumed["on_1"]["env_steps"] == 4000
+    assert resumed["on_1"]["replay_size"] == 4000
+    assert resumed["on_2"]["env_steps"] == 5600
+    assert resumed["on_2"]["replay_size"] == 5600
+    assert resumed["on_2"]["rows"] == 7  # one metrics row per evaluation, none lost or repeated
+    assert resumed["on_2"]["final_eval_reward"] > -4.0
+
+
+def test_global_sizes_must_divide_over_the_devices(runs):
+    assert runs["devices"]["odd_num_envs_error"] == (
+        "num_envs=15 does not divide evenly over 2 devices; use a multiple of 2 (e.g. 14)"
+    )
+
+
+def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
+    first, second = runs["processes"]
+    assert (first["process_index"], second["process_index"]) == (0, 1)
+    assert first["device_count"] == second["device_count"] == 2
+    assert first["local_device_count"] == 1
+    # The same program as two devices of one process: the same numbers.
+    assert first["final_eval_reward"] == pytest.approx(
+        runs["devices"]["d2"]["final_eval_reward"], abs=1e-3
+    )
+    assert first["policy_checksum"] == second["policy_checksum"]
+    run_dir: pathlib.Path = runs["process_dir"]
+    names = sorted(path.name for path in run_dir.iterdir())
+    assert names == ["checkpoints", "config.json", "metrics.csv", "metrics.jsonl", "policy", "tensorboard"]
+    rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    assert [row["step"] for row in rows] == [0, 1600, 2400, 3200, 4000]  # written once
+    assert len(list((run_dir / "tensorboard").iterdir())) == 1
+    assert sorted(path.name for path in (run_dir / "checkpoints").iterdir()) == ["1600", "3200", "4000"]
