@@ -125,6 +125,26 @@ def sharded(
     return jax.jit(mapped, donate_argnums=donate_argnums)
 
 
+def named_shardings(layout: Layout, specs: Any) -> Any:
+    """`specs` (a tree of PartitionSpec) as NamedShardings on the layout's mesh."""
+    return jax.tree.map(
+        lambda spec: NamedSharding(layout.mesh, spec),
+        specs,
+        is_leaf=lambda node: isinstance(node, PartitionSpec),
+    )
+
+
+def join_slices(specs: Any, slices: list[Any]) -> Any:
+    """The global tree of per-device `slices`: leaves split along `AXIS` joined in device order,
+    the others (alike on every device) taken from the first slice."""
+    return jax.tree.map(
+        lambda spec, *leaves: jnp.concatenate(leaves) if spec == PartitionSpec(AXIS) else leaves[0],
+        specs,
+        *slices,
+        is_leaf=lambda node: isinstance(node, PartitionSpec),
+    )
+
+
 def state_specs(abstract_state: Any, sharded_fields: tuple[str, ...], num_envs: int) -> Any:
     """The `PartitionSpec` of every leaf of a (global) training state: split along axis 0 for the
     leaves of `sharded_fields` that have a leading axis (the envs', the replay buffer's), all else

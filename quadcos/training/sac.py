@@ -196,12 +196,8 @@ class SACTrainer:
             local_state, ("env_state", "exploration_noise", "replay"), self._local_envs
         )
         replicated = jax.sharding.PartitionSpec()
-        self._init = parallel.sharded(
-            lambda key: self._init_state(key, parallel.shard_index(self._axis)),
-            self.layout,
-            in_specs=replicated,
-            out_specs=specs,
-        )
+        self._specs = specs
+        self._init = jax.jit(self._init_all)
         self.prefill = parallel.sharded(
             self._prefill, self.layout, in_specs=(specs,), out_specs=specs, donate_argnums=0
         )
@@ -224,10 +220,17 @@ class SACTrainer:
         committed to the default device as a restored checkpoint is: a fresh and a resumed run
         then call the compiled functions with the same signature and share the persistent
         compilation cache. On several, spread over the mesh."""
+        state = jax.device_put(self._init(self._key_init), jax.devices()[0])
         if self.layout.mesh is None:
-            return jax.device_put(self._init(self._key_init), jax.devices()[0])
-        key = jax.device_put(self._key_init, self.layout.replicated())
-        return self._init(key)
+            return state
+        return jax.device_put(state, parallel.named_shardings(self.layout, self._specs))
+
+    def _init_all(self, key: jax.Array) -> TrainingState:
+        """Every device's initial slice, built on one device and joined along the split axes."""
+        if self.layout.mesh is None:
+            return self._init_state(key, 0)
+        slices = [self._init_state(key, shard) for shard in range(self.layout.shards)]
+        return parallel.join_slices(self._specs, slices)
 
     def replay_size(self, state: TrainingState) -> int:
         """Transitions in the replay buffer, over all devices."""
