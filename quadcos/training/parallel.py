@@ -1,12 +1,13 @@
 """Data-parallel training over the devices of a mesh (one host or several).
 
-One training run spreads over a 1-D `jax.sharding.Mesh` whose axis is `AXIS`: every device steps
-its own slice of the training envs, keeps its own slice of the replay buffer and samples it, and
-the SAC gradients are averaged across devices in one collective per update (`pmean`), so that
-parameters, optimiser states and observation statistics stay identical everywhere. The compiled
-functions are `shard_map`s of the single-device ones (`sharded`): inside them each array has its
-local shape, `shard_index()` says which slice is this device's, and `pmean` / `psum` are the
-identity on one device, where nothing is sharded at all.
+One training run spreads over a 1-D `jax.sharding.Mesh` whose axis is `AXIS`. The compiled
+functions are the one-device program, jitted (`jit`) on a training state whose envs and replay
+buffer are split along their first axis over the devices and whose networks, optimiser states
+and statistics are replicated: XLA's SPMD partitioner gives every device its slice of the envs
+to step and its ring of the buffer (`replay.ShardedReplay`) to fill and sample, and sums the
+gradients across devices, so that the parameters stay identical everywhere. (`jax.shard_map` of
+the MJX step crashes XLA's GPU compiler — jax 0.11.2, two H200s — while this runs:
+experiments/scaling.)
 
 `num_envs`, `batch_size`, `replay_size` and `num_eval_envs` stay global (the whole run's): each
 must divide evenly by the number of devices (`check_divisible`).
@@ -21,7 +22,6 @@ from collections.abc import Callable
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 logger = logging.getLogger(__name__)
@@ -33,7 +33,7 @@ GLOBAL_SIZES = ("num_envs", "batch_size", "replay_size", "num_eval_envs")
 
 @dataclasses.dataclass(frozen=True)
 class Layout:
-    """How a run spreads over devices: `mesh` None is one device (no `shard_map`, no collectives)."""
+    """How a run spreads over devices: `mesh` None is one device (nothing is placed)."""
 
     mesh: Mesh | None
 
@@ -41,12 +41,6 @@ class Layout:
     def shards(self) -> int:
         return 1 if self.mesh is None else self.mesh.size
 
-    @property
-    def axis_name(self) -> str | None:
-        return None if self.mesh is None else AXIS
-
-    def replicated(self) -> NamedSharding | None:
-        return None if self.mesh is None else NamedSharding(self.mesh, PartitionSpec())
 
 
 def make_layout(num_devices: int | None) -> Layout:
@@ -82,47 +76,28 @@ def check_divisible(config: Any, shards: int) -> None:
             )
 
 
-def shard_index(axis_name: str | None) -> jax.Array:
-    """This device's position on the mesh axis (0 on one device)."""
-    return jnp.zeros((), jnp.int32) if axis_name is None else jax.lax.axis_index(axis_name)
-
-
-def pmean(tree: Any, axis_name: str | None) -> Any:
-    """The mean over devices of every leaf (one collective); the identity on one device."""
-    return tree if axis_name is None else jax.lax.pmean(tree, axis_name)
-
-
-def psum(tree: Any, axis_name: str | None) -> Any:
-    """The sum over devices of every leaf; the identity on one device."""
-    return tree if axis_name is None else jax.lax.psum(tree, axis_name)
-
-
-def local_rows(array: jax.Array, shard: jax.Array | int, shards: int) -> jax.Array:
-    """Slice `shard` of `shards` (along axis 0) of an array every device holds whole: drawing
-    global random numbers and slicing keeps a run's randomness that of one device."""
-    if shards == 1:
-        return array
-    size = array.shape[0] // shards
-    return jax.lax.dynamic_slice_in_dim(array, shard * size, size)
-
-
-def sharded(
+def jit(
     fn: Callable[..., Any],
     layout: Layout,
     in_specs: Any,
     out_specs: Any,
-    donate_argnums: int | tuple[int, ...] = (),
+    donate: bool = False,
 ) -> Callable[..., Any]:
-    """`jax.jit(fn)` on one device; on a mesh, `jit` of `fn` mapped over it with `shard_map`."""
+    """`jax.jit(fn)` of a one-argument function; on a mesh with the argument and result placed
+    as `in_specs` / `out_specs` say (None: replicated), so that the state keeps its layout from
+    call to call."""
+    donate_argnums = (0,) if donate else ()
     if layout.mesh is None:
         return jax.jit(fn, donate_argnums=donate_argnums)
-    # check_vma=False: the env code's scans start carries from constants (invariant across
-    # devices) that the steps make device-varying; what is replicated is made so explicitly
-    # (`pmean`, `psum`, keys every device holds alike), which the tests check.
-    mapped = jax.shard_map(
-        fn, mesh=layout.mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False
+    shardings = lambda specs: (  # noqa: E731
+        NamedSharding(layout.mesh, PartitionSpec())
+        if specs is None
+        else named_shardings(layout, specs)
     )
-    return jax.jit(mapped, donate_argnums=donate_argnums)
+    out = tuple(map(shardings, out_specs)) if isinstance(out_specs, tuple) else shardings(out_specs)
+    return jax.jit(
+        fn, in_shardings=(shardings(in_specs),), out_shardings=out, donate_argnums=donate_argnums
+    )
 
 
 def named_shardings(layout: Layout, specs: Any) -> Any:
@@ -130,17 +105,6 @@ def named_shardings(layout: Layout, specs: Any) -> Any:
     return jax.tree.map(
         lambda spec: NamedSharding(layout.mesh, spec),
         specs,
-        is_leaf=lambda node: isinstance(node, PartitionSpec),
-    )
-
-
-def join_slices(specs: Any, slices: list[Any]) -> Any:
-    """The global tree of per-device `slices`: leaves split along `AXIS` joined in device order,
-    the others (alike on every device) taken from the first slice."""
-    return jax.tree.map(
-        lambda spec, *leaves: jnp.concatenate(leaves) if spec == PartitionSpec(AXIS) else leaves[0],
-        specs,
-        *slices,
         is_leaf=lambda node: isinstance(node, PartitionSpec),
     )
 

@@ -8,7 +8,6 @@ import jax
 import jax.numpy as jnp
 
 from quadcos import episodes
-from quadcos.training import parallel
 
 Metrics = dict[str, jax.Array]
 
@@ -30,22 +29,19 @@ def evaluate(
     *,
     num_episodes: int,
     episode_length: int,
-    shard: jax.Array | int = 0,
-    shards: int = 1,
 ) -> Metrics:
-    """Runs slice `shard` of `shards` of `num_episodes` episodes of `policy` (batched obs →
-    actions) on the batched `eval_env` for `episode_length` steps each, from the same initial
-    states (drawn from `key`) every time. An episode is alive until the env reports done; steps
-    after that are ignored.
+    """Runs `num_episodes` episodes of `policy` (batched obs → actions) on the batched
+    `eval_env` for `episode_length` steps each, from the same initial states (drawn from `key`)
+    every time. An episode is alive until the env reports done; steps after that are ignored.
 
     Returns:
-      Averages over this slice's episodes of: `eval/episode_reward` (sum of rewards),
+      Averages over the episodes of: `eval/episode_reward` (sum of rewards),
       `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode ended with done
       before the time limit), and for each key of the env's `state.metrics`, `eval/<key>`: the
       per-episode sum for keys starting with `reward/`, else the per-episode mean over alive
       steps.
     """
-    keys = parallel.local_rows(jax.random.split(key, num_episodes), shard, shards)
+    keys = jax.random.split(key, num_episodes)
     env_state = eval_env.reset(keys)
     zeros = jnp.zeros((keys.shape[0],))
     totals = EvalTotals(

@@ -110,3 +110,43 @@ def reshard(stored: ReplayState, shards: int) -> ReplayState:
             data=new_data, insert_position=new_positions[0], size=new_sizes[0]
         )
     return ReplayState(data=new_data, insert_position=new_positions, size=new_sizes)
+
+
+class ShardedReplay(Generic[Sample]):
+    """`shards` rings side by side in one buffer: ring d holds rows [d·C/n, (d+1)·C/n) and the
+    transitions of envs [d·E/n, (d+1)·E/n), and is sampled for its share of every batch. Split
+    over devices along the rows, each ring's inserts and draws stay on its device."""
+
+    def __init__(self, ring: RingReplay[Sample], shards: int):
+        self.ring = ring
+        self.shards = shards
+        self.capacity = ring.capacity * shards
+
+    def init(self) -> ReplayState:
+        """An empty buffer; its positions have one entry per ring."""
+        empty = self.ring.init()
+        return ReplayState(
+            data=jnp.zeros((self.capacity,) + empty.data.shape[1:], empty.data.dtype),
+            insert_position=jnp.zeros((self.shards,), jnp.int32),
+            size=jnp.zeros((self.shards,), jnp.int32),
+        )
+
+    def _rings(self, state: ReplayState) -> ReplayState:
+        return state.replace(data=self._split(state.data))
+
+    def _split(self, x: jax.Array) -> jax.Array:
+        return jnp.reshape(x, (self.shards, x.shape[0] // self.shards) + x.shape[1:])
+
+    def insert(self, state: ReplayState, samples: Sample, valid: jax.Array) -> ReplayState:
+        """Each ring appends the valid rows of its envs (`samples` batched over all envs)."""
+        rings = jax.vmap(self.ring.insert)(
+            self._rings(state), jax.tree.map(self._split, samples), self._split(valid)
+        )
+        return rings.replace(data=jnp.reshape(rings.data, state.data.shape))
+
+    def sample(self, state: ReplayState, key: jax.Array, per_ring: int) -> Sample:
+        """(shards, per_ring) transitions, drawn uniformly from each ring."""
+        keys = jax.random.split(key, self.shards)
+        return jax.vmap(lambda ring, key: self.ring.sample(ring, key, per_ring))(
+            self._rings(state), keys
+        )

@@ -3,8 +3,9 @@
 Built from Brax's SAC pieces (networks, losses, gradient updates, running
 statistics, training wrappers) because stock `brax.training.agents.sac.train`
 calls `jax.device_put_replicated`, which JAX 0.10 removed. One device, or data-parallel over
-several (`config.num_devices`, `quadcos.training.parallel`): each device steps and stores its
-slice of the envs and replay buffer; gradients are averaged across devices.
+several (`config.num_devices`, `quadcos.training.parallel`): the same program, jitted on a state
+whose envs and replay buffer are split over the devices (XLA partitions it); each device steps its
+envs, fills and samples its own ring of the buffer, and the gradients are summed across devices.
 
 One chunk is `steps_per_chunk` iterations of: act with the stochastic policy
 in all training envs, guard against non-finite env outputs, insert the
@@ -52,8 +53,9 @@ class TrainingState:
     env's standard-normal exploration draw, held for `noise_hold_steps` steps on average.
 
     On several devices `env_state`, `exploration_noise` and `replay` are split along their first
-    axis (the replay's positions have one entry per device); everything else is replicated.
-    Global shapes do not depend on the device count except the replay's positions.
+    axis (the replay holds one ring per device, its positions one entry per device); everything
+    else is replicated. Global shapes do not depend on the device count except the replay's
+    positions.
         """
 
     policy_params: types.Params
@@ -146,10 +148,7 @@ class SACTrainer:
 
         self.layout = parallel.make_layout(config.num_devices)
         parallel.check_divisible(config, self.layout.shards)
-        self._axis = self.layout.axis_name
         shards = self.layout.shards
-        self._local_envs = config.num_envs // shards
-        self._local_batch = config.batch_size // shards
 
         self._policy_optimizer = _optimizer(config.learning_rate.actor, config.max_grad_norm)
         self._q_optimizer = _optimizer(config.learning_rate.critic, config.max_grad_norm)
@@ -173,7 +172,6 @@ class SACTrainer:
             policy_optimizer=self._policy_optimizer,
             tau=config.tau,
             actor_warmup_steps=config.actor_warmup_steps,
-            axis_name=self._axis,
         )
 
         dummy_obs = jnp.zeros((self.observation_size,))
@@ -185,65 +183,40 @@ class SACTrainer:
             next_observation=dummy_obs,
             extras={"state_extras": {"truncation": jnp.zeros(())}, "policy_extras": {}},
         )
-        # Each device's slice of the buffer is a ring of its own.
-        self.replay = replay_lib.RingReplay(config.replay_size // shards, dummy_transition)
+        # One ring per device, filled by that device's envs and sampled by it.
+        ring = replay_lib.RingReplay(config.replay_size // shards, dummy_transition)
+        self.replay = ring if shards == 1 else replay_lib.ShardedReplay(ring, shards)
         self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
 
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
-        local_state = jax.eval_shape(self._init_state, self._key_init, 0)
-        specs = parallel.state_specs(
-            local_state, ("env_state", "exploration_noise", "replay"), self._local_envs
+        self._specs = parallel.state_specs(
+            jax.eval_shape(self._init_state, self._key_init),
+            ("env_state", "exploration_noise", "replay"),
+            config.num_envs,
         )
-        replicated = jax.sharding.PartitionSpec()
-        self._specs = specs
-        self._init = jax.jit(self._init_all)
-        self.prefill = parallel.sharded(
-            self._prefill, self.layout, in_specs=(specs,), out_specs=specs, donate_argnums=0
+        self._init = jax.jit(self._init_state)
+        self.prefill = parallel.jit(self._prefill, self.layout, self._specs, self._specs, donate=True)
+        self.train_chunk = parallel.jit(
+            self._train_chunk, self.layout, self._specs, (self._specs, None), donate=True
         )
-        self.train_chunk = parallel.sharded(
-            self._train_chunk,
-            self.layout,
-            in_specs=(specs,),
-            out_specs=(specs, replicated),
-            donate_argnums=0,
-        )
-        self.evaluate = parallel.sharded(
-            self._evaluate,
-            self.layout,
-            in_specs=(replicated, replicated),
-            out_specs=replicated,
-        )
+        self.evaluate = jax.jit(self._evaluate)
 
     def init(self) -> TrainingState:
-        """Returns the initial training state (empty replay buffer). On one device it is
-        committed to the default device as a restored checkpoint is: a fresh and a resumed run
-        then call the compiled functions with the same signature and share the persistent
-        compilation cache. On several, spread over the mesh."""
+        """Returns the initial training state (empty replay buffer), committed to the default
+        device as a restored checkpoint is: a fresh and a resumed run then call the compiled
+        functions with the same signature and share the persistent compilation cache. On
+        several devices, built on the first and then spread over the mesh."""
         state = jax.device_put(self._init(self._key_init), jax.devices()[0])
         if self.layout.mesh is None:
             return state
         return jax.device_put(state, parallel.named_shardings(self.layout, self._specs))
 
-    def _init_all(self, key: jax.Array) -> TrainingState:
-        """Every device's initial slice, built on one device and joined along the split axes."""
-        if self.layout.mesh is None:
-            return self._init_state(key, 0)
-        slices = [self._init_state(key, shard) for shard in range(self.layout.shards)]
-        return parallel.join_slices(self._specs, slices)
-
     def replay_size(self, state: TrainingState) -> int:
         """Transitions in the replay buffer, over all devices."""
         return int(jnp.sum(state.replay.size))
 
-    def _device_key(self, key: jax.Array) -> jax.Array:
-        """A key of this device's own (the key itself on one device)."""
-        return key if self._axis is None else jax.random.fold_in(key, jax.lax.axis_index(self._axis))
-
-    def _init_state(self, key: jax.Array, shard: jax.Array | int) -> TrainingState:
-        """The initial state of device `shard`'s slice (all of it on one device): its envs are
-        those a one-device run of the same seed starts with."""
-        shards = self.layout.shards
+    def _init_state(self, key: jax.Array) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
         key_noise = jax.random.fold_in(key, 1)
         policy_params = networks.initial_output_layer(
@@ -265,29 +238,17 @@ class SACTrainer:
             normalizer_params=running_statistics.init_state(
                 specs.Array((self.observation_size,), jnp.dtype("float32"))
             ),
-            env_state=self.env.reset(
-                parallel.local_rows(jax.random.split(key_env, self.config.num_envs), shard, shards)
-            ),
-            replay=self._local_replay(self.replay.init()),
+            env_state=self.env.reset(jax.random.split(key_env, self.config.num_envs)),
+            replay=self.replay.init(),
             key=key_train,
             env_steps=types.UInt64(hi=0, lo=0),
             gradient_steps=types.UInt64(hi=0, lo=0),
             nan_resets=types.UInt64(hi=0, lo=0),
-            exploration_noise=parallel.local_rows(
-                jax.random.normal(key_noise, (self.config.num_envs, self.action_size)),
-                shard,
-                shards,
+            exploration_noise=jax.random.normal(
+                key_noise, (self.config.num_envs, self.action_size)
             ),
         )
         return _strongly_typed(state)
-
-    def _local_replay(self, replay: replay_lib.ReplayState) -> replay_lib.ReplayState:
-        """On several devices a ring's positions get the device axis (one entry per device)."""
-        if self._axis is None:
-            return replay
-        return replay.replace(
-            insert_position=replay.insert_position[None], size=replay.size[None]
-        )
 
     # --- Acting ----------------------------------------------------------------
 
@@ -342,11 +303,9 @@ class SACTrainer:
             state.normalizer_params,
             clean_obs,
             weights=finite.astype(jnp.float32),
-            pmap_axis_name=self._axis,
         )
-        num_finite, reward_sum = parallel.psum(
-            (jnp.sum(finite), jnp.sum(jnp.where(finite, transitions.reward, 0.0))), self._axis
-        )
+        num_finite = jnp.sum(finite)
+        reward_sum = jnp.sum(jnp.where(finite, transitions.reward, 0.0))
         # With no valid row Welford would divide 0 by a zero count.
         normalizer_params = jax.tree.map(
             lambda new, old: jnp.where(num_finite > 0, new, old),
@@ -366,7 +325,7 @@ class SACTrainer:
         """Replaces the whole state of the masked envs by a fresh reset state."""
 
         def reset_masked() -> envs.State:
-            fresh = self.env.reset(jax.random.split(key, self._local_envs))
+            fresh = self.env.reset(jax.random.split(key, self.config.num_envs))
             fresh = fresh.replace(done=jnp.ones_like(fresh.done))
             return jax.tree.map(
                 lambda new, old: where_per_env(mask, new, old),
@@ -382,7 +341,6 @@ class SACTrainer:
 
         def step(state: TrainingState, _) -> tuple[TrainingState, None]:
             key, key_action, key_reset = jax.random.split(state.key, 3)
-            key_action, key_reset = self._device_key(key_action), self._device_key(key_reset)
             uniform = self.config.prefill_actions == "uniform"
             actions, state = self._exploring_actions(state, key_action, uniform=uniform)
             state, _ = self._env_step(state.replace(key=key), actions, key_reset)
@@ -404,20 +362,10 @@ class SACTrainer:
         config = self.config
 
         def step(state: TrainingState, _) -> tuple[TrainingState, Metrics]:
-            key, *keys = jax.random.split(state.key, 5)
-            key_action, key_reset, key_sample, key_sgd = map(self._device_key, keys)
+            key, key_action, key_reset, key_sample, key_sgd = jax.random.split(state.key, 5)
             actions, state = self._exploring_actions(state, key_action)
             state, env_metrics = self._env_step(state.replace(key=key), actions, key_reset)
-
-            transitions = self.replay.sample(
-                state.replay, key_sample, config.updates_per_step * self._local_batch
-            )
-            transitions = jax.tree.map(
-                lambda x: jnp.reshape(
-                    x, (config.updates_per_step, self._local_batch) + x.shape[1:]
-                ),
-                transitions,
-            )
+            transitions = self._sample_batches(state.replay, key_sample)
             keys_sgd = jax.random.split(key_sgd, config.updates_per_step)
             state, sgd_metrics = jax.lax.scan(self._sgd_step, state, (transitions, keys_sgd))
             sgd_metrics = jax.tree.map(jnp.mean, sgd_metrics)
@@ -426,6 +374,21 @@ class SACTrainer:
         state, metrics = jax.lax.scan(step, state, None, length=config.steps_per_chunk)
         return _strongly_typed(state), jax.tree.map(jnp.mean, metrics)
 
+    def _sample_batches(self, replay: replay_lib.ReplayState, key: jax.Array) -> types.Transition:
+        """(updates_per_step, batch_size) transitions; on several devices each device's ring
+        gives its share of every batch."""
+        updates, batch, shards = self.config.updates_per_step, self.config.batch_size, self.layout.shards
+        if shards == 1:
+            sample = self.replay.sample(replay, key, updates * batch)
+            return jax.tree.map(lambda x: jnp.reshape(x, (updates, batch) + x.shape[1:]), sample)
+        sample = self.replay.sample(replay, key, updates * batch // shards)  # (shards, n, ...)
+
+        def batches(x: jax.Array) -> jax.Array:
+            x = jnp.reshape(x, (shards, updates, batch // shards) + x.shape[2:]).swapaxes(0, 1)
+            return jnp.reshape(x, (updates, batch) + x.shape[3:])
+
+        return jax.tree.map(batches, sample)
+
     # --- Evaluation ------------------------------------------------------------
 
     def _evaluate(
@@ -433,8 +396,7 @@ class SACTrainer:
         normalizer_params: running_statistics.RunningStatisticsState,
         policy_params: types.Params,
     ) -> Metrics:
-        """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean): this
-        device's share of `num_eval_envs` episodes, averaged over all devices."""
+        """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean)."""
         policy = self._make_policy((normalizer_params, policy_params), deterministic=True)
         metrics = periodic_eval.evaluate(
             self.eval_env,
@@ -442,8 +404,5 @@ class SACTrainer:
             self._eval_key,
             num_episodes=self.config.num_eval_envs,
             episode_length=self.config.eval_episode_length,
-            shard=parallel.shard_index(self._axis),
-            shards=self.layout.shards,
         )
-        # Every device ran as many episodes: the mean of the devices' means is the mean.
-        return parallel.pmean(metrics, self._axis)
+        return metrics

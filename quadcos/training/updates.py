@@ -1,8 +1,8 @@
 """One SAC update (Haarnoja et al. 2018, arXiv:1812.05905) with Brax's losses.
 
-The temperature, critic and actor gradients are all taken at the state before the update (as in
-Brax's SAC), so on several devices they are averaged together, with the losses, in one collective
-(`parallel.pmean`) before any optimiser step: every device then applies the same update.
+The temperature, critic and actor gradients are all taken at the state before the update, as in
+Brax's SAC. On several devices the batch is split over them and XLA sums the gradients (the
+losses are means over the whole batch), so every device applies the same update.
 """
 
 from collections.abc import Callable
@@ -13,8 +13,6 @@ from brax.training import types
 import jax
 import jax.numpy as jnp
 import optax
-
-from quadcos.training import parallel
 
 Metrics = dict[str, jax.Array]
 
@@ -28,7 +26,6 @@ class SACUpdate:
       alpha_optimizer, q_optimizer, policy_optimizer: their optax optimisers.
       tau: Polyak rate of the target critics.
       actor_warmup_steps: updates during which only the critics learn.
-      axis_name: the device axis the gradients are averaged over (None: one device).
     """
 
     alpha_loss: Callable[..., jax.Array]
@@ -39,7 +36,6 @@ class SACUpdate:
     policy_optimizer: optax.GradientTransformation
     tau: float
     actor_warmup_steps: int
-    axis_name: str | None
 
     def __call__(self, state: Any, batch: tuple[types.Transition, jax.Array]) -> tuple[Any, Metrics]:
         transitions, key = batch
@@ -65,11 +61,6 @@ class SACUpdate:
             transitions,
             key_actor,
         )
-        losses, (alpha_grad, q_grad, policy_grad) = parallel.pmean(
-            ((alpha_loss, critic_loss, actor_loss), (alpha_grad, q_grad, policy_grad)),
-            self.axis_name,
-        )
-        alpha_loss, critic_loss, actor_loss = losses
         log_alpha, alpha_optimizer_state = _apply(
             self.alpha_optimizer, alpha_grad, state.log_alpha, state.alpha_optimizer_state
         )
