@@ -12,8 +12,6 @@ import pytest
 
 from tests.cli_runs import ROOT, cli_env
 
-pytestmark = pytest.mark.slow
-
 SCRIPT = ROOT / "tests" / "parallel_checks.py"
 # How far two devices may end from one after 4,000 toy env steps: their runs differ only in
 # which device samples which transitions (each device samples its own half of the buffer). A
@@ -66,6 +64,7 @@ def runs(tmp_path_factory):
     }
 
 
+@pytest.mark.slow
 def test_two_devices_keep_one_set_of_parameters_and_learn_as_one(runs):
     result = runs["devices"]
     one, two = result["d1"], result["d2"]
@@ -84,6 +83,7 @@ def test_two_devices_keep_one_set_of_parameters_and_learn_as_one(runs):
         assert loss_two == pytest.approx(loss_one, rel=0.3)
 
 
+@pytest.mark.slow
 def test_checkpoints_resume_on_another_device_count(runs):
     resumed = runs["devices"]["resumed"]
     # Saved on 2 devices at 2,400 env steps with the replay buffer, resumed on 1 to 4,000, then
@@ -96,12 +96,14 @@ def test_checkpoints_resume_on_another_device_count(runs):
     assert resumed["on_2"]["final_eval_reward"] > -4.0
 
 
+@pytest.mark.slow
 def test_global_sizes_must_divide_over_the_devices(runs):
     assert runs["devices"]["odd_num_envs_error"] == (
         "num_envs=15 does not divide evenly over 2 devices; use a multiple of 2 (e.g. 14)"
     )
 
 
+@pytest.mark.slow
 def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
     first, second = runs["processes"]
     assert (first["process_index"], second["process_index"]) == (0, 1)
@@ -119,3 +121,52 @@ def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
     assert [row["step"] for row in rows] == [0, 1600, 2400, 3200, 4000]  # written once
     assert len(list((run_dir / "tensorboard").iterdir())) == 1
     assert sorted(path.name for path in (run_dir / "checkpoints").iterdir()) == ["1600", "3200", "4000"]
+
+
+# --- Command line and the committed two-GPU figures (no extra devices needed) ---------------
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--coordinator=localhost:1234"], "--coordinator needs --num_processes=N and --process_id=I"),
+        (["--num_processes=2"], "--num_processes and --process_id need --coordinator=HOST:PORT"),
+        (
+            ["--coordinator=localhost:1234", "--num_processes=2", "--process_id=2"],
+            "--process_id=2: choose 0 to 1",
+        ),
+        (
+            ["--coordinator=localhost:1234", "--num_processes=2", "--process_id=0", "--numbered"],
+            "--numbered with --coordinator: give every process the same --output_dir",
+        ),
+        (
+            ["--num_devices=2", "--config.env.impl=warp"],
+            "--config.env.impl=warp runs on one device, not 2",
+        ),
+        (["--num_devices=0"], "config.sac.num_devices must be >= 1 or None (all), got 0"),
+    ],
+)
+def test_scale_out_flags_are_checked_in_one_line(args, message, tmp_path, capsys):
+    from quadcos import train
+
+    status = train.main(["--preset=smoke", f"--output_dir={tmp_path / 'run'}", *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2
+    assert message in err[-1] and err[-1].startswith("quadcos.train: error:")
+    assert not (tmp_path / "run").exists()
+
+
+def test_committed_two_gpu_table_is_what_its_runs_measured():
+    from quadcos.benchmarking import scaling
+
+    directory = ROOT / "benchmarks" / "h200x2"
+    runs = [json.loads((directory / f"{name}.json").read_text()) for name in
+            ("flat_1dev", "flat_2dev", "slope5_1dev", "slope5_2dev")]
+    rows = scaling.scaling_rows(runs)
+    assert rows == json.loads((ROOT / "benchmarks" / "h200x2.json").read_text())["rows"]
+    by_key = {(row["terrain"], row["num_devices"]): row for row in rows}
+    for terrain in ("flat", "slope5"):
+        one, two = by_key[(terrain, 1)], by_key[(terrain, 2)]
+        assert two["envs_per_device"] == one["envs_per_device"] == 4096
+        assert two["speedup"] == pytest.approx(two["env_steps_per_s"] / one["env_steps_per_s"])
+    assert scaling.table(rows) == (directory / "table.md").read_text().strip()

@@ -64,19 +64,22 @@ def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
 
 def table(rows: Sequence[dict[str, Any]]) -> str:
     """The rows as Markdown."""
-    seconds = lambda value: "—" if value is None else f"{value:.1f}"  # noqa: E731
+
+    def number(value: float | None, form: str) -> str:
+        return "—" if value is None else format(value, form)
+
     lines = [
-        "| terrain | devices | envs (per device) | env-steps/s | × one device | time to walk (s) | time to cross slope5 (s) |",
+        "| terrain | devices | envs (per device) | env-steps/s | × one device"
+        " | time to walk (s) | time to cross slope5 (s) |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
     for row in rows:
-        rate = row["env_steps_per_s"]
+        envs = "—" if row["num_envs"] is None else f"{row['num_envs']} ({row['envs_per_device']})"
         lines.append(
-            f"| {row['terrain']} | {row['num_devices']}"
-            f" | {'—' if row['num_envs'] is None else f'{row['num_envs']} ({row['envs_per_device']})'}"
-            f" | {'—' if rate is None else f'{rate:,.0f}'}"
-            f" | {'—' if row['speedup'] is None else f'{row['speedup']:.2f}'}"
-            f" | {seconds(row['time_to_walk_flat_s'])} | {seconds(row['time_to_cross_slope5_s'])} |"
+            f"| {row['terrain']} | {row['num_devices']} | {envs}"
+            f" | {number(row['env_steps_per_s'], ',.0f')} | {number(row['speedup'], '.2f')}"
+            f" | {number(row['time_to_walk_flat_s'], '.1f')}"
+            f" | {number(row['time_to_cross_slope5_s'], '.1f')} |"
         )
     return "\n".join(lines)
 
