@@ -8,6 +8,7 @@ XLA_FLAGS give the CPU two devices (they must be set before JAX starts), or as o
 
 import json
 import pathlib
+import re
 import shutil
 import sys
 
@@ -71,9 +72,26 @@ def replicated_state(state):
     )
 
 
+def collectives(env: PointEnv) -> list[str]:
+    """The cross-device operations of a compiled 2-device training chunk of one env step and
+    one update, as "kind what" (what: "gradients" for a reduction of the update's gradients,
+    else the JAX operation XLA's partitioner made it from)."""
+    trainer = training.SACTrainer(env, toy_config(num_devices=2, steps_per_chunk=1))
+    text = trainer.train_chunk.lower(trainer.prefill(trainer.init())).compile().as_text()
+    found = []
+    for line in text.splitlines():
+        kind = re.search(r" (all-reduce|all-gather|all-to-all|collective-permute|reduce-scatter)(-start)?\(", line)
+        if kind:
+            name = re.search(r'op_name="([^"]+)"', line)
+            name = name.group(1) if name else ""
+            what = "gradients" if "jvp(" in name else name.split("/")[-1]
+            found.append(f"{kind.group(1)} {what}")
+    return sorted(found)
+
+
 def devices(run_dir: pathlib.Path) -> dict:
     env = PointEnv()
-    out = {"device_count": jax.device_count()}
+    out = {"device_count": jax.device_count(), "collectives": collectives(env)}
     for count in (1, 2):
         result = training.train(env, toy_config(num_devices=count), progress=False)
         out[f"d{count}"] = {

@@ -195,7 +195,7 @@ class SACTrainer:
             ("env_state", "exploration_noise", "replay"),
             config.num_envs,
         )
-        self._init = jax.jit(self._init_state)
+        self._init = parallel.jit(self._init_state, self.layout, None, self._specs)
         self.prefill = parallel.jit(self._prefill, self.layout, self._specs, self._specs, donate=True)
         self.train_chunk = parallel.jit(
             self._train_chunk, self.layout, self._specs, (self._specs, None), donate=True
@@ -206,11 +206,10 @@ class SACTrainer:
         """Returns the initial training state (empty replay buffer), committed to the default
         device as a restored checkpoint is: a fresh and a resumed run then call the compiled
         functions with the same signature and share the persistent compilation cache. On
-        several devices, built on the first and then spread over the mesh."""
-        state = jax.device_put(self._init(self._key_init), jax.devices()[0])
+        several devices, built where it lives (every process builds its devices' part)."""
         if self.layout.mesh is None:
-            return state
-        return jax.device_put(state, parallel.named_shardings(self.layout, self._specs))
+            return jax.device_put(self._init(self._key_init), jax.devices()[0])
+        return self._init(self._key_init)
 
     def replay_size(self, state: TrainingState) -> int:
         """Transitions in the replay buffer, over all devices."""
