@@ -19,36 +19,7 @@ import numpy as np  # noqa: E402
 
 from quadcos import training  # noqa: E402
 from quadcos.training import parallel  # noqa: E402
-from tests.toy_env import PointEnv  # noqa: E402
-
-CHUNK = 800  # 16 envs x 50 steps
-
-
-def toy_config(**overrides):
-    """test_training's toy shapes (16 envs, batch 128), learning in a few thousand steps."""
-    config = training.default_config()
-    config.num_envs = 16
-    config.episode_length = 20
-    config.batch_size = 128
-    config.replay_size = 20_000
-    config.min_replay_size = CHUNK
-    config.hidden_sizes.policy = (32, 32)
-    config.hidden_sizes.q = (32, 32)
-    config.learning_rate.actor = 1e-3
-    config.learning_rate.critic = 1e-3
-    config.learning_rate.alpha = 1e-3
-    config.discount = 0.9
-    config.reward_scaling = 5.0
-    config.steps_per_chunk = CHUNK // config.num_envs
-    config.num_eval_envs = 32
-    config.eval_episode_length = 20
-    config.num_timesteps = CHUNK + 4 * CHUNK
-    config.eval_interval = CHUNK
-    config.checkpoint_interval = 2 * CHUNK
-    for name, value in overrides.items():
-        config[name] = value
-    return config
-
+from tests.toy_env import CHUNK, PointEnv, toy_config  # noqa: E402
 
 def replicas_identical(tree) -> bool:
     """Whether every device holds the same values of every (replicated) leaf."""

@@ -15,12 +15,10 @@ import pytest
 from quadcos import training
 from quadcos.training import checkpoint
 from quadcos.training import host
-from tests.toy_env import PointEnv
+from tests.toy_env import CHUNK, PointEnv, toy_config
 
 pytestmark = pytest.mark.slow
 
-# One chunk = 16 envs x 50 steps = 800 env steps; prefill = 800 env steps.
-CHUNK = 800
 # Sum of rewards of a deterministic policy that has learned to go to the
 # target; the optimum is about -0.4, uniform random actions get about -9.
 LEARNED_RETURN = -2.5
@@ -36,33 +34,6 @@ def compilation_cache(tmp_path_factory):
         jax.config.update("jax_compilation_cache_dir", str(cache))
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
     yield
-
-
-def toy_config(**overrides):
-    """Every test uses these shapes, so the compiled programs are shared."""
-    config = training.default_config()
-    config.num_envs = 16
-    config.episode_length = 20
-    config.batch_size = 128
-    config.replay_size = 20_000
-    config.min_replay_size = CHUNK
-    config.hidden_sizes.policy = (32, 32)
-    config.hidden_sizes.q = (32, 32)
-    config.learning_rate.actor = 1e-3
-    config.learning_rate.critic = 1e-3
-    config.learning_rate.alpha = 1e-3
-    config.discount = 0.9
-    config.reward_scaling = 5.0
-    config.steps_per_chunk = CHUNK // config.num_envs
-    config.num_eval_envs = 32
-    config.eval_episode_length = 20
-    config.num_timesteps = CHUNK + 4 * CHUNK
-    config.eval_interval = CHUNK
-    config.checkpoint_interval = 2 * CHUNK
-    config.keep_checkpoints = 3
-    for name, value in overrides.items():
-        config[name] = value
-    return config
 
 
 def without_timing(rows):

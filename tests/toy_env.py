@@ -4,6 +4,11 @@ from brax.envs import base
 import jax
 import jax.numpy as jnp
 
+from quadcos import training
+
+# One chunk = 16 envs x 50 steps = 800 env steps; prefill = 800 env steps.
+CHUNK = 800
+
 
 class PointEnv(base.Env):
     """A point on a line steered towards a target.
@@ -72,3 +77,30 @@ class PointEnv(base.Env):
     @property
     def backend(self) -> str:
         return "jax"
+
+
+def toy_config(**overrides):
+    """Every test uses these shapes, so the compiled programs are shared."""
+    config = training.default_config()
+    config.num_envs = 16
+    config.episode_length = 20
+    config.batch_size = 128
+    config.replay_size = 20_000
+    config.min_replay_size = CHUNK
+    config.hidden_sizes.policy = (32, 32)
+    config.hidden_sizes.q = (32, 32)
+    config.learning_rate.actor = 1e-3
+    config.learning_rate.critic = 1e-3
+    config.learning_rate.alpha = 1e-3
+    config.discount = 0.9
+    config.reward_scaling = 5.0
+    config.steps_per_chunk = CHUNK // config.num_envs
+    config.num_eval_envs = 32
+    config.eval_episode_length = 20
+    config.num_timesteps = CHUNK + 4 * CHUNK
+    config.eval_interval = CHUNK
+    config.checkpoint_interval = 2 * CHUNK
+    config.keep_checkpoints = 3
+    for name, value in overrides.items():
+        config[name] = value
+    return config
