@@ -135,6 +135,10 @@ class SACTrainer:
         self.config = config.copy_and_resolve_references()
         self.env = training_wrappers.wrap(env, episode_length=config.episode_length)
         self.eval_env = training_wrappers.VmapWrapper(eval_env or env)
+        # Jitted once and called inside init, prefill and the chunk: tracing the MJX reset and
+        # step is most of a small run's start-up, and a nested jit is traced once for all three.
+        self._reset_envs = jax.jit(self.env.reset)
+        self._step_envs = jax.jit(self.env.step)
         self.observation_size = observation_size(env)
         self.action_size = env.action_size
         self.networks = make_networks(
@@ -190,12 +194,15 @@ class SACTrainer:
 
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
-        self._specs = parallel.state_specs(
-            jax.eval_shape(self._init_state, self._key_init),
-            ("env_state", "exploration_noise", "replay"),
-            config.num_envs,
-        )
-        self._init = parallel.jit(self._init_state, self.layout, None, self._specs)
+        self._init = jax.jit(self._init_state)
+        self._specs = None  # where each part of the state lives; on one device, nowhere to say
+        if self.layout.mesh is not None:
+            self._specs = parallel.state_specs(
+                jax.eval_shape(self._init, self._key_init),
+                ("env_state", "exploration_noise", "replay"),
+                config.num_envs,
+            )
+            self._init = parallel.jit(self._init_state, self.layout, None, self._specs)
         self.prefill = parallel.jit(self._prefill, self.layout, self._specs, self._specs, donate=True)
         self.train_chunk = parallel.jit(
             self._train_chunk, self.layout, self._specs, (self._specs, None), donate=True
@@ -237,7 +244,7 @@ class SACTrainer:
             normalizer_params=running_statistics.init_state(
                 specs.Array((self.observation_size,), jnp.dtype("float32"))
             ),
-            env_state=self.env.reset(jax.random.split(key_env, self.config.num_envs)),
+            env_state=self._reset_envs(jax.random.split(key_env, self.config.num_envs)),
             replay=self.replay.init(),
             key=key_train,
             env_steps=types.UInt64(hi=0, lo=0),
@@ -278,7 +285,7 @@ class SACTrainer:
         observation statistics, and `nan_resets` counts it.
         """
         env_state = state.env_state
-        next_env_state = self.env.step(env_state, actions)
+        next_env_state = self._step_envs(env_state, actions)
         transitions = types.Transition(
             observation=env_state.obs,
             action=actions,
@@ -324,7 +331,7 @@ class SACTrainer:
         """Replaces the whole state of the masked envs by a fresh reset state."""
 
         def reset_masked() -> envs.State:
-            fresh = self.env.reset(jax.random.split(key, self.config.num_envs))
+            fresh = self._reset_envs(jax.random.split(key, self.config.num_envs))
             fresh = fresh.replace(done=jnp.ones_like(fresh.done))
             return jax.tree.map(
                 lambda new, old: where_per_env(mask, new, old),
