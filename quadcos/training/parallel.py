@@ -42,7 +42,6 @@ class Layout:
         return 1 if self.mesh is None else self.mesh.size
 
 
-
 def make_layout(num_devices: int | None) -> Layout:
     """The first `num_devices` of `jax.devices()` (every process's devices; None: all of them).
 

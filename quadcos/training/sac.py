@@ -207,6 +207,7 @@ class SACTrainer:
         self.train_chunk = parallel.jit(
             self._train_chunk, self.layout, self._specs, (self._specs, None), donate=True
         )
+        # On several devices every device runs all evaluation episodes (replicated parameters).
         self.evaluate = jax.jit(self._evaluate)
 
     def init(self) -> TrainingState:
