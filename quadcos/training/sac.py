@@ -75,12 +75,14 @@ class TrainingState:
     exploration_noise: jax.Array
 
 
-def observation_size(env: envs.Env) -> int:
-    """Length of the flat observation vector of an unbatched env."""
-    obs = jax.eval_shape(env.reset, jax.random.PRNGKey(0)).obs
-    if not hasattr(obs, "shape") or len(obs.shape) != 1:
+def observation_size(reset_envs: Any, num_envs: int) -> int:
+    """Length of the flat observation vector of a batched env's `reset_envs` (keys → states):
+    read off the trace the trainer's init needs anyway (the same jitted function and shapes)."""
+    keys = jax.ShapeDtypeStruct((num_envs,) + jax.random.PRNGKey(0).shape, jnp.uint32)
+    obs = jax.eval_shape(reset_envs, keys).obs
+    if not hasattr(obs, "shape") or len(obs.shape) != 2:
         raise ValueError(f"SAC needs a flat observation vector; got {obs}")
-    return obs.shape[0]
+    return obs.shape[1]
 
 
 def _optimizer(learning_rate: float, max_grad_norm: float | None) -> optax.GradientTransformation:
@@ -138,8 +140,8 @@ class SACTrainer:
         # Jitted once and called inside init, prefill and the chunk: tracing the MJX reset and
         # step is most of a small run's start-up, and a nested jit is traced once for all three.
         self._reset_envs = jax.jit(self.env.reset)
+        self.observation_size = observation_size(self._reset_envs, config.num_envs)
         self._step_envs = jax.jit(self.env.step)
-        self.observation_size = observation_size(env)
         self.action_size = env.action_size
         self.networks = make_networks(
             self.observation_size,
