@@ -131,8 +131,11 @@ class CheckpointStore:
                 abstract = [
                     ocp.utils.to_shape_dtype_struct(leaf) for leaf in _stored_leaves(template_tree)
                 ]
-                replay_slots = self._saved_replay_layout(step, template_tree, abstract)
-                self._check_shapes(step, abstract)
+                stored_shapes = [
+                    tuple(leaf.shape) for leaf in self._manager.item_metadata(step)["state"]
+                ]
+                replay_slots = _saved_replay_layout(stored_shapes, template_tree, abstract)
+                self._check_shapes(step, stored_shapes, abstract)
                 stored = self._manager.restore(
                     step,
                     args=ocp.args.Composite(state=ocp.args.StandardRestore(abstract)),
@@ -156,33 +159,9 @@ class CheckpointStore:
             return Restored(state=template.replace(**restored), step=step, meta=meta)
         return None
 
-    def _saved_replay_layout(
-        self, step: int, template_tree: dict[str, Any], abstract: list[Any]
-    ) -> list[int]:
-        """Where a stored replay buffer was saved on another number of devices (its positions
-        have another shape), reads those positions as saved (`abstract` is changed in place) and
-        returns their indices; else []."""
-        if "replay" not in template_tree:
-            return []
-        stored = [tuple(leaf.shape) for leaf in self._manager.item_metadata(step)["state"]]
-        paths = [
-            path for path, leaf in jax.tree_util.tree_flatten_with_path(template_tree)[0] if leaf.size
-        ]
-        slots = [
-            index
-            for index, path in enumerate(paths)
-            if path[0].key == "replay"
-            and path[-1].name in ("insert_position", "size")
-            and index < len(stored)
-            and stored[index] != abstract[index].shape
-            and len(stored[index]) <= 1
-        ]
-        for index in slots:
-            abstract[index] = jax.ShapeDtypeStruct(stored[index], abstract[index].dtype)
-        return slots
-
-    def _check_shapes(self, step: int, abstract: list[Any]) -> None:
-        stored = [tuple(leaf.shape) for leaf in self._manager.item_metadata(step)["state"]]
+    def _check_shapes(
+        self, step: int, stored: list[tuple[int, ...]], abstract: list[Any]
+    ) -> None:
         expected = [tuple(leaf.shape) for leaf in abstract]
         if stored == expected:
             return
@@ -214,6 +193,31 @@ class CheckpointStore:
 
     def __exit__(self, *exc_info) -> None:
         self.close()
+
+
+def _saved_replay_layout(
+    stored: list[tuple[int, ...]], template_tree: dict[str, Any], abstract: list[Any]
+) -> list[int]:
+    """Where a stored replay buffer was saved on another number of devices (its positions
+    have another shape), reads those positions as saved (`abstract` is changed in place) and
+    returns their indices; else []."""
+    if "replay" not in template_tree:
+        return []
+    paths = [
+        path for path, leaf in jax.tree_util.tree_flatten_with_path(template_tree)[0] if leaf.size
+    ]
+    slots = [
+        index
+        for index, path in enumerate(paths)
+        if path[0].key == "replay"
+        and path[-1].name in ("insert_position", "size")
+        and index < len(stored)
+        and stored[index] != abstract[index].shape
+        and len(stored[index]) <= 1
+    ]
+    for index in slots:
+        abstract[index] = jax.ShapeDtypeStruct(stored[index], abstract[index].dtype)
+    return slots
 
 
 def _relaid_replay(stored: replay_lib.ReplayState, template: replay_lib.ReplayState) -> Any:

@@ -56,7 +56,7 @@ class TrainingState:
     axis (the replay holds one ring per device, its positions one entry per device); everything
     else is replicated. Global shapes do not depend on the device count except the replay's
     positions.
-        """
+    """
 
     policy_params: types.Params
     policy_optimizer_state: optax.OptState
