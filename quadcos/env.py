@@ -169,12 +169,21 @@ class QuadrupedEnv(base.Env):
 
     def reset(self, rng: jax.Array) -> base.State:
         """A standing robot at the spawn point (0, 0) — or at x ~ U(0, `spawn_x_max`) — joints
-        perturbed by `reset_joint_noise`."""
+        perturbed by `reset_joint_noise`; on a lane terrain (`quadcos.courses`), on a random lane."""
+        lane = jnp.zeros((), jnp.int32)
+        if self.terrain.num_lanes > 1:
+            rng, rng_lane = jax.random.split(rng)
+            lane = jax.random.randint(rng_lane, (), 0, self.terrain.num_lanes)
+        return self.reset_on_lane(rng, lane)
+
+    def reset_on_lane(self, rng: jax.Array, lane: jax.Array) -> base.State:
+        """`reset` on lane `lane` (its centre line; x ~ U(0, `spawn_x_max`) at most to its end)."""
         x = jnp.zeros(())
         if self.config.spawn_x_max > 0:
             rng, rng_x = jax.random.split(rng)
-            x = jax.random.uniform(rng_x, (), maxval=self.config.spawn_x_max)
-        return self.reset_at(rng, x, jnp.zeros(()))
+            end = jnp.asarray(self.terrain.lane_end_x, jnp.float32)[lane]
+            x = jax.random.uniform(rng_x, (), maxval=jnp.minimum(self.config.spawn_x_max, end))
+        return self.reset_at(rng, x, jnp.asarray(self.terrain.lane_y, jnp.float32)[lane])
 
     def reset_at(self, rng: jax.Array, x: jax.Array, y: jax.Array) -> base.State:
         """A standing robot at (x, y): feet on the ground, torso pitched with the ground's slope."""

@@ -242,6 +242,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         cli.print_error(_PROG, error)
         return cli.EXIT_FAILURE
     summary = result.summary
+    if "courses" in summary:
+        print(evaluation.course_table(summary))
     print(
         f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}: success"
         f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"

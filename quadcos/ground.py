@@ -8,6 +8,7 @@ parsing them is `quadcos.terrain`'s, which re-exports what is here.
 
 import dataclasses
 import functools
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -25,6 +26,15 @@ _PROFILE_Y_CELL = 0.25  # m; a profile does not vary along y, so few rows suffic
 _HFIELD_BASE_DEPTH = 1.0  # m of solid below the lowest point of a heightfield
 _MIN_ELEVATION_RANGE = 1e-3  # m; MuJoCo needs size[2] > 0 even for a level heightfield
 _MAX_HFIELD_CELLS = 1_000_000
+
+
+class Lane(NamedTuple):
+    """One course of a lane terrain: a band along x, centred at `y`, on which the ground depends on
+    x only. Robots of lane `i` spawn at y = lanes[i].y."""
+
+    name: str
+    y: float  # m: the lane's centre line
+    course_end_x: float | None  # m: where its course ends; None for unbounded (flat) ground
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
@@ -46,6 +56,9 @@ class Terrain:
       resolution: x cell size of the MuJoCo heightfield, m (also its y cell for 2-D grids).
       course_end_x: x where the course ends, m; None for unbounded terrains such as flat.
       spawn_x: x of the robot's spawn point, m.
+      y_resolution: y cell size of the MuJoCo heightfield of a 2-D grid, m; None: `resolution`.
+      lanes: courses side by side in y (see `Lane`; built by `quadcos.courses.lanes`), each
+        robot on one; empty for a single course (one lane at y = 0 ending at `course_end_x`).
     """
 
     name: str
@@ -56,6 +69,8 @@ class Terrain:
     resolution: float = 0.05
     course_end_x: float | None = None
     spawn_x: float = 0.0
+    y_resolution: float | None = None
+    lanes: tuple[Lane, ...] = ()
 
     def __post_init__(self) -> None:
         for field in ("x_knots", "y_knots", "heights"):
@@ -79,8 +94,11 @@ class Terrain:
             raise ValueError(
                 f"{where}: knots, heights, resolution, spawn_x and course_end_x must be finite"
             )
-        if self.resolution <= 0:
-            raise ValueError(f"{where}: resolution must be > 0, got {self.resolution}")
+        if not self.resolution > 0 or not (self.y_resolution is None or self.y_resolution > 0):
+            raise ValueError(
+                f"{where}: resolution and y_resolution must be > 0, got {self.resolution},"
+                f" {self.y_resolution}"
+            )
         if not self.is_flat:
             nrow, ncol = self._hfield_shape_float()
             if not nrow * ncol <= _MAX_HFIELD_CELLS:
@@ -91,6 +109,22 @@ class Terrain:
 
     def __repr__(self) -> str:
         return f"Terrain({self.name!r}, spec={self.spec!r}, course_end_x={self.course_end_x})"
+
+    @property
+    def num_lanes(self) -> int:
+        """Courses side by side (1 for a single course)."""
+        return max(1, len(self.lanes))
+
+    @property
+    def lane_y(self) -> np.ndarray:
+        """(num_lanes,) y of each lane's centre line, m."""
+        return np.array([lane.y for lane in self.lanes] or [0.0])
+
+    @property
+    def lane_end_x(self) -> np.ndarray:
+        """(num_lanes,) x where each lane's course ends, m; inf where the ground is unbounded."""
+        ends = [lane.course_end_x for lane in self.lanes] or [self.course_end_x]
+        return np.array([np.inf if end is None else end for end in ends])
 
     @property
     def is_flat(self) -> bool:
@@ -118,7 +152,9 @@ class Terrain:
 
     def _hfield_shape_float(self) -> tuple[float, float]:
         x_min, x_max, y_min, y_max = self.extent
-        y_cell = _PROFILE_Y_CELL if self.y_knots.size == 1 else self.resolution
+        y_cell = self.y_resolution or self.resolution
+        if self.y_knots.size == 1:
+            y_cell = _PROFILE_Y_CELL
         return _vertex_count(y_max - y_min, y_cell), _vertex_count(x_max - x_min, self.resolution)
 
     @functools.partial(jax.jit, static_argnums=0)

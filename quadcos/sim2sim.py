@@ -282,6 +282,7 @@ def run_episode(
         **record,
         **dict(zip(_MAXIMA, maxima.tolist())),
         "running": not (record["fell"] or record["finished"]),
+        "lane": 0,
         "slope_sq_error": slope_sq_error,
         "episode_reward": sum(reward_terms.values()),
         "reward_terms": reward_terms,

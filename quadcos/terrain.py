@@ -322,13 +322,16 @@ def parse(spec: str) -> Terrain:
     text = spec.strip()
     if text.startswith(_SECTIONS_PREFIX):
         return _parse_sections(text)
-    from quadcos import terrain_spec  # pylint: disable=g-import-not-at-top  (it imports this)
+    from quadcos import courses, terrain_spec  # pylint: disable=g-import-not-at-top (they import this)
 
+    if (lanes := courses.parse(text)) is not None:
+        return lanes
     if (external := terrain_spec.parse_external(text)) is not None:
         return external
     if text not in _REGISTRY:
         raise ValueError(
             f"unknown terrain {spec!r}; known: {', '.join(names())}, {_SECTIONS_FORMAT},"
+            f" {courses.RANDOM_FORMAT}, {courses.TESTSET_FORMAT},"
             f" {terrain_spec.HEIGHTFIELD_FORMAT} or {terrain_spec.MODULE_FORMAT}"
         )
     entry = _REGISTRY[text]

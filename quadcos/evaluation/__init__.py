@@ -11,8 +11,8 @@
 """
 
 from quadcos.evaluation.fixed_search import search_fixed
-from quadcos.evaluation.metrics import aggregate, episode_values
-from quadcos.evaluation.report import Evaluation, evaluate, write_json
+from quadcos.evaluation.metrics import aggregate, episode_values, per_course
+from quadcos.evaluation.report import Evaluation, course_table, evaluate, write_json
 from quadcos.evaluation.rollout import EpisodeStats, Rollout
 from quadcos.evaluation.sources import (
     ActionSource,
@@ -32,10 +32,12 @@ __all__ = [
     "Rollout",
     "aggregate",
     "build_env",
+    "course_table",
     "episode_values",
     "evaluate",
     "fixed_source",
     "parse_fixed",
+    "per_course",
     "policy_source",
     "render_trace",
     "resolve_source",

@@ -5,6 +5,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import jax
 import numpy as np
 
 from quadcos import reward
@@ -22,6 +23,7 @@ def episode_values(stats: EpisodeStats, dt: float, num_steps: int) -> list[dict[
         episodes.append(
             {
                 "index": i,
+                "lane": int(stats.lane[i]),
                 "success": None,  # filled by evaluate (depends on the terrain)
                 "fell": fell,
                 "fall_time_s": seconds if fell else None,
@@ -83,3 +85,25 @@ def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dic
         },
     }
 
+
+
+def per_course(
+    episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats, lane_names: Sequence[str]
+) -> dict[str, Any]:
+    """Aggregates per lane of a lane terrain ({name: aggregate}) and over the courses: the mean and
+    the worst course's success rate."""
+    courses = {}
+    for lane, name in enumerate(lane_names):
+        picked = [e for e in episodes if e["lane"] == lane]
+        if picked:
+            mask = np.asarray(stats.lane) == lane
+            subset = jax.tree.map(lambda array: np.asarray(array)[mask], stats)
+            courses[name] = aggregate(picked, subset)
+    rates = {name: course["success_rate"] for name, course in courses.items()}
+    worst = min(rates, key=rates.get)
+    return {
+        "courses": courses,
+        "mean_course_success_rate": float(np.mean(list(rates.values()))),
+        "worst_course": worst,
+        "worst_course_success_rate": rates[worst],
+    }

@@ -15,7 +15,7 @@ import numpy as np
 from quadcos import env as env_lib
 from quadcos import provenance, video
 from quadcos import terrain as terrain_lib
-from quadcos.evaluation.metrics import aggregate, episode_values
+from quadcos.evaluation.metrics import aggregate, episode_values, per_course
 from quadcos.evaluation.rollout import FORMAT_VERSION, rollout
 from quadcos.evaluation.sources import PARAMETER_NAMES, ActionSource, build_env, resolve_source
 from quadcos.evaluation.traces import trace_dict
@@ -117,8 +117,9 @@ def evaluate(
         progress=progress,
     )
     episodes = episode_values(result.stats, env.dt, num_steps)
-    course = env.terrain.course_end_x is not None
+    has_course = np.isfinite(env.terrain.lane_end_x)
     for episode in episodes:
+        course = has_course[episode["lane"]]
         episode["success"] = episode["finished_course"] if course else not episode["fell"]
     setup = {
         "policy": source.name,
@@ -142,6 +143,11 @@ def evaluate(
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         **aggregate(episodes, result.stats),
+        **(
+            per_course(episodes, result.stats, [lane.name for lane in env.terrain.lanes])
+            if env.terrain.lanes
+            else {}
+        ),
         "setup": setup,
     }
     traced = episodes[trace_episode]
@@ -160,6 +166,35 @@ def evaluate(
         qpos=np.asarray(trace["qpos"]),
         env=env,
     )
+
+def course_table(summary: Mapping[str, Any]) -> str:
+    """The per-course table of a lane-terrain evaluation (markdown), then the overall figures."""
+    columns = (
+        ("episodes", "num_episodes", "d"),
+        ("success", "success_rate", ".3f"),
+        ("falls", "fall_rate", ".3f"),
+        ("speed (m/s)", "mean_forward_speed", ".3f"),
+        ("max pitch err (rad)", "mean_max_abs_pitch_error", ".3f"),
+        ("max yaw (rad)", "mean_max_abs_yaw", ".3f"),
+        ("max roll (rad)", "mean_max_abs_roll", ".3f"),
+        ("slope est. RMS (rad)", "slope_error_rms", ".3f"),
+    )
+    lines = [
+        "| course | " + " | ".join(title for title, _, _ in columns) + " |",
+        "|---|" + "---:|" * len(columns),
+    ]
+    for name, course in summary["courses"].items():
+        cells = (
+            "—" if course[key] is None else format(course[key], spec) for _, key, spec in columns
+        )
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines.append(
+        f"courses: {len(summary['courses'])}, mean success"
+        f" {summary['mean_course_success_rate']:.3f}, worst {summary['worst_course']}"
+        f" {summary['worst_course_success_rate']:.3f}"
+    )
+    return "\n".join(lines)
+
 
 def write_json(path: str | os.PathLike[str], content: Any) -> pathlib.Path:
     """Writes `content` as JSON, atomically; non-finite floats become null."""

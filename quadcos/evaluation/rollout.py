@@ -25,6 +25,7 @@ class EpisodeStats:
     """Running per-episode statistics, each (n,); updated only while the episode runs."""
 
     running: jax.Array  # bool: not fallen, not finished, within the time limit
+    lane: jax.Array  # int32: the lane (course) of a lane terrain; 0 otherwise
     fell: jax.Array  # bool
     finished: jax.Array  # bool: the torso passed the course end
     steps: jax.Array  # int32: control steps taken, the fall step included
@@ -88,11 +89,13 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
     return snapshot
 
 
-def _initial_stats(state: Any, num_envs: int) -> EpisodeStats:
+def _initial_stats(state: Any, lanes: jax.Array) -> EpisodeStats:
     qpos = state.pipeline_state.qpos
+    num_envs = lanes.shape[0]
     zeros = jnp.zeros(num_envs)
     return EpisodeStats(
         running=jnp.ones(num_envs, bool),
+        lane=lanes,
         fell=jnp.zeros(num_envs, bool),
         finished=jnp.zeros(num_envs, bool),
         steps=jnp.zeros(num_envs, jnp.int32),
@@ -111,9 +114,10 @@ def _initial_stats(state: Any, num_envs: int) -> EpisodeStats:
 
 
 def _update_stats(
-    stats: EpisodeStats, state: Any, counts: jax.Array, course_end_x: float | None
+    stats: EpisodeStats, state: Any, counts: jax.Array, lane_end_x: jax.Array
 ) -> EpisodeStats:
-    """Adds one step to the episodes that were running before it (`counts`)."""
+    """Adds one step to the episodes that were running before it (`counts`); `lane_end_x`:
+    (lanes,) where each lane's course ends (inf: no course)."""
     qpos = state.pipeline_state.qpos
     body = slope.attitude(qpos[:, constants.QPOS_QUATERNION])
     x, y = qpos[:, 0], qpos[:, 1]
@@ -123,11 +127,12 @@ def _update_stats(
         return jnp.where(counts, new, old)
 
     fell = counts & (state.done > 0)
-    at_end = jnp.zeros_like(fell) if course_end_x is None else x >= course_end_x
+    at_end = x >= lane_end_x[stats.lane]
     finished = counts & ~fell & at_end
     slope_error = metrics["slope_estimate"] - metrics["slope_truth"]
     return EpisodeStats(
         running=stats.running & ~fell & ~finished,
+        lane=stats.lane,
         fell=stats.fell | fell,
         finished=stats.finished | finished,
         steps=stats.steps + counts.astype(jnp.int32),
@@ -161,12 +166,12 @@ def _update_stats(
 @functools.lru_cache(maxsize=16)
 def _compiled_chunk(env: env_lib.QuadrupedEnv, act: Callable, chunk_steps: int) -> Callable:
     """jit(chunk of `chunk_steps` control steps for all robots); cached per env and source."""
-    course_end_x = env.terrain.course_end_x
+    lane_end_x = jnp.asarray(env.terrain.lane_end_x, jnp.float32)
 
     def chunk(state, stats, act_params, first_step, num_steps, trace_index):
         def update(stats: EpisodeStats, state: Any, offset: jax.Array) -> EpisodeStats:
             counts = stats.running & (first_step + offset < num_steps)
-            return _update_stats(stats, state, counts, course_end_x)
+            return _update_stats(stats, state, counts, lane_end_x)
 
         return episodes.run_episodes(
             jax.vmap(env.step),
@@ -183,7 +188,8 @@ def _compiled_chunk(env: env_lib.QuadrupedEnv, act: Callable, chunk_steps: int) 
 
 @functools.lru_cache(maxsize=16)
 def _compiled_reset(env: env_lib.QuadrupedEnv) -> Callable:
-    return jax.jit(jax.vmap(env.reset))
+    """jit((keys, lanes) -> the robots' first states); robot i runs on lane lanes[i]."""
+    return jax.jit(jax.vmap(env.reset_on_lane))
 
 
 def rollout(
@@ -198,7 +204,8 @@ def rollout(
     progress: Callable[[int, int], None] | None = None,
     chunk_steps: int = CHUNK_STEPS,
 ) -> Rollout:
-    """Runs `num_envs` robots for at most `num_steps` control steps each, deterministically.
+    """Runs `num_envs` robots for at most `num_steps` control steps each, deterministically;
+    on a lane terrain, robot i on lane i mod num_lanes.
 
     Args:
       act_params: overrides `source.params` (e.g. (num_envs, 5) fixed parameters, one row per
@@ -214,9 +221,10 @@ def rollout(
         params = jnp.broadcast_to(jnp.asarray(params, jnp.float32), (num_envs, 5))
         params = env.action_for(oscillator.RhythmParameters(*jnp.moveaxis(params, -1, 0)))
     chunk = _compiled_chunk(env, source.act, chunk_steps)
-    state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs))
+    lanes = jnp.arange(num_envs, dtype=jnp.int32) % env.terrain.num_lanes  # evenly over lanes
+    state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs), lanes)
     start_qpos = np.asarray(state.pipeline_state.qpos[trace_index])
-    stats = _initial_stats(state, num_envs)
+    stats = _initial_stats(state, lanes)
     traces = []
     done = 0
     while done < num_steps:

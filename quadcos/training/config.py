@@ -95,6 +95,16 @@ def default_config() -> ml_collections.ConfigDict:
         )
     )
 
+    # --- Course curriculum (only on lane terrains: quadcos.courses) -------------------
+    # Each env runs on the lane of its level (a random: family's lanes are in order of slope):
+    # up a lane after an episode without a fall that crossed its course or walked promote_m m,
+    # down after a fall or a time-out short of promote_m / 2 m (quadcos.training.curriculum).
+    # Envs start on the lowest start_fraction of the lanes. enabled=False: each env keeps the
+    # lane and spawn point of its first reset (Brax's auto-reset).
+    config.curriculum = ml_collections.ConfigDict(
+        dict(enabled=True, start_fraction=0.25, promote_m=4.0)
+    )
+
     # --- Host loop -------------------------------------------------------------
     # Vectorised env steps per compiled chunk; the host sees results (metrics,
     # NaN checks, signals) once per chunk.

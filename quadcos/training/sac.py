@@ -28,6 +28,7 @@ import jax.numpy as jnp
 import ml_collections
 import optax
 
+from quadcos.training import curriculum
 from quadcos.training import networks
 from quadcos.training import parallel
 from quadcos.training import periodic_eval
@@ -129,13 +130,14 @@ class SACTrainer:
 
         Args:
           env: unbatched, unwrapped Brax env; wrapped here with Vmap, Episode
-            (time limit `episode_length`) and AutoReset wrappers.
+            (time limit `episode_length`) and AutoReset wrappers (on a lane terrain, the course
+            curriculum in AutoReset's place: `quadcos.training.curriculum`).
           config: see `quadcos.training.config.default_config`.
           eval_env: unbatched env for evaluation; `env` when None.
         """
         # A private copy: the traced functions read it when they are compiled.
         self.config = config.copy_and_resolve_references()
-        self.env = training_wrappers.wrap(env, episode_length=config.episode_length)
+        self.env = curriculum.wrap(env, config.episode_length, config.curriculum)
         self.eval_env = training_wrappers.VmapWrapper(eval_env or env)
         # Jitted once and called inside init, prefill and the chunk: tracing the MJX reset and
         # step is most of a small run's start-up, and a nested jit is traced once for all three.
