@@ -330,7 +330,10 @@ class SACTrainer:
             env_steps=state.env_steps + self.config.num_envs,
             nan_resets=state.nan_resets + (self.config.num_envs - num_finite).astype(jnp.uint32),
         )
-        return state, {"reward": reward_sum / jnp.maximum(num_finite, 1)}
+        metrics = {"reward": reward_sum / jnp.maximum(num_finite, 1)}
+        if "course_level" in next_env_state.info:  # the course curriculum's mean lane
+            metrics["course_level"] = jnp.mean(next_env_state.info["course_level"].astype(float))
+        return state, metrics
 
     def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:
         """Replaces the whole state of the masked envs by a fresh reset state."""
