@@ -109,6 +109,8 @@ class CourseCurriculum(envs.Wrapper):
         fresh = jax.vmap(self._lane_env.reset_on_lane)(keys[:, 1], level)
 
         def where_done(new: jax.Array, old: jax.Array) -> jax.Array:
+            if old.ndim == 0 or old.shape[0] != done.shape[0]:  # not per env (MJX-Warp has some)
+                return old
             return jnp.where(done.reshape((-1,) + (1,) * (old.ndim - 1)), new, old)
 
         pipeline_state = jax.tree.map(where_done, fresh.pipeline_state, state.pipeline_state)
