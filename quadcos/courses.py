@@ -127,11 +127,12 @@ def random_sections(
 ) -> list[Section]:
     """One random course: `sections` (min, max) sections, each up, down (slope in [min_deg,
     max_deg]°) or flat, of `length` (min, max) m rounded to whole `resolution`s; a course of two
-    or more sections has at least one uphill and one downhill."""
+    or more sections has at least one uphill and one downhill, and no two flats in a row."""
     count = int(rng.integers(sections[0], sections[1] + 1))
     while True:
         kinds = rng.choice([1, -1, 0], size=count, p=[0.4, 0.4, 0.2])
-        if count < 2 or (1 in kinds and -1 in kinds):
+        flat_pair = ((kinds[1:] == 0) & (kinds[:-1] == 0)).any()  # would be one section
+        if count < 2 or (1 in kinds and -1 in kinds and not flat_pair):
             break
     magnitudes = rng.uniform(min_deg, max_deg, size=count)
     lengths = np.maximum(np.round(rng.uniform(*length, size=count) / resolution), 1) * resolution
@@ -205,9 +206,15 @@ def course_sections(course: Terrain) -> list[Section]:
     if course.y_knots.size != 1 or course.course_end_x is None:
         raise ValueError(f"terrain {course.name!r} is not a sections course")
     inside = (course.x_knots > 0) & (course.x_knots <= course.course_end_x)
-    lengths = np.diff(course.x_knots[inside])
-    angles = np.rad2deg(np.arctan(np.diff(course.heights[0, inside]) / lengths))
-    return [Section(round(float(a), 9), round(float(n), 9)) for a, n in zip(angles, lengths)]
+    knots, heights = course.x_knots[inside], course.heights[0, inside]
+    sections: list[Section] = []
+    for length, rise in zip(np.diff(knots), np.diff(heights)):
+        angle = float(np.rad2deg(np.arctan(rise / length)))
+        if sections and abs(sections[-1].angle_deg - angle) < 1e-4:  # one section cut by knots
+            sections[-1] = Section(sections[-1].angle_deg, sections[-1].length_m + float(length))
+        else:
+            sections.append(Section(angle, float(length)))
+    return [Section(round(a, 6), round(n, 9)) for a, n in sections]
 
 
 def parse(spec: str) -> Terrain | None:

@@ -25,10 +25,6 @@ with warp_absence_unprinted():
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")
-ACTION_CENTRES = {"trot": oscillator.FIXED_TROT, "midpoint": None}
-# An action centre that quadcos.train replaces, before it builds the env, with the gait its
-# search phase finds (quadcos.gait_search): part of the run, timed with it.
-SEARCH_CENTRE = "search"
 JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
 
 
@@ -142,7 +138,7 @@ class QuadrupedEnv(base.Env):
         tau = config.survival_speed_tau
         self._speed_blend = 1.0 - math.exp(-self.dt / tau) if tau > 0 else 1.0
         self.weights = reward.RewardWeights(**config.reward.to_dict())
-        self.action_centre = action_centre(config.action_centre, config.period_min)
+        self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
         orientation_sensor = self.mj_model.sensor(constants.IMU_ORIENTATION_SENSOR)
         self._orientation_slice = slice(orientation_sensor.adr[0], orientation_sensor.adr[0] + 4)
         self._torso_body = self.mj_model.body(constants.TORSO_BODY).id
@@ -424,8 +420,8 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(
             f"unknown oscillator_form {config.oscillator_form!r}; known: {', '.join(OSCILLATOR_FORMS)}"
         )
-    if config.action_centre != SEARCH_CENTRE:
-        action_centre(config.action_centre, config.period_min)
+    if config.action_centre != oscillator.SEARCH_CENTRE:
+        oscillator.action_centre(config.action_centre, config.period_min)
     randomization.validate(config.randomization)
     if config.reward_variant not in reward.VARIANTS:
         raise ValueError(
@@ -456,42 +452,6 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(
             f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"
         )
-
-
-def action_centre(spec: str, period_min: float) -> oscillator.RhythmParameters | None:
-    """The rhythm parameters the zero action commands: `ACTION_CENTRES[spec]`, or five
-    comma-separated numbers A_k,A_h,T,φ1,φ3 (a gait found by search), each strictly inside its
-    §3.3 range so that both halves of the action map keep a span.
-
-    Raises:
-      ValueError: naming the spec ("search" included: quadcos.train resolves it first).
-    """
-    if spec in ACTION_CENTRES:
-        return ACTION_CENTRES[spec]
-    names = f"{', '.join(ACTION_CENTRES)} or five numbers A_k,A_h,T,phi1,phi3"
-    if spec == SEARCH_CENTRE:
-        raise ValueError(
-            "action_centre 'search' is resolved by quadcos.train (its gait search) before the env"
-            f" is built; an env takes {names}"
-        )
-    try:
-        values = [float(part) for part in str(spec).split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 5:
-        raise ValueError(f"unknown action_centre {spec!r}; known: {names}")
-    lower, upper = oscillator.parameter_bounds(period_min)
-    for name, value, low, high in zip(oscillator.RhythmParameters._fields, values, lower, upper):
-        if not low < value < high:
-            raise ValueError(
-                f"action_centre {spec!r}: {name} = {value} is not strictly inside ({low:g}, {high:g})"
-            )
-    return oscillator.RhythmParameters(*values)
-
-
-def centre_spec(params: Any) -> str:
-    """The action_centre string of rhythm parameters (A_k, A_h, T, φ1, φ3)."""
-    return ",".join(f"{float(value):.6g}" for value in params)
 
 
 def make_env(terrain: terrain_lib.Terrain | str | None = None, **overrides: Any) -> QuadrupedEnv:

@@ -16,7 +16,7 @@ from typing import Any
 
 import ml_collections
 
-from quadcos import env as env_lib
+from quadcos import oscillator
 from quadcos.overrides import flatten
 
 logger = logging.getLogger("quadcos.train")
@@ -91,7 +91,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
             f"the gait search found no candidate without falls in {search.rounds} rounds of"
             f" {search.num_candidates}; raise config.sac.gait_search.rounds or .num_candidates"
         )
-    centre = env_lib.centre_spec(best["parameters"].values())
+    centre = oscillator.centre_spec(best["parameters"].values())
     logger.info(
         "gait search: action centre %s (%.2f m/s, no falls) after %.0f s",
         centre,
@@ -107,7 +107,7 @@ def resolve_centre(
     """For a run config whose action centre is "search": runs `find_gait`, puts the gait found
     in `config.env.action_centre` and writes the search to `run_dir`/gait_search.json. Other
     configs: nothing (None)."""
-    if config.env.action_centre != env_lib.SEARCH_CENTRE:
+    if config.env.action_centre != oscillator.SEARCH_CENTRE:
         return None
     search = find_gait(config)
     config.env.action_centre = search["action_centre"]

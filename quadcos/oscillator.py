@@ -12,7 +12,7 @@ Two forms of the same oscillator:
   env's default because target jumps of up to 2·A_h rad per control step are not a gait.
 """
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
@@ -189,3 +189,45 @@ def parameters_to_action(
 FIXED_TROT = RhythmParameters(
     amplitude_knee=0.4, amplitude_hip=0.15, period=0.6, phi1=np.pi / 2, phi3=-np.pi / 2
 )
+
+
+ACTION_CENTRES = {"trot": FIXED_TROT, "midpoint": None}
+# An action centre that quadcos.train replaces, before it builds the env, with the gait its
+# search phase finds (quadcos.gait_search): part of the run, timed with it.
+SEARCH_CENTRE = "search"
+
+
+def action_centre(spec: str, period_min: float) -> RhythmParameters | None:
+    """The rhythm parameters the zero action commands: `ACTION_CENTRES[spec]`, or five
+    comma-separated numbers A_k,A_h,T,φ1,φ3 (a gait found by search), each strictly inside its
+    §3.3 range so that both halves of the action map keep a span.
+
+    Raises:
+      ValueError: naming the spec ("search" included: quadcos.train resolves it first).
+    """
+    if spec in ACTION_CENTRES:
+        return ACTION_CENTRES[spec]
+    names = f"{', '.join(ACTION_CENTRES)} or five numbers A_k,A_h,T,phi1,phi3"
+    if spec == SEARCH_CENTRE:
+        raise ValueError(
+            "action_centre 'search' is resolved by quadcos.train (its gait search) before the env"
+            f" is built; an env takes {names}"
+        )
+    try:
+        values = [float(part) for part in str(spec).split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 5:
+        raise ValueError(f"unknown action_centre {spec!r}; known: {names}")
+    lower, upper = parameter_bounds(period_min)
+    for name, value, low, high in zip(RhythmParameters._fields, values, lower, upper):
+        if not low < value < high:
+            raise ValueError(
+                f"action_centre {spec!r}: {name} = {value} is not strictly inside ({low:g}, {high:g})"
+            )
+    return RhythmParameters(*values)
+
+
+def centre_spec(params: Any) -> str:
+    """The action_centre string of rhythm parameters (A_k, A_h, T, φ1, φ3)."""
+    return ",".join(f"{float(value):.6g}" for value in params)

@@ -59,7 +59,7 @@ class Pilot:
         """obs -> (action_size,) action; fixed parameters: the constant action commanding them."""
         if self.policy is not None:
             return self.policy
-        centre = env_lib.action_centre(self.config.action_centre, self.config.period_min)
+        centre = oscillator.action_centre(self.config.action_centre, self.config.period_min)
         action = np.asarray(
             oscillator.parameters_to_action(self.fixed_parameters, self.config.period_min, centre),
             np.float64,
@@ -129,7 +129,7 @@ class HostRobot:
         speed_tau = config.survival_speed_tau
         self._speed_blend = 1.0 - math.exp(-self.dt / speed_tau) if speed_tau > 0 else 1.0
         self.action_size = 5 if config.controller == "oscillator" else len(constants.JOINTS)
-        self.action_centre = env_lib.action_centre(config.action_centre, config.period_min)
+        self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         sensor = self.model.sensor(constants.IMU_ORIENTATION_SENSOR)
         self._orientation = slice(sensor.adr[0], sensor.adr[0] + 4)

@@ -27,6 +27,7 @@ from quadcos.ground import (  # noqa: F401 -- part of this module's API
     FLOOR_HFIELD,
     GROUND_CONDIM,
     GROUND_FRICTION,
+    Lane,
     Terrain,
     _MAX_HFIELD_CELLS,
     _vertex_count,

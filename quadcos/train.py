@@ -29,7 +29,7 @@ import ml_collections
 
 from quadcos import caches, cli, run_dirs
 from quadcos import env as env_lib
-from quadcos import gait_search, provenance
+from quadcos import gait_search, oscillator, provenance
 from quadcos import terrain as terrain_lib
 from quadcos.cli import UsageError
 from quadcos.training import parallel
@@ -270,7 +270,7 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
         overrides = _expand_groups(overrides, flat_keys(config))
         centre = overrides.get("env.action_centre")
         if isinstance(centre, tuple) and all(isinstance(v, (int, float)) for v in centre):
-            overrides["env.action_centre"] = env_lib.centre_spec(centre)  # A_k,A_h,T,φ1,φ3
+            overrides["env.action_centre"] = oscillator.centre_spec(centre)  # A_k,A_h,T,φ1,φ3
         non_finite = {
             key: value
             for key, value in overrides.items()

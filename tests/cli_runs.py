@@ -13,9 +13,12 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 def cache_env() -> dict[str, str]:
     """Environment variables that give a child process (a CLI run, a notebook kernel) the tests'
     persistent compilation cache and its thresholds (tests/conftest.py), so that it reuses what
-    the tests compiled and they reuse what it compiled."""
+    the tests compiled and they reuse what it compiled (none where no cache is set)."""
+    directory = jax.config.jax_compilation_cache_dir
+    if not directory:
+        return {}
     return {
-        "JAX_COMPILATION_CACHE_DIR": str(jax.config.jax_compilation_cache_dir),
+        "JAX_COMPILATION_CACHE_DIR": str(directory),
         "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": str(
             jax.config.jax_persistent_cache_min_compile_time_secs
         ),

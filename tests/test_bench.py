@@ -124,6 +124,7 @@ def _stats(**values):
     zeros = np.zeros(4)
     fields = {
         "running": zeros.astype(bool),
+        "lane": np.zeros(4, np.int32),
         "fell": zeros.astype(bool),
         "finished": zeros.astype(bool),
         "steps": np.full(4, 400),

@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 from quadcos import constants, evaluate, oscillator, plots, reward, video
-from quadcos import env as env_lib
 from quadcos import evaluation as evaluation_lib
 from quadcos.evaluation import rollout as rollout_lib
 
@@ -195,11 +194,11 @@ def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
         )
 
     start = state([0.0, 0.0, 0.0], [0, 0, 0])
-    stats = rollout_lib._initial_stats(start, 3)
+    stats = rollout_lib._initial_stats(start, jnp.zeros(3, jnp.int32))
     # robot 0 walks on, robot 1 falls, robot 2 crosses the course end at x = 1
     update = rollout_lib._update_stats
-    stats = update(stats, state([0.5, 0.5, 1.2], [0, 1, 0]), stats.running, 1.0)
-    stats = update(stats, state([0.9, 0.7, 1.5], [0, 1, 0]), stats.running, 1.0)
+    stats = update(stats, state([0.5, 0.5, 1.2], [0, 1, 0]), stats.running, jnp.ones(1))
+    stats = update(stats, state([0.9, 0.7, 1.5], [0, 1, 0]), stats.running, jnp.ones(1))
     np.testing.assert_array_equal(stats.running, [True, False, False])
     np.testing.assert_array_equal(stats.fell, [False, True, False])
     np.testing.assert_array_equal(stats.finished, [False, False, True])
@@ -230,7 +229,7 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
     assert best == pytest.approx(tuple(ranking[0]["parameters"].values()), abs=1e-5)
     # Every candidate can be an action centre: strictly inside §3.3's box, never on an end.
     for entry in ranking:
-        env_lib.action_centre(env_lib.centre_spec(entry["parameters"].values()), oscillator.PERIOD_MIN)
+        oscillator.action_centre(oscillator.centre_spec(entry["parameters"].values()), oscillator.PERIOD_MIN)
 
 
 @pytest.mark.parametrize(

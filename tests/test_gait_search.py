@@ -6,7 +6,6 @@ import math
 import numpy as np
 import pytest
 
-from quadcos import env as env_lib
 from quadcos import oscillator
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from tests.cli_runs import run_cli
@@ -14,9 +13,9 @@ from tests.cli_runs import run_cli
 
 def test_a_numeric_action_centre_is_the_gait_its_zero_action_commands():
     spec = "0.38877,0.195895,0.50539,1.8099,-1.33169"
-    centre = env_lib.action_centre(spec, oscillator.PERIOD_MIN)
+    centre = oscillator.action_centre(spec, oscillator.PERIOD_MIN)
     np.testing.assert_allclose(centre, [0.38877, 0.195895, 0.50539, 1.8099, -1.33169])
-    assert env_lib.centre_spec(centre) == spec
+    assert oscillator.centre_spec(centre) == spec
     params = oscillator.action_to_parameters(np.zeros(5), oscillator.PERIOD_MIN, centre)
     np.testing.assert_allclose(params, centre, rtol=1e-6)
 
@@ -33,7 +32,7 @@ def test_a_numeric_action_centre_is_the_gait_its_zero_action_commands():
 )
 def test_a_bad_action_centre_is_named(spec, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
-        env_lib.action_centre(spec, oscillator.PERIOD_MIN)
+        oscillator.action_centre(spec, oscillator.PERIOD_MIN)
 
 
 def test_only_the_scratch_preset_searches_and_the_gpu_bench_walks_with_it():
@@ -88,7 +87,7 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     config = json.loads((run_dir / "config.json").read_text())
     centre = config["run_info"]["env"]["action_centre"]
     assert centre == search["action_centre"] == search["ranking"][0]["policy"].removeprefix("fixed:")
-    env_lib.action_centre(centre, oscillator.PERIOD_MIN)  # a valid centre: evaluate/resume use it
+    oscillator.action_centre(centre, oscillator.PERIOD_MIN)  # a valid centre: evaluate/resume use it
     rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     # The run's clock counts from process start: the search's seconds come before step 0.
     assert rows[0]["wall_time_s"] >= config["run_info"]["gait_search_s"] > 0

@@ -82,3 +82,28 @@ def test_readme_evaluation_example_runs(monkeypatch):
     assert result.success == 1.0 and result.falls == 0.0  # the pretrained policy, 2 s on flat
     assert 0.2 < result.speed < 1.5
     assert namespace["summary"]["num_episodes"] == 8
+
+
+def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypatch):
+    """The README's `--terrain=random:` training command line, with the training replaced by a
+    check of the env and trainer config it was handed."""
+    lines = [
+        line
+        for block in BASH_BLOCKS
+        for line in block.replace("\\\n", " ").splitlines()
+        if "quadcos.train" in line and "--terrain=random:" in line
+    ]
+    assert len(lines) == 1
+    command = shlex.split(lines[0])
+    command = [arg for arg in command if not arg.startswith("--output_dir")]
+    monkeypatch.chdir(tmp_path)
+    built = {}
+
+    def fake_train(env, config, run_dir, **kwargs):
+        built.update(terrain=env.terrain, config=config)
+        return mock.Mock(env_steps=0)
+
+    with mock.patch.object(training, "train", side_effect=fake_train):
+        assert train.main(command[3:] + [f"--output_dir={tmp_path / 'run'}"]) == 0
+    assert built["terrain"].num_lanes == 64 and built["config"].curriculum.enabled
+    assert built["config"].episode_length == 400

@@ -8,6 +8,7 @@ from typing import Any
 import ml_collections
 
 from quadcos import env as env_lib
+from quadcos import oscillator
 from quadcos import training
 from quadcos.overrides import apply_overrides
 from quadcos.train import PRESETS as TRAIN_PRESETS
@@ -142,7 +143,7 @@ def make_bench_env(
 
 def searches_gait(preset: str) -> bool:
     """Whether a run of the training preset starts with a gait search (from scratch)."""
-    return TRAIN_PRESETS[preset].get("env.action_centre") == env_lib.SEARCH_CENTRE
+    return TRAIN_PRESETS[preset].get("env.action_centre") == oscillator.SEARCH_CENTRE
 
 
 def trainer_config(
