@@ -7,7 +7,7 @@
 # previous versions in git.)
 #
 # 1. any_slope: the generalist, trained on the random course family (64 lanes, slopes up to 12°,
-#    3–5 sections of 1–3 m) with the course curriculum and spawns along each course, 13 minutes
+#    3–5 sections of 1–3 m) with the course curriculum and spawns along each course, 12 minutes
 #    capped (compilation included); then evaluated on the held-out test set testset:2026 (64
 #    courses + flat, slope5, s4; 64 episodes a course) and on slope5, s4 and flat (1024 each).
 # 2. slope5: experiments/policies/slope5 retrained with spawns along the course (the command of
@@ -37,7 +37,7 @@ evaluate_all() {  # DIR POLICY PREFIX: the test set, slope5, s4 (traced) and fla
 # 1. The generalist.
 A=$C/any_slope
 mkdir -p $A
-OUT=$A TRAIN_SECONDS=780 bash experiments/train_gpu.sh any_slope_s0 \
+OUT=$A TRAIN_SECONDS=720 bash experiments/train_gpu.sh any_slope_s0 \
   "--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400 \
   --config.env.spawn_x_max=20 --config.env.survival_min_speed=0.1 --seed=0 \
   --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000
