@@ -21,7 +21,7 @@ Specs (`--terrain`), parsed by `parse`:
   difficulty, lane i's slopes drawn up to max_deg·(i+1)/lanes (the training family; the course
   curriculum of `quadcos.training.curriculum` moves robots up the lanes as they succeed);
 - `testset:SEED`: 64 random courses (3–6 sections of 1–3 m, slopes of 2–11°, each with an uphill
-  and a downhill), then flat, slope5 and s4 — drawn from a random stream that no `random:`
+  and a downhill), then flat (a 10-m level course), slope5 and s4 — drawn from a random stream that no `random:`
   family uses, whatever its seed.
 """
 
@@ -43,6 +43,7 @@ _MAX_LANES = 256
 _TEST_COURSES = 64
 _TEST_SETTINGS = {"max_deg": 11.0, "sections": (3, 6), "len": (1.0, 3.0)}
 _TEST_NAMED = ("flat", "slope5", "s4")
+_TEST_FLAT_M = 10.0  # m: the test set's level course
 _MIN_TEST_DEG = 2.0  # a test course's slopes are at least this steep
 _TRAIN_STREAM, _TEST_STREAM = 0, 1  # first word of the random generator's seed sequence
 _BACK_RUN = 2.0  # m of flat ground behind the spawn points
@@ -192,9 +193,9 @@ def testset(seed: int) -> Terrain:
         )
         for i in range(_TEST_COURSES)
     ]
-    for named in _TEST_NAMED:
+    for named in _TEST_NAMED:  # flat as a 10-m level course: its robots stop at its end
         course = terrain_lib.parse(named)
-        courses.append((named, course_sections(course)))
+        courses.append((named, course_sections(course) or [Section(0.0, _TEST_FLAT_M)]))
     spec = f"{TESTSET_PREFIX}{seed}"
     return lanes(courses, name=spec, spec=spec)
 
