@@ -34,6 +34,22 @@ evaluate_all() {  # DIR POLICY PREFIX: the test set, slope5, s4 (traced) and fla
   evaluate "$dir" "$policy" "${prefix}_flat" flat 1024 10
 }
 
+PHASES=${PHASES:-generalist slope5}  # PHASES=alive: only the ablation 3 (a second lease)
+if [[ " $PHASES " == *" alive "* ]]; then
+  # 3. Ablation: the generalist with r_s for every step alive (the other reading of §3.3), 600 s.
+  V=$C/any_slope_alive
+  mkdir -p $V
+  OUT=$V TRAIN_SECONDS=600 bash experiments/train_gpu.sh any_slope_alive_s0 \
+    "--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400 \
+    --config.env.spawn_x_max=20 --seed=0 \
+    --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000
+  note "any_slope_alive_s0 trained: $(tail -n 1 $V/runs/any_slope_alive_s0/train.log)"
+  evaluate_all $V $V/runs/any_slope_alive_s0/policy any_slope_alive
+  pack any_slope_alive
+  note "campaign done"
+  exit 0
+fi
+
 # 1. The generalist.
 A=$C/any_slope
 mkdir -p $A
