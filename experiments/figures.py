@@ -6,11 +6,15 @@ Inputs are the files `python -m quadcos.evaluate --trace` and `python -m quadcos
 (see each experiment's README); outputs go next to them.
 """
 
+import sys
 from pathlib import Path
 
-from quadcos import plots
-
 HERE = Path(__file__).resolve().parent
+# `python experiments/figures.py` puts this directory first on sys.path, where experiments/warp
+# would shadow the warp package that MJX imports.
+sys.path = [entry for entry in sys.path if Path(entry or ".").resolve() != HERE]
+
+from quadcos import plots  # noqa: E402
 
 
 def main() -> None:
@@ -35,6 +39,14 @@ def main() -> None:
         plots.plot_attitude(trace, title=f"{course}: attitude", path=slope5 / f"{course}_attitude.png")
         plots.plot_controller(trace, title=f"{course}: controller outputs (Figs. {figs})",
                               path=slope5 / f"{course}_controller.png")
+    for name, run in (("slope5_spawn", slope5 / "slope5_spawn_s0"), ("any_slope", HERE / "any_slope")):
+        for course in ("slope5", "s4"):
+            trace = run / f"trace_{name}_{course}.json"
+            label = f"{name} on {course}"
+            plots.plot_cog(trace, title=f"{label}: CoG", path=run / f"{course}_cog.png")
+            plots.plot_attitude(trace, title=f"{label}: attitude", path=run / f"{course}_attitude.png")
+            plots.plot_controller(trace, title=f"{label}: controller outputs",
+                                  path=run / f"{course}_controller.png")
     plots.plot_cog(fixed / "trace_slope5.json", title="best fixed parameters on slope5 (Fig. 15)",
                    path=fixed / "fig15_cog.png")
     plots.plot_attitude(fixed / "trace_slope5.json", title="best fixed parameters on slope5: attitude",
