@@ -46,7 +46,6 @@ _TEST_NAMED = ("flat", "slope5", "s4")
 _TEST_FLAT_M = 10.0  # m: the test set's level course
 _MIN_TEST_DEG = 2.0  # a test course's slopes are at least this steep
 _TRAIN_STREAM, _TEST_STREAM = 0, 1  # first word of the random generator's seed sequence
-_BACK_RUN = 2.0  # m of flat ground behind the spawn points
 
 
 def lanes(
@@ -91,7 +90,8 @@ def lanes(
         profiles.append((course_name, course.course_end_x, knots, heights))
     ends = [end for _, end, _, _ in profiles if end is not None]
     x_max = max(ends, default=lead_in) + run_out
-    x_knots = np.unique(np.concatenate([[-_BACK_RUN, x_max], *(p[2] for p in profiles)]))
+    back = -terrain_lib._BACK_RUN  # the flat ground behind the spawn points of sections courses
+    x_knots = np.unique(np.concatenate([[back, x_max], *(p[2] for p in profiles)]))
     lane_rows = np.stack([np.interp(x_knots, knots, heights) for _, _, knots, heights in profiles])
 
     count = len(courses)

@@ -86,7 +86,6 @@ def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dic
     }
 
 
-
 def per_course(
     episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats, lane_names: Sequence[str]
 ) -> dict[str, Any]:

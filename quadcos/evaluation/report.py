@@ -167,6 +167,7 @@ def evaluate(
         env=env,
     )
 
+
 def course_table(summary: Mapping[str, Any]) -> str:
     """The per-course table of a lane-terrain evaluation (markdown), then the overall figures."""
     columns = (

@@ -11,8 +11,8 @@ in order of slope), and an env whose episode ends restarts on the lane its new l
 - down one lane when it fell, or timed out having walked less than promote_m / 2 m;
 - otherwise on the same lane, at a new spawn point.
 
-Its cost is a fresh reset of every env at every step (one MJX forward beside `substeps` MJX
-steps), selected where an episode ended.
+Its cost is a fresh reset of every env in each step where some episode ended (one MJX forward
+beside `substeps` MJX steps), selected where an episode ended.
 """
 
 from typing import Any
@@ -106,17 +106,24 @@ class CourseCurriculum(envs.Wrapper):
             promote_m=self._promote_m,
         )
         level = jnp.where(done, new_level, level)
-        fresh = jax.vmap(self._lane_env.reset_on_lane)(keys[:, 1], level)
+        # A reset costs about an MJX step: skip it in the steps where no episode ended.
+        def reset_all() -> tuple[Any, jax.Array]:
+            fresh = jax.vmap(self._lane_env.reset_on_lane)(keys[:, 1], level)
+            return fresh.pipeline_state, fresh.obs
+
+        fresh_pipeline, fresh_obs = jax.lax.cond(
+            jnp.any(done), reset_all, lambda: (state.pipeline_state, state.obs)
+        )
 
         def where_done(new: jax.Array, old: jax.Array) -> jax.Array:
             if old.ndim == 0 or old.shape[0] != done.shape[0]:  # not per env (MJX-Warp has some)
                 return old
             return jnp.where(done.reshape((-1,) + (1,) * (old.ndim - 1)), new, old)
 
-        pipeline_state = jax.tree.map(where_done, fresh.pipeline_state, state.pipeline_state)
+        pipeline_state = jax.tree.map(where_done, fresh_pipeline, state.pipeline_state)
         state.info["course_level"] = level
         state.info["course_start_x"] = where_done(
-            fresh.pipeline_state.qpos[:, 0], state.info["course_start_x"]
+            fresh_pipeline.qpos[:, 0], state.info["course_start_x"]
         )
         state.info["course_key"] = keys[:, 2]
-        return state.replace(pipeline_state=pipeline_state, obs=where_done(fresh.obs, state.obs))
+        return state.replace(pipeline_state=pipeline_state, obs=where_done(fresh_obs, state.obs))
