@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
-# One GPU lease's campaign (session 8: issue 14, one policy for any slope, on one H100), started
+# One GPU lease's campaign (session 9: issues 14 and 13 on one H100), started
 # detached so that it outlives the device calls that poll it (each call returns within 10 minutes):
 #   setsid nohup bash experiments/gpu_campaign.sh > /tmp/campaign.log 2>&1 < /dev/null &
 #   bash experiments/gpu_poll.sh 540      # in each later call: waits, copies finished phases to $OUT
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
-# 1. any_slope: the generalist, trained on the random course family (64 lanes, slopes up to 12°,
-#    3–5 sections of 1–3 m) with the course curriculum and spawns along each course, 12 minutes
-#    capped (compilation included); then evaluated on the held-out test set testset:2026 (64
-#    courses + flat, slope5, s4; 64 episodes a course) and on slope5, s4 and flat (1024 each).
-# 2. slope5: experiments/policies/slope5 retrained with spawns along the course (the command of
-#    experiments/slope5/README.md plus --config.env.spawn_x_max=10), evaluated the same way.
+# 1. probe: the from-scratch slope5 policy (experiments/from_scratch/gpu/scratch_slope5_s0, which
+#    crossed the unseen S-4) on the held-out test set and on flat.
+# 2. scratch_any: the generalist trained with the from-scratch learner (issue 13's --preset=scratch:
+#    gait search, then SAC from the gait found; r_s for movement) on the random course family with
+#    the course curriculum and spawns along each course; the search scores every candidate on the
+#    same four lanes, the gentlest to the steepest. 9 minutes capped, then the test set etc.
+# 3. scratch_slope5_s1: issue 13's slope5 from scratch, a second seed (5 minutes capped).
 set -uo pipefail
 source experiments/gpu_setup.sh || exit 1
 C=/tmp/campaign
@@ -34,41 +35,42 @@ evaluate_all() {  # DIR POLICY PREFIX: the test set, slope5, s4 (traced) and fla
   evaluate "$dir" "$policy" "${prefix}_flat" flat 1024 10
 }
 
-PHASES=${PHASES:-generalist slope5}  # PHASES=alive: only the ablation 3 (a second lease)
-if [[ " $PHASES " == *" alive "* ]]; then
-  # 3. Ablation: the generalist with r_s for every step alive (the other reading of §3.3), 600 s.
-  V=$C/any_slope_alive
-  mkdir -p $V
-  OUT=$V TRAIN_SECONDS=600 bash experiments/train_gpu.sh any_slope_alive_s0 \
-    "--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400 \
-    --config.env.spawn_x_max=20 --seed=0 \
-    --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000
-  note "any_slope_alive_s0 trained: $(tail -n 1 $V/runs/any_slope_alive_s0/train.log)"
-  evaluate_all $V $V/runs/any_slope_alive_s0/policy any_slope_alive
-  pack any_slope_alive
-  note "campaign done"
-  exit 0
+PHASES=${PHASES:-probe scratch_any scratch_slope5_s1}
+SCRATCH="--config.env.action_centre=search --config.env.survival_min_speed=0.1"  # = --preset=scratch
+
+if [[ " $PHASES " == *" probe "* ]]; then
+  P=$C/probe
+  mkdir -p $P
+  policy=experiments/from_scratch/gpu/scratch_slope5_s0/policy
+  evaluate $P $policy scratch_slope5_testset testset:2026 4288 40
+  evaluate $P $policy scratch_slope5_flat flat 1024 10
+  pack probe
 fi
 
-# 1. The generalist.
-A=$C/any_slope
-mkdir -p $A
-OUT=$A TRAIN_SECONDS=720 bash experiments/train_gpu.sh any_slope_s0 \
-  "--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400 \
-  --config.env.spawn_x_max=20 --config.env.survival_min_speed=0.1 --seed=0 \
-  --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000
-note "any_slope_s0 trained: $(tail -n 1 $A/runs/any_slope_s0/train.log)"
-evaluate_all $A $A/runs/any_slope_s0/policy any_slope
-evaluate $A experiments/policies/slope5 committed_slope5_testset testset:2026 4288 40
-pack any_slope
+if [[ " $PHASES " == *" scratch_any "* ]]; then
+  A=$C/scratch_any
+  mkdir -p $A
+  OUT=$A TRAIN_SECONDS=540 bash experiments/train_gpu.sh scratch_any_s0 \
+    "--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400 \
+    --config.env.spawn_x_max=20 $SCRATCH --config.sac.gait_search.num_candidates=1024 \
+    --config.sac.gait_search.robots_per_candidate=4 --seed=0 \
+    --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000
+  note "scratch_any_s0 trained: $(tail -n 1 $A/runs/scratch_any_s0/train.log)"
+  evaluate_all $A $A/runs/scratch_any_s0/policy scratch_any
+  pack scratch_any
+fi
 
-# 2. slope5 retrained with spawns along the course.
-S=$C/slope5
-mkdir -p $S
-OUT=$S TRAIN_SECONDS=240 bash experiments/train_gpu.sh slope5_spawn_s0 \
-  "--terrain=sections:5@3,0@3,-5@3;run_out=10" --config.sac.episode_length=400 --seed=0 \
-  --config.env.spawn_x_max=10
-note "slope5_spawn_s0 trained: $(tail -n 1 $S/runs/slope5_spawn_s0/train.log)"
-evaluate_all $S $S/runs/slope5_spawn_s0/policy slope5_spawn
-pack slope5
+if [[ " $PHASES " == *" scratch_slope5_s1 "* ]]; then
+  S=$C/scratch_slope5_s1
+  mkdir -p $S
+  OUT=$S TRAIN_SECONDS=300 bash experiments/train_gpu.sh scratch_slope5_s1 \
+    "--terrain=sections:5@3,0@3,-5@3;run_out=10" --config.sac.episode_length=400 \
+    --config.env.spawn_x_max=10 --seed=1 $SCRATCH --config.sac.eval_interval=1000000
+  note "scratch_slope5_s1 trained: $(tail -n 1 $S/runs/scratch_slope5_s1/train.log)"
+  policy=$S/runs/scratch_slope5_s1/policy
+  evaluate $S $policy scratch_slope5_s1_slope5 slope5 1024 40
+  evaluate $S $policy scratch_slope5_s1_s4 s4 1024 30
+  evaluate $S $policy scratch_slope5_s1_testset testset:2026 4288 40
+  pack scratch_slope5_s1
+fi
 note "campaign done"

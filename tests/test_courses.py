@@ -10,6 +10,7 @@ from brax.envs import base
 from brax.envs.wrappers import training as training_wrappers
 
 from quadcos import courses, evaluation, terrain
+from quadcos.evaluation import fixed_search
 from quadcos.training import config as training_config
 from quadcos.training import curriculum
 from tests.test_terrain import _compile, _ray_heights
@@ -181,6 +182,12 @@ def test_curriculum_climbs_lanes_until_robots_fall():
     assert [int(levels[i][0]) for i in (4, 9, 14, 15, 19, 20)] == [1, 2, 3, 2, 2, 3]
     # an env not done keeps walking from its spawn
     assert np.asarray(state.info["course_start_x"]).max() == 0.0
+
+
+def test_search_candidates_share_lanes_from_the_gentlest_to_the_steepest():
+    assert fixed_search.candidate_lanes(64, 4).tolist() == [0, 21, 42, 63]
+    assert fixed_search.candidate_lanes(64, 2).tolist() == [0, 63]
+    assert fixed_search.candidate_lanes(1, 3).tolist() == [0, 0, 0]  # no lanes: lane 0
 
 
 def test_one_lane_keeps_brax_auto_reset():

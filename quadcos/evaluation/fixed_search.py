@@ -42,7 +42,9 @@ def search_fixed(
     alike half a cycle apart — mirror-symmetric gaits, which do not turn by construction. Each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
     10 % of each range in round 2, halved every round after). A candidate's score is its robots'
     mean episode reward (Eq. 13 summed over the episode) when none of them fell, else −inf: the
-    ranking is the paper's reward among gaits with zero falls.
+    ranking is the paper's reward among gaits with zero falls. On a lane terrain every candidate
+    runs on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
+    steepest), so that no candidate is ranked up for the easier course it was given.
 
     `on_round` is called after each round with its entry of "rounds".
 
@@ -65,6 +67,7 @@ def search_fixed(
     inner = 1e-3 * (upper - lower)
     rng = np.random.default_rng(seed)
     num_envs = num_candidates * robots_per_candidate
+    lanes = np.tile(candidate_lanes(env.terrain.num_lanes, robots_per_candidate), num_candidates)
     evaluated: list[dict[str, Any]] = []
     rounds_log: list[dict[str, Any]] = []
     started = time.monotonic()
@@ -97,6 +100,7 @@ def search_fixed(
             seed=seed + round_index,
             act_params=per_robot,
             progress=round_progress,
+            lanes=lanes,
         )
         episodes = episode_values(result.stats, env.dt, num_steps)
         for c, params in enumerate(candidates):
@@ -149,6 +153,7 @@ def search_fixed(
             "terrain": env.terrain.spec,
             "num_candidates": num_candidates,
             "robots_per_candidate": robots_per_candidate,
+            "lanes": lanes[:robots_per_candidate].tolist(),
             "rounds": rounds,
             "elite": elite,
             "seconds": num_steps * env.dt,
@@ -159,6 +164,12 @@ def search_fixed(
             "wall_time_s": time.monotonic() - started,
         },
     }
+
+
+def candidate_lanes(num_lanes: int, robots_per_candidate: int) -> np.ndarray:
+    """The lanes of one candidate's robots: spread evenly from the first lane to the last (lane 0
+    for all on a terrain without lanes)."""
+    return np.rint(np.linspace(0, num_lanes - 1, robots_per_candidate)).astype(np.int32)
 
 
 def _wrap(phase: np.ndarray, low: float, high: float) -> np.ndarray:

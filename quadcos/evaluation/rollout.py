@@ -203,13 +203,15 @@ def rollout(
     act_params: Any = None,
     progress: Callable[[int, int], None] | None = None,
     chunk_steps: int = CHUNK_STEPS,
+    lanes: np.ndarray | None = None,
 ) -> Rollout:
     """Runs `num_envs` robots for at most `num_steps` control steps each, deterministically;
-    on a lane terrain, robot i on lane i mod num_lanes.
+    on a lane terrain, robot i on lane i mod num_lanes unless `lanes` says otherwise.
 
     Args:
       act_params: overrides `source.params` (e.g. (num_envs, 5) fixed parameters, one row per
         robot, for a search).
+      lanes: (num_envs,) the lane of each robot (a lane terrain's course; 0 elsewhere).
       progress: called as progress(steps_done, num_steps) after each compiled chunk.
     """
     if num_envs < 1 or num_steps < 1:
@@ -221,7 +223,12 @@ def rollout(
         params = jnp.broadcast_to(jnp.asarray(params, jnp.float32), (num_envs, 5))
         params = env.action_for(oscillator.RhythmParameters(*jnp.moveaxis(params, -1, 0)))
     chunk = _compiled_chunk(env, source.act, chunk_steps)
-    lanes = jnp.arange(num_envs, dtype=jnp.int32) % env.terrain.num_lanes  # evenly over lanes
+    if lanes is None:
+        lanes = np.arange(num_envs) % env.terrain.num_lanes  # evenly over lanes
+    lanes = np.asarray(lanes)
+    if lanes.shape != (num_envs,) or lanes.min() < 0 or lanes.max() >= env.terrain.num_lanes:
+        raise ValueError(f"lanes must be {num_envs} lanes in 0..{env.terrain.num_lanes - 1}")
+    lanes = jnp.asarray(lanes, jnp.int32)
     state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs), lanes)
     start_qpos = np.asarray(state.pipeline_state.qpos[trace_index])
     stats = _initial_stats(state, lanes)
