@@ -13,6 +13,8 @@
 #    the course curriculum and spawns along each course; the search scores every candidate on the
 #    same four lanes, the gentlest to the steepest. 9 minutes capped, then the test set etc.
 # 3. scratch_slope5_s1: issue 13's slope5 from scratch, a second seed (5 minutes capped).
+# Second lease (PHASES="scratch_slope5_s2 joint_scratch_s2 scratch_any_long"): slope5 from
+# scratch seed 2; §5's DRL-only from scratch seed 2; the generalist of 2. trained for 12 minutes.
 set -uo pipefail
 source experiments/gpu_setup.sh || exit 1
 C=/tmp/campaign
@@ -36,6 +38,10 @@ evaluate_all() {  # DIR POLICY PREFIX: the test set, slope5, s4 (traced) and fla
 }
 
 PHASES=${PHASES:-probe scratch_any scratch_slope5_s1}
+GENERALIST=("--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400
+  --config.env.spawn_x_max=20 --config.sac.gait_search.num_candidates=1024
+  --config.sac.gait_search.robots_per_candidate=4 --seed=0
+  --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000)
 SCRATCH="--config.env.action_centre=search --config.env.survival_min_speed=0.1"  # = --preset=scratch
 
 if [[ " $PHASES " == *" probe "* ]]; then
@@ -50,27 +56,43 @@ fi
 if [[ " $PHASES " == *" scratch_any "* ]]; then
   A=$C/scratch_any
   mkdir -p $A
-  OUT=$A TRAIN_SECONDS=540 bash experiments/train_gpu.sh scratch_any_s0 \
-    "--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400 \
-    --config.env.spawn_x_max=20 $SCRATCH --config.sac.gait_search.num_candidates=1024 \
-    --config.sac.gait_search.robots_per_candidate=4 --seed=0 \
-    --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000
+  OUT=$A TRAIN_SECONDS=540 bash experiments/train_gpu.sh scratch_any_s0 "${GENERALIST[@]}" $SCRATCH
   note "scratch_any_s0 trained: $(tail -n 1 $A/runs/scratch_any_s0/train.log)"
   evaluate_all $A $A/runs/scratch_any_s0/policy scratch_any
   pack scratch_any
 fi
 
-if [[ " $PHASES " == *" scratch_slope5_s1 "* ]]; then
-  S=$C/scratch_slope5_s1
+for seed in 1 2; do
+  name=scratch_slope5_s$seed
+  [[ " $PHASES " == *" $name "* ]] || continue
+  S=$C/$name
   mkdir -p $S
-  OUT=$S TRAIN_SECONDS=300 bash experiments/train_gpu.sh scratch_slope5_s1 \
+  OUT=$S TRAIN_SECONDS=300 bash experiments/train_gpu.sh $name \
     "--terrain=sections:5@3,0@3,-5@3;run_out=10" --config.sac.episode_length=400 \
-    --config.env.spawn_x_max=10 --seed=1 $SCRATCH --config.sac.eval_interval=1000000
-  note "scratch_slope5_s1 trained: $(tail -n 1 $S/runs/scratch_slope5_s1/train.log)"
-  policy=$S/runs/scratch_slope5_s1/policy
-  evaluate $S $policy scratch_slope5_s1_slope5 slope5 1024 40
-  evaluate $S $policy scratch_slope5_s1_s4 s4 1024 30
-  evaluate $S $policy scratch_slope5_s1_testset testset:2026 4288 40
-  pack scratch_slope5_s1
+    --config.env.spawn_x_max=10 --seed=$seed $SCRATCH --config.sac.eval_interval=1000000
+  note "$name trained: $(tail -n 1 $S/runs/$name/train.log)"
+  policy=$S/runs/$name/policy
+  evaluate $S $policy ${name}_slope5 slope5 1024 40
+  evaluate $S $policy ${name}_s4 s4 1024 30
+  evaluate $S $policy ${name}_testset testset:2026 4288 40
+  pack $name
+done
+
+if [[ " $PHASES " == *" joint_scratch_s2 "* ]]; then  # §5: experiments/from_scratch, DRL-only
+  J=$C/joint_scratch_s2
+  mkdir -p $J
+  OUT=$J TRAIN_SECONDS=240 bash experiments/train_gpu.sh joint_scratch_s2 --terrain=flat --seed=2 \
+    --controller=joint --config.env.survival_min_speed=0.1 --config.sac.eval_interval=1000000
+  note "joint_scratch_s2 trained: $(tail -n 1 $J/runs/joint_scratch_s2/train.log)"
+  pack joint_scratch_s2
+fi
+
+if [[ " $PHASES " == *" scratch_any_long "* ]]; then
+  L=$C/scratch_any_long
+  mkdir -p $L
+  OUT=$L TRAIN_SECONDS=720 bash experiments/train_gpu.sh scratch_any_long_s0 "${GENERALIST[@]}" $SCRATCH
+  note "scratch_any_long_s0 trained: $(tail -n 1 $L/runs/scratch_any_long_s0/train.log)"
+  evaluate_all $L $L/runs/scratch_any_long_s0/policy scratch_any_long
+  pack scratch_any_long
 fi
 note "campaign done"
