@@ -33,13 +33,21 @@ def main() -> None:
         title="flat: attitude, full reward vs r_xy (Fig. 9)",
         path=xy / "fig9_attitude.png",
     )
+    # experiments/policies/slope5 (from scratch, spawns along the course; traced on the CPU)
     for course, figs in (("slope5", "12-14"), ("s4", "17-19")):
         trace = slope5 / f"trace_{course}.json"
         plots.plot_cog(trace, title=f"{course}: CoG", path=slope5 / f"{course}_cog.png")
         plots.plot_attitude(trace, title=f"{course}: attitude", path=slope5 / f"{course}_attitude.png")
         plots.plot_controller(trace, title=f"{course}: controller outputs (Figs. {figs})",
                               path=slope5 / f"{course}_controller.png")
-    for name, run in (("slope5_spawn", slope5 / "slope5_spawn_s0"), ("any_slope", HERE / "any_slope")):
+    runs = {
+        "slope5_s0": slope5 / "slope5_s0",  # the earlier policies/slope5 (trot start, no spawns)
+        "slope5_spawn": slope5 / "slope5_spawn_s0",
+        "any_slope": HERE / "any_slope",
+        "scratch_any": HERE / "any_slope" / "scratch_any_s0",  # policies/any_slope
+        "scratch_any_long": HERE / "any_slope" / "scratch_any_long_s0",
+    }
+    for name, run in runs.items():
         for course in ("slope5", "s4"):
             trace = run / f"trace_{name}_{course}.json"
             label = f"{name} on {course}"

@@ -1,18 +1,31 @@
 """The tables of experiments/any_slope/README.md from the committed evaluation JSONs.
 
-    python experiments/any_slope/tables.py
+    python experiments/any_slope/tables.py > experiments/any_slope/tables.md
 """
 
+import collections
 import gzip
 import json
 from pathlib import Path
 
+import numpy as np
+
+from quadcos import terrain
+
 HERE = Path(__file__).resolve().parent
 SLOPE5 = HERE.parent / "slope5" / "slope5_spawn_s0"
+SCRATCH = HERE.parent / "from_scratch" / "gpu"
+TESTSET = "testset:2026"
+# label -> (directory of the named-course JSONs, directory of the test-set JSON, file prefix)
 POLICIES = {
-    "any_slope (generalist)": (HERE, "any_slope"),
-    "slope5 retrained, spawns along the course": (SLOPE5, "slope5_spawn"),
-    "committed experiments/policies/slope5": (HERE, "committed_slope5"),
+    "generalist, trot start, r_s for movement, 12 min (any_slope_s0)": (HERE, HERE, "any_slope"),
+    "generalist from scratch, 9 min (scratch_any_s0)": (HERE, HERE, "scratch_any"),
+    "generalist from scratch, 12 min (scratch_any_long_s0)": (HERE, HERE, "scratch_any_long"),
+    "slope5, trot start, spawns along the course (slope5_spawn_s0)": (SLOPE5, HERE, "slope5_spawn"),
+    "slope5 from scratch s0": (SCRATCH, SCRATCH, "scratch_slope5_s0"),
+    "slope5 from scratch s1": (SCRATCH, SCRATCH, "scratch_slope5_s1"),
+    "slope5 from scratch s2": (SCRATCH, SCRATCH, "scratch_slope5_s2"),
+    "committed experiments/policies/slope5 (old)": (HERE, HERE, "committed_slope5"),
 }
 
 
@@ -25,12 +38,31 @@ def _load(path: Path) -> dict | None:
     return None
 
 
+def _section_kind(angle: float) -> str:
+    if abs(angle) < 1e-3:
+        return "level"
+    return f"{'up' if angle > 0 else 'down'} {'≥' if abs(angle) >= 6 else '<'} 6°"
+
+
+def _where_failures_end(test: dict, ground: terrain.Terrain) -> collections.Counter:
+    """Failed test-course episodes by how they ended (fell / stalled: timed out before the end)
+    and the ground where they ended (the slope under the torso's last x on its lane)."""
+    failed = [e for e in test["episodes"] if not e["success"] and ground.lanes[e["lane"]].name.startswith("test")]
+    x = np.array([e["final_x"] for e in failed])
+    y = ground.lane_y[[e["lane"] for e in failed]]
+    angles = np.rad2deg(np.asarray(ground.slope_at(x, y)))
+    return collections.Counter(
+        ("fell" if e["fell"] else "stalled", _section_kind(float(angle))) for e, angle in zip(failed, angles)
+    )
+
+
 def main() -> None:
     print("| policy | test set: mean course success | worst course | falls | named courses (1024 episodes each): slope5, s4, flat success | flat: max pitch err / yaw / roll (rad), lateral drift (m) |")
     print("|---|---:|---|---:|---|---|")
-    for label, (directory, prefix) in POLICIES.items():
-        test = _load(HERE / f"eval_{prefix}_testset.json")
-        named = {c: _load(directory / f"eval_{prefix}_{c}.json") for c in ("slope5", "s4", "flat")}
+    tests = {}
+    for label, (named_dir, test_dir, prefix) in POLICIES.items():
+        test = tests[label] = _load(test_dir / f"eval_{prefix}_testset.json")
+        named = {c: _load(named_dir / f"eval_{prefix}_{c}.json") for c in ("slope5", "s4", "flat")}
         rates = ", ".join("—" if e is None else f"{e['success_rate']:.3f}" for e in named.values())
         flat = named["flat"]
         attitude = "—" if flat is None else (
@@ -42,8 +74,17 @@ def main() -> None:
             f" {test['worst_course_success_rate']:.3f} | {test['fall_rate']:.3f} | {rates} | {attitude} |"
         )
     print()
-    print("Test set testset:2026, per course (64 episodes each): success (falls) per policy")
-    tests = {label: _load(HERE / f"eval_{prefix}_testset.json") for label, (_, prefix) in POLICIES.items()}
+    print(f"Where the failed episodes of the 64 test courses end ({TESTSET}, 4096 episodes a policy):"
+          " fell / stalled (timed out before the course end), by the ground under the torso at the end")
+    ground = terrain.parse(TESTSET)
+    counts = {label: _where_failures_end(test, ground) for label, test in tests.items()}
+    kinds = sorted({key for c in counts.values() for key in c})
+    print("| policy | " + " | ".join(f"{how}: {where}" for how, where in kinds) + " |")
+    print("|---|" + "---:|" * len(kinds))
+    for label, count in counts.items():
+        print(f"| {label} | " + " | ".join(str(count.get(k, 0)) for k in kinds) + " |")
+    print()
+    print(f"Test set {TESTSET}, per course (64 episodes each): success (falls) per policy")
     print("| course | " + " | ".join(tests) + " |")
     print("|---|" + "---:|" * len(tests))
     first = next(iter(tests.values()))
@@ -53,10 +94,11 @@ def main() -> None:
             for t in tests.values()
         ]
         print(f"| {name} | " + " | ".join(cells) + " |")
-    slope = {label: t["courses"] for label, t in tests.items()}
     print()
-    print("slope estimate RMS (rad), generalist, per named course:",
-          {n: round(slope["any_slope (generalist)"][n]["slope_error_rms"], 3) for n in ("flat", "slope5", "s4")})
+    print("Slope estimate RMS (rad) per named course:")
+    for label, test in tests.items():
+        print(f"- {label}:", {n: round(test["courses"][n]["slope_error_rms"], 3) for n in ("flat", "slope5", "s4")},
+              f"whole test set {test['slope_error_rms']:.3f}")
 
 
 if __name__ == "__main__":

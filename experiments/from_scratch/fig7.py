@@ -28,7 +28,7 @@ ABLATIONS = {
     "full 5-D box s0": HERE / "gpu" / "scratch_full_box_s0",
     "r_s alive s0": HERE / "gpu" / "scratch_alive_s0",
     # §5's DRL-only (joint targets) with the same learner less the search (shared GPU).
-    **{f"DRL-only s{seed}": HERE.parent / "drl_only" / f"joint_scratch_s{seed}" for seed in (0, 1)},
+    **{f"DRL-only s{seed}": HERE.parent / "drl_only" / f"joint_scratch_s{seed}" for seed in range(3)},
 }
 TROT_START = {f"trot start s{seed}": HERE.parent / "flat" / f"flat_s{seed}" for seed in range(3)}
 EVALUATIONS = {
