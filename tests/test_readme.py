@@ -9,7 +9,7 @@ from unittest import mock
 
 import pytest
 
-from quadcos import terrain
+from quadcos import gait_search, terrain
 from quadcos import train
 from quadcos import training
 
@@ -100,10 +100,20 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
     built = {}
 
     def fake_train(env, config, run_dir, **kwargs):
-        built.update(terrain=env.terrain, config=config)
+        built.update(terrain=env.terrain, config=config, centre=env.config.action_centre)
         return mock.Mock(env_steps=0)
 
-    with mock.patch.object(training, "train", side_effect=fake_train):
+    def fake_search(config):  # the from-scratch preset's gait search, on the same terrain
+        built.update(search_terrain=config.env.terrain, search=config.sac.gait_search.to_dict())
+        return {"action_centre": "0.3,0.15,0.5,1.8,-1.3", "setup": {"wall_time_s": 0.0}}
+
+    with (
+        mock.patch.object(training, "train", side_effect=fake_train),
+        mock.patch.object(gait_search, "find_gait", side_effect=fake_search),
+    ):
         assert train.main(command[3:] + [f"--output_dir={tmp_path / 'run'}"]) == 0
     assert built["terrain"].num_lanes == 64 and built["config"].curriculum.enabled
     assert built["config"].episode_length == 400
+    assert built["search_terrain"] == "random:max_deg=12,sections=3-5,len=1-3,seed=0"
+    assert built["search"]["num_candidates"] * built["search"]["robots_per_candidate"] == 4096
+    assert built["centre"] == "0.3,0.15,0.5,1.8,-1.3"
