@@ -15,6 +15,8 @@
 # 3. scratch_slope5_s1: issue 13's slope5 from scratch, a second seed (5 minutes capped).
 # Second lease (PHASES="scratch_slope5_s2 joint_scratch_s2 scratch_any_long"): slope5 from
 # scratch seed 2; §5's DRL-only from scratch seed 2; the generalist of 2. trained for 12 minutes.
+# Third lease (PHASES=bench_slope5): the bench's slope5 section from scratch (the default learner)
+# and from the trot start, each from process start (benchmarks/h100/).
 set -uo pipefail
 source experiments/gpu_setup.sh || exit 1
 C=/tmp/campaign
@@ -94,5 +96,16 @@ if [[ " $PHASES " == *" scratch_any_long "* ]]; then
   note "scratch_any_long_s0 trained: $(tail -n 1 $L/runs/scratch_any_long_s0/train.log)"
   evaluate_all $L $L/runs/scratch_any_long_s0/policy scratch_any_long
   pack scratch_any_long
+fi
+if [[ " $PHASES " == *" bench_slope5 "* ]]; then
+  B=$C/bench_slope5
+  mkdir -p $B
+  python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_timeout_s=420 \
+    --out=$B/bench_warp_slope5_scratch.json > $B/bench_warp_slope5_scratch.log 2>&1
+  note "bench slope5 scratch: exit $? $(tail -n 1 $B/bench_warp_slope5_scratch.log)"
+  python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_training_preset=gpu --walk_timeout_s=240 \
+    --out=$B/bench_warp_slope5_trot.json > $B/bench_warp_slope5_trot.log 2>&1
+  note "bench slope5 trot: exit $? $(tail -n 1 $B/bench_warp_slope5_trot.log)"
+  pack bench_slope5
 fi
 note "campaign done"

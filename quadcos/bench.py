@@ -15,7 +15,8 @@ Sections (each can be left out with --skip or chosen with --only):
   walk     time until the deterministic policy, after the actor has started learning, survives
            20 s and moves >= 0.3 m/s in >= 99 % of evaluation episodes on flat.
   slope5   the same for crossing the slope5 course (the torso passes its end without a fall,
-           within the time that 0.3 m/s takes).
+           within the time that 0.3 m/s takes), trained with spawns along the course
+           (`benchmarking.settings.SECTION_COURSES`); evaluations start at x = 0.
 Evaluation episodes are `quadcos.evaluation` rollouts of the deterministic policy, trained in
 the trainer's own host loop. The work is done by `quadcos.benchmarking`; this module is its
 command line.
@@ -49,6 +50,7 @@ from quadcos.benchmarking import physics, trainers
 from quadcos.benchmarking import results as results_lib
 from quadcos.benchmarking.settings import (
     BENCH_PRESETS,
+    SECTION_COURSES,
     SECTIONS,
     Settings,
     TrainRow,
@@ -212,16 +214,14 @@ def run(
         )
 
     def walk(section: str) -> str:
-        terrain, key = {
-            "walk": ("flat", "time_to_walk_flat_s"),
-            "slope5": ("slope5", "time_to_cross_slope5_s"),
-        }[section]
+        key = {"walk": "time_to_walk_flat_s", "slope5": "time_to_cross_slope5_s"}[section]
+        course = SECTION_COURSES[section]
         section_start = time.perf_counter()
         centre = None
         preset = settings.walk_training_preset
         if searches_gait(preset):  # part of the timed section
             found = gait_search.find_gait(
-                train.build_config(TRAIN_PRESETS[preset], {"env.terrain": terrain})
+                train.build_config(TRAIN_PRESETS[preset], {"env.terrain": course.terrain})
             )
             centre = found["action_centre"]
             details[f"{section}_gait_search"] = {
@@ -229,9 +229,13 @@ def run(
                 "seconds": found["setup"]["wall_time_s"],
                 "rounds": found["rounds"],
             }
-        env = make_bench_env(terrain, preset, action_centre=centre)
-        trainer = training.SACTrainer(env, trainer_config(preset, num_devices=settings.num_devices))
-        goal = terrain_goal(env)
+        env = make_bench_env(course.terrain, preset, action_centre=centre, **course.env)
+        eval_env = env  # evaluations start at x = 0: without the training spawns
+        if course.env:
+            eval_env = make_bench_env(course.terrain, preset, action_centre=centre)
+        config = trainer_config(preset, num_devices=settings.num_devices, **course.sac)
+        trainer = training.SACTrainer(env, config, eval_env=eval_env)
+        goal = terrain_goal(eval_env)
         outcome = time_to_success(
             trainer,
             rollout_evaluator(trainer, goal, settings.walk_eval_episodes),
@@ -242,7 +246,11 @@ def run(
             label=f"{section}: ",
         )
         results[key] = outcome["seconds"]
-        details[section] = {**outcome, "goal": dataclasses.asdict(goal)}
+        details[section] = {
+            **outcome,
+            "goal": dataclasses.asdict(goal),
+            "course": dataclasses.asdict(course),
+        }
         details[section]["episodes"] = settings.walk_eval_episodes
         return f"{results_lib.format_seconds(outcome['seconds'])} {outcome['reason'] or ''}"
 

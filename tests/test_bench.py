@@ -294,3 +294,17 @@ def test_a_failed_measurement_is_recorded_and_the_others_still_run(tmp_path, mon
     }
     assert [row["quadcos_env_steps_per_s"] for row in results["train"]] == [10.0]
     assert results["compile_s"]["quadcos"] == 2.0
+
+
+def test_slope5_section_trains_with_spawns_along_the_course_and_evaluates_from_the_start():
+    course = settings.SECTION_COURSES["slope5"]
+    centre = "0.3,0.15,0.5,1.8,-1.3"
+    train_env = settings.make_bench_env(course.terrain, "scratch", action_centre=centre, **course.env)
+    eval_env = settings.make_bench_env(course.terrain, "scratch", action_centre=centre)
+    assert train_env.config.spawn_x_max == 10.0 and eval_env.config.spawn_x_max == 0.0
+    assert train_env.config.action_centre == centre
+    goal = time_to_walk.terrain_goal(eval_env)
+    assert goal.finish_x == pytest.approx(11.0)  # slope5's end: 2 m lead-in + 3 x 3 m
+    assert goal.duration_s == pytest.approx(11.0 / time_to_walk.WALK_MIN_SPEED, abs=0.05)
+    assert settings.trainer_config("scratch", **course.sac).episode_length == 400
+    assert settings.SECTION_COURSES["walk"] == settings.Course("flat")

@@ -17,6 +17,32 @@ SECTIONS = ("physics", "env", "train", "stock", "walk", "slope5")
 
 
 @dataclasses.dataclass(frozen=True)
+class Course:
+    """What a time-to-walk section trains on. Evaluations start at the spawn point (x = 0).
+
+    Attributes:
+      terrain: the training terrain spec.
+      env: env overrides for training (not for evaluation).
+      sac: trainer overrides.
+    """
+
+    terrain: str
+    env: dict[str, Any] = dataclasses.field(default_factory=dict)
+    sac: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+# The walk section trains on flat as the preset does; the slope5 section as experiments/slope5 and
+# experiments/from_scratch do: slope5's sections with a 10-m run-out (robots that walk on do not
+# fall off the heightfield), robots spawned along the course, 20-s training episodes.
+SECTION_COURSES = {
+    "walk": Course("flat"),
+    "slope5": Course(
+        "sections:5@3,0@3,-5@3;run_out=10", env={"spawn_x_max": 10.0}, sac={"episode_length": 400}
+    ),
+}
+
+
+@dataclasses.dataclass(frozen=True)
 class TrainRow:
     """One training configuration: parallel envs, SAC batch size, updates per vectorised step."""
 
@@ -131,11 +157,16 @@ def _preset_overrides(preset: str, prefix: str) -> dict[str, Any]:
 
 
 def make_bench_env(
-    terrain: str, preset: str, impl: str = "auto", action_centre: str | None = None
+    terrain: str,
+    preset: str,
+    impl: str = "auto",
+    action_centre: str | None = None,
+    **env_overrides: Any,
 ) -> env_lib.QuadrupedEnv:
-    """The env as `python -m quadcos.train --preset=PRESET --terrain=TERRAIN` builds it; a
-    from-scratch preset's (action centre "search") needs the `action_centre` its search found."""
-    overrides = {**_preset_overrides(preset, "env."), "impl": impl}
+    """The env as `python -m quadcos.train --preset=PRESET --terrain=TERRAIN` builds it, then
+    `env_overrides`; a from-scratch preset's (action centre "search") needs the `action_centre`
+    its search found."""
+    overrides = {**_preset_overrides(preset, "env."), "impl": impl, **env_overrides}
     if action_centre is not None:
         overrides["action_centre"] = action_centre
     return env_lib.make_env(terrain, **overrides)
@@ -147,11 +178,11 @@ def searches_gait(preset: str) -> bool:
 
 
 def trainer_config(
-    preset: str, row: TrainRow | None = None, num_devices: int = 1
+    preset: str, row: TrainRow | None = None, num_devices: int = 1, **sac_overrides: Any
 ) -> ml_collections.ConfigDict:
-    """`quadcos.training.default_config()` with the preset's `sac.*` values, then `row`'s sizes,
-    spread over `num_devices`."""
-    overrides = {**_preset_overrides(preset, "sac."), "num_devices": num_devices}
+    """`quadcos.training.default_config()` with the preset's `sac.*` values and `sac_overrides`,
+    then `row`'s sizes, spread over `num_devices`."""
+    overrides = {**_preset_overrides(preset, "sac."), **sac_overrides, "num_devices": num_devices}
     if row is not None:
         overrides |= {
             "num_envs": row.num_envs,
