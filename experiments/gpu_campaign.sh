@@ -17,6 +17,8 @@
 # scratch seed 2; §5's DRL-only from scratch seed 2; the generalist of 2. trained for 12 minutes.
 # Third lease (PHASES=bench_slope5): the bench's slope5 section from scratch (the default learner)
 # and from the trot start, each from process start (benchmarks/h100/).
+# Fourth (PHASES=testset67): the generalist and the slope5 policy on the test set with 67-s
+# episodes, the time a 20-m course (the longest) takes at 0.3 m/s: slow or stuck?
 set -uo pipefail
 source experiments/gpu_setup.sh || exit 1
 C=/tmp/campaign
@@ -107,5 +109,12 @@ if [[ " $PHASES " == *" bench_slope5 "* ]]; then
     --out=$B/bench_warp_slope5_trot.json > $B/bench_warp_slope5_trot.log 2>&1
   note "bench slope5 trot: exit $? $(tail -n 1 $B/bench_warp_slope5_trot.log)"
   pack bench_slope5
+fi
+if [[ " $PHASES " == *" testset67 "* ]]; then
+  T=$C/testset67
+  mkdir -p $T
+  evaluate $T experiments/policies/any_slope any_slope_testset67 testset:2026 4288 67
+  evaluate $T experiments/policies/slope5 slope5_testset67 testset:2026 4288 67
+  pack testset67
 fi
 note "campaign done"
