@@ -16,16 +16,22 @@ HERE = Path(__file__).resolve().parent
 SLOPE5 = HERE.parent / "slope5" / "slope5_spawn_s0"
 SCRATCH = HERE.parent / "from_scratch" / "gpu"
 TESTSET = "testset:2026"
-# label -> (directory of the named-course JSONs, directory of the test-set JSON, file prefix)
+# label -> (directory of the named-course JSONs, their file prefix, the test-set JSON); named
+# courses: eval_PREFIX_{slope5,s4,flat}.json
 POLICIES = {
-    "generalist, trot start, r_s for movement, 12 min (any_slope_s0)": (HERE, HERE, "any_slope"),
-    "generalist from scratch, 9 min (scratch_any_s0)": (HERE, HERE, "scratch_any"),
-    "generalist from scratch, 12 min (scratch_any_long_s0)": (HERE, HERE, "scratch_any_long"),
-    "slope5, trot start, spawns along the course (slope5_spawn_s0)": (SLOPE5, HERE, "slope5_spawn"),
-    "slope5 from scratch s0": (SCRATCH, SCRATCH, "scratch_slope5_s0"),
-    "slope5 from scratch s1": (SCRATCH, SCRATCH, "scratch_slope5_s1"),
-    "slope5 from scratch s2": (SCRATCH, SCRATCH, "scratch_slope5_s2"),
-    "committed experiments/policies/slope5 (old)": (HERE, HERE, "committed_slope5"),
+    "generalist, trot start, r_s for movement, 12 min (any_slope_s0)": (HERE, "any_slope", HERE / "eval_any_slope_testset.json"),
+    "generalist from scratch, 9 min (scratch_any_s0 = policies/any_slope)": (HERE, "scratch_any", HERE / "eval_scratch_any_testset.json"),
+    "the same, test episodes of 67 s": (None, None, HERE / "eval_any_slope_testset67.json"),
+    "generalist from scratch, 12 min (scratch_any_long_s0)": (HERE, "scratch_any_long", HERE / "eval_scratch_any_long_testset.json"),
+    "slope5, trot start, spawns along the course (slope5_spawn_s0)": (SLOPE5, "slope5_spawn", HERE / "eval_slope5_spawn_testset.json"),
+    **{
+        f"slope5 from scratch s{seed}" + (" (policies/slope5)" if seed == 0 else ""): (
+            SCRATCH, f"scratch_slope5_s{seed}", SCRATCH / f"eval_scratch_slope5_s{seed}_testset.json"
+        )
+        for seed in range(3)
+    },
+    "slope5 from scratch s0, test episodes of 67 s": (None, None, HERE / "eval_slope5_testset67.json"),
+    "committed experiments/policies/slope5 until session 8": (HERE, "committed_slope5", HERE / "eval_committed_slope5_testset.json"),
 }
 
 
@@ -60,9 +66,12 @@ def main() -> None:
     print("| policy | test set: mean course success | worst course | falls | named courses (1024 episodes each): slope5, s4, flat success | flat: max pitch err / yaw / roll (rad), lateral drift (m) |")
     print("|---|---:|---|---:|---|---|")
     tests = {}
-    for label, (named_dir, test_dir, prefix) in POLICIES.items():
-        test = tests[label] = _load(test_dir / f"eval_{prefix}_testset.json")
-        named = {c: _load(named_dir / f"eval_{prefix}_{c}.json") for c in ("slope5", "s4", "flat")}
+    for label, (named_dir, prefix, test_path) in POLICIES.items():
+        test = tests[label] = _load(test_path)
+        named = {
+            c: None if named_dir is None else _load(named_dir / f"eval_{prefix}_{c}.json")
+            for c in ("slope5", "s4", "flat")
+        }
         rates = ", ".join("—" if e is None else f"{e['success_rate']:.3f}" for e in named.values())
         flat = named["flat"]
         attitude = "—" if flat is None else (
@@ -74,7 +83,8 @@ def main() -> None:
             f" {test['worst_course_success_rate']:.3f} | {test['fall_rate']:.3f} | {rates} | {attitude} |"
         )
     print()
-    print(f"Where the failed episodes of the 64 test courses end ({TESTSET}, 4096 episodes a policy):"
+    print(f"Where the failed episodes of the 64 test courses end ({TESTSET}, 4096 episodes a policy;"
+          " 40-s episodes unless said):"
           " fell / stalled (timed out before the course end), by the ground under the torso at the end")
     ground = terrain.parse(TESTSET)
     counts = {label: _where_failures_end(test, ground) for label, test in tests.items()}
@@ -84,7 +94,7 @@ def main() -> None:
     for label, count in counts.items():
         print(f"| {label} | " + " | ".join(str(count.get(k, 0)) for k in kinds) + " |")
     print()
-    print(f"Test set {TESTSET}, per course (64 episodes each): success (falls) per policy")
+    print(f"Test set {TESTSET}, per course (64 episodes each, 40 s unless said): success (falls) per policy")
     print("| course | " + " | ".join(tests) + " |")
     print("|---|" + "---:|" * len(tests))
     first = next(iter(tests.values()))
