@@ -57,14 +57,16 @@ if [[ " $PHASES " == *" probe "* ]]; then
   pack probe
 fi
 
-if [[ " $PHASES " == *" scratch_any "* ]]; then
-  A=$C/scratch_any
+for phase_seconds in scratch_any:540 scratch_any_long:720; do  # the generalist, 9 and 12 minutes
+  phase=${phase_seconds%:*}
+  [[ " $PHASES " == *" $phase "* ]] || continue
+  A=$C/$phase
   mkdir -p $A
-  OUT=$A TRAIN_SECONDS=540 bash experiments/train_gpu.sh scratch_any_s0 "${GENERALIST[@]}" $SCRATCH
-  note "scratch_any_s0 trained: $(tail -n 1 $A/runs/scratch_any_s0/train.log)"
-  evaluate_all $A $A/runs/scratch_any_s0/policy scratch_any
-  pack scratch_any
-fi
+  OUT=$A TRAIN_SECONDS=${phase_seconds#*:} bash experiments/train_gpu.sh ${phase}_s0 "${GENERALIST[@]}" $SCRATCH
+  note "${phase}_s0 trained: $(tail -n 1 $A/runs/${phase}_s0/train.log)"
+  evaluate_all $A $A/runs/${phase}_s0/policy $phase
+  pack $phase
+done
 
 for seed in 1 2; do
   name=scratch_slope5_s$seed
@@ -91,14 +93,6 @@ if [[ " $PHASES " == *" joint_scratch_s2 "* ]]; then  # §5: experiments/from_sc
   pack joint_scratch_s2
 fi
 
-if [[ " $PHASES " == *" scratch_any_long "* ]]; then
-  L=$C/scratch_any_long
-  mkdir -p $L
-  OUT=$L TRAIN_SECONDS=720 bash experiments/train_gpu.sh scratch_any_long_s0 "${GENERALIST[@]}" $SCRATCH
-  note "scratch_any_long_s0 trained: $(tail -n 1 $L/runs/scratch_any_long_s0/train.log)"
-  evaluate_all $L $L/runs/scratch_any_long_s0/policy scratch_any_long
-  pack scratch_any_long
-fi
 if [[ " $PHASES " == *" bench_slope5 "* ]]; then
   B=$C/bench_slope5
   mkdir -p $B
@@ -110,6 +104,7 @@ if [[ " $PHASES " == *" bench_slope5 "* ]]; then
   note "bench slope5 trot: exit $? $(tail -n 1 $B/bench_warp_slope5_trot.log)"
   pack bench_slope5
 fi
+
 if [[ " $PHASES " == *" testset67 "* ]]; then
   T=$C/testset67
   mkdir -p $T
@@ -117,4 +112,5 @@ if [[ " $PHASES " == *" testset67 "* ]]; then
   evaluate $T experiments/policies/slope5 slope5_testset67 testset:2026 4288 67
   pack testset67
 fi
+
 note "campaign done"
