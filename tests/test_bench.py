@@ -186,10 +186,14 @@ def test_rollout_evaluator_the_untrained_policy_trots_on_flat():
 
 
 @pytest.mark.slow
-def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(tmp_path, capsys, monkeypatch):
+def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
+    tmp_path, capsys, monkeypatch, smoke_run
+):
     # XLA_FLAGS as conftest set it (main() keeps a set value, as `quadcos.train` does, and is
     # restored after the test), so the smoke-sized trainer it compiles is the one the CLI tests'
-    # smoke run finds in the cache.
+    # smoke run put in the cache (`smoke_run`: waits for that run, so that this test loads those
+    # programs rather than compiling them beside it).
+    del smoke_run
     monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
     out = tmp_path / "cpu.json"
     argv = [

@@ -66,10 +66,15 @@ def toy_state():
 
 
 @pytest.fixture(scope="module")
-def seeded_smoke_runs(tmp_path_factory):
+def seeded_smoke_runs(tmp_path_factory, smoke_run):
     """Smoke runs with --seed=3 and --seed=4 for the determinism test, started in the background
     by the first test that asks for them; the kill -9 test asks too, so that they run beside it
-    on the second core. Yields a function that waits for them and returns {seed: run_dir}."""
+    on the second core. Yields a function that waits for them and returns {seed: run_dir}.
+
+    They start once the session's smoke run has finished (`smoke_run`): its programs are then in
+    the persistent compilation cache, and these runs and the kill -9 run load them instead of
+    compiling them again at the same time."""
+    del smoke_run
     directory = tmp_path_factory.mktemp("seeded")
     processes = {}
     for seed in (3, 4):

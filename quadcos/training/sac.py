@@ -212,7 +212,9 @@ class SACTrainer:
             self._train_chunk, self.layout, self._specs, (self._specs, None), donate=True
         )
         # On several devices every device runs all evaluation episodes (replicated parameters).
-        self.evaluate = jax.jit(self._evaluate)
+        # The key is an argument, not a constant of the program: runs of any seed share it (and
+        # the persistent compilation cache's copy).
+        self._evaluate_compiled = jax.jit(self._evaluate)
 
     def init(self) -> TrainingState:
         """Returns the initial training state (empty replay buffer), committed to the default
@@ -405,17 +407,27 @@ class SACTrainer:
 
     # --- Evaluation ------------------------------------------------------------
 
-    def _evaluate(
+    def evaluate(
         self,
         normalizer_params: running_statistics.RunningStatisticsState,
         policy_params: types.Params,
     ) -> Metrics:
-        """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean)."""
+        """The training-time evaluation: the same episodes (initial states) every call."""
+        return self._evaluate_compiled(normalizer_params, policy_params, self._eval_key)
+
+    def _evaluate(
+        self,
+        normalizer_params: running_statistics.RunningStatisticsState,
+        policy_params: types.Params,
+        key: jax.Array,
+    ) -> Metrics:
+        """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean) from
+        the initial states `key` draws."""
         policy = self._make_policy((normalizer_params, policy_params), deterministic=True)
         metrics = periodic_eval.evaluate(
             self.eval_env,
-            lambda obs: policy(obs, self._eval_key)[0],
-            self._eval_key,
+            lambda obs: policy(obs, key)[0],
+            key,
             num_episodes=self.config.num_eval_envs,
             episode_length=self.config.eval_episode_length,
         )
