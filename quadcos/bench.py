@@ -214,7 +214,6 @@ def run(
         )
 
     def walk(section: str) -> str:
-        key = {"walk": "time_to_walk_flat_s", "slope5": "time_to_cross_slope5_s"}[section]
         course = SECTION_COURSES[section]
         section_start = time.perf_counter()
         centre = None
@@ -245,7 +244,7 @@ def run(
             startup_s=startup_s,
             label=f"{section}: ",
         )
-        results[key] = outcome["seconds"]
+        results[course.result_key] = outcome["seconds"]
         details[section] = {
             **outcome,
             "goal": dataclasses.asdict(goal),

@@ -311,4 +311,5 @@ def test_slope5_section_trains_with_spawns_along_the_course_and_evaluates_from_t
     assert goal.finish_x == pytest.approx(11.0)  # slope5's end: 2 m lead-in + 3 x 3 m
     assert goal.duration_s == pytest.approx(11.0 / time_to_walk.WALK_MIN_SPEED, abs=0.05)
     assert settings.trainer_config("scratch", **course.sac).episode_length == 400
-    assert settings.SECTION_COURSES["walk"] == settings.Course("flat")
+    assert settings.SECTION_COURSES["walk"] == settings.Course("time_to_walk_flat_s", "flat")
+    assert course.result_key == "time_to_cross_slope5_s"

@@ -21,11 +21,13 @@ class Course:
     """What a time-to-walk section trains on. Evaluations start at the spawn point (x = 0).
 
     Attributes:
+      result_key: the key of the section's time in the results JSON.
       terrain: the training terrain spec.
       env: env overrides for training (not for evaluation).
       sac: trainer overrides.
     """
 
+    result_key: str
     terrain: str
     env: dict[str, Any] = dataclasses.field(default_factory=dict)
     sac: dict[str, Any] = dataclasses.field(default_factory=dict)
@@ -35,9 +37,12 @@ class Course:
 # experiments/from_scratch do: slope5's sections with a 10-m run-out (robots that walk on do not
 # fall off the heightfield), robots spawned along the course, 20-s training episodes.
 SECTION_COURSES = {
-    "walk": Course("flat"),
+    "walk": Course("time_to_walk_flat_s", "flat"),
     "slope5": Course(
-        "sections:5@3,0@3,-5@3;run_out=10", env={"spawn_x_max": 10.0}, sac={"episode_length": 400}
+        "time_to_cross_slope5_s",
+        "sections:5@3,0@3,-5@3;run_out=10",
+        env={"spawn_x_max": 10.0},
+        sac={"episode_length": 400},
     ),
 }
 
