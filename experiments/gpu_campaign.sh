@@ -1,11 +1,22 @@
 #!/usr/bin/env bash
-# One GPU lease's campaign (session 9: issues 14 and 13 on one H100), started
-# detached so that it outlives the device calls that poll it (each call returns within 10 minutes):
+# One GPU lease's campaign, started detached so that it outlives the device calls that poll it
+# (each call returns within 10 minutes):
 #   setsid nohup bash experiments/gpu_campaign.sh > /tmp/campaign.log 2>&1 < /dev/null &
 #   bash experiments/gpu_poll.sh 540      # in each later call: waits, copies finished phases to $OUT
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
+# Session 10, nvidia-h200-x2 (PHASES=scaling; issue 15): the bench on 1 and 2 H200s, JAX physics
+# (MJX-Warp's FFI module loads on cuda:0 only), NVLink multicast off.
+#   1. Side by side: GPU 0 the slope5 section (time to cross from process start, the default
+#      learner: gait search then SAC, 4096 envs) on one GPU; GPU 1 the train rows on one GPU at
+#      4096 and 8192 envs (batch 8192, 8 updates a step), flat then slope5.
+#   2. Both GPUs: the same rows at equal per-device work (8192 and 16384 envs in all, batch 16384),
+#      flat; the slope5 section on two GPUs (4096 envs in all); the slope5 rows.
+#   quadcos.benchmarking.scaling combines the JSONs into benchmarks/h200x2.json.
+#
+# Session 9, one H100 (PHASES="probe scratch_any scratch_slope5_s1", then
+# "scratch_slope5_s2 joint_scratch_s2 scratch_any_long", then bench_slope5, then testset67):
 # 1. probe: the from-scratch slope5 policy (experiments/from_scratch/gpu/scratch_slope5_s0, which
 #    crossed the unseen S-4) on the held-out test set and on flat.
 # 2. scratch_any: the generalist trained with the from-scratch learner (issue 13's --preset=scratch:
@@ -41,12 +52,35 @@ evaluate_all() {  # DIR POLICY PREFIX: the test set, slope5, s4 (traced) and fla
   evaluate "$dir" "$policy" "${prefix}_flat" flat 1024 10
 }
 
-PHASES=${PHASES:-probe scratch_any scratch_slope5_s1}
+PHASES=${PHASES:-scaling}
 GENERALIST=("--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400
   --config.env.spawn_x_max=20 --config.sac.gait_search.num_candidates=1024
   --config.sac.gait_search.robots_per_candidate=4 --seed=0
   --config.sac.eval_interval=10000000 --config.sac.num_timesteps=400000000)
 SCRATCH="--config.env.action_centre=search --config.env.survival_min_speed=0.1"  # = --preset=scratch
+
+if [[ " $PHASES " == *" scaling "* ]]; then
+  export NCCL_NVLS_ENABLE=0  # NVLink multicast stays off (KINDS.md)
+  S=$C/scaling
+  mkdir -p $S
+  bench() {  # NAME ARGS...: one bench process, its JSON and log under $S
+    local name=$1; shift
+    python3 -m quadcos.bench --train_seconds 10 --walk_timeout_s 480 --impl jax \
+      --out $S/$name.json "$@" > $S/$name.log 2>&1
+    note "$name: exit $? $(grep -c FAILED $S/$name.log) failed; $(grep -E 'train |slope5: [0-9.]+ s' $S/$name.log | tr '\n' ' ')"
+  }
+  ROWS1=4096x8192x8,8192x8192x8
+  ROWS2=8192x16384x8,16384x16384x8
+  CUDA_VISIBLE_DEVICES=0 bench slope5cross_1dev --num_devices 1 --only slope5 &
+  CUDA_VISIBLE_DEVICES=1 bench flat_1dev --num_devices 1 --only train --terrain flat --train_rows $ROWS1
+  CUDA_VISIBLE_DEVICES=1 bench slope5_1dev --num_devices 1 --only train --terrain slope5 --train_rows $ROWS1
+  wait
+  bench flat_2dev --num_devices 2 --only train --terrain flat --train_rows $ROWS2
+  bench slope5cross_2dev --num_devices 2 --only slope5
+  bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows $ROWS2
+  python3 -m quadcos.benchmarking.scaling --out $S/h200x2.json $S/*_?dev.json > $S/table.md 2>&1
+  pack scaling
+fi
 
 if [[ " $PHASES " == *" probe "* ]]; then
   P=$C/probe
