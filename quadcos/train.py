@@ -71,7 +71,9 @@ PRESETS: dict[str, dict[str, Any]] = {
         "sac.num_timesteps": 200_000,
         "sac.episode_length": 500,
         "sac.batch_size": 256,
-        "sac.updates_per_step": 4,
+        # 4 updates per env step lose the trot at the actor's first updates and end no faster
+        # than it; 12 learn past it (experiments/make_train/sweep).
+        "sac.updates_per_step": 12,
         "sac.replay_size": 200_000,
         "sac.min_replay_size": 4_096,
         "sac.hidden_sizes.policy": (128, 128),
@@ -82,7 +84,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         "sac.learning_rate.critic": 1e-3,
         "sac.learning_rate.alpha": 1e-3,
         "sac.steps_per_chunk": 100,
-        "sac.eval_interval": 25_000,
+        "sac.eval_interval": 50_000,
         "sac.num_eval_envs": 16,
         "sac.eval_episode_length": 500,
         "sac.checkpoint_interval": 50_000,
