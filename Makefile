@@ -9,10 +9,11 @@ TRAIN_ARGS ?=
 
 install: $(STAMP)
 
+# Python's own pip (no upgrade) and no byte-compiling of every installed file: imports compile what
+# they use (an install in 31 s instead of 45 s on 2 cores).
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv --clear $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e ".[test,plots]"
+	$(BIN)/python -m pip install -q --no-compile -e ".[test,plots]"
 	touch $(STAMP)
 
 # Two pytest workers (pytest-xdist), a test file each at a time: the suite is compile-bound and
