@@ -6,6 +6,11 @@
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
+# Session 11, one H100 (PHASES=scratch_long; issue 13): the from-scratch learner (--preset=scratch)
+# on flat for 20 M env steps, seeds 0-2 side by side on one GPU, JAX physics; each final policy on
+# 1024 deterministic 20-s episodes. Do speed and pitch error reach the trot-start policies'
+# (experiments/flat, 10 M env steps) with more steps?
+#
 # Session 10, nvidia-h200-x2 (PHASES=scaling; issue 15): the bench on 1 and 2 H200s, JAX physics
 # (MJX-Warp's FFI module loads on cuda:0 only), NVLink multicast off.
 #   1. Side by side: GPU 0 the slope5 section (time to cross from process start, the default
@@ -80,6 +85,21 @@ if [[ " $PHASES " == *" scaling "* ]]; then
   bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows $ROWS2
   python3 -m quadcos.benchmarking.scaling --out $S/h200x2.json $S/*_?dev.json > $S/table.md 2>&1
   pack scaling
+fi
+
+if [[ " $PHASES " == *" scratch_long "* ]]; then  # issue 13: flat from scratch for 20 M env steps
+  L=$C/scratch_long
+  mkdir -p $L
+  for seed in 0 1 2; do  # three runs share the GPU
+    OUT=$L XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 TRAIN_SECONDS=660 bash experiments/train_gpu.sh \
+      scratch_long_s$seed --preset=scratch --terrain=flat --seed=$seed --num_timesteps=20000000 &
+  done
+  wait
+  for seed in 0 1 2; do
+    note "scratch_long_s$seed trained: $(tail -n 1 $L/runs/scratch_long_s$seed/train.log)"
+    evaluate $L $L/runs/scratch_long_s$seed/policy scratch_long_s$seed flat 1024 20
+  done
+  pack scratch_long
 fi
 
 if [[ " $PHASES " == *" probe "* ]]; then
