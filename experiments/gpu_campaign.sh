@@ -6,6 +6,15 @@
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
+# Session 12, one H100 (PHASES=screen14; issue 14), Warp physics: why does the generalist stall on
+# downhills? Four generalists side by side on one GPU (a quarter of it each, 900 s from process
+# start), the session-9 command (GENERALIST + SCRATCH) and three changes to the learner:
+#   base   as session 9 (r_s for steps moving >= 0.1 m/s, 1-s low-pass)
+#   move03 r_s only for steps moving >= 0.3 m/s (a creep earns no survival reward)
+#   obs    the slope estimate and the oscillator's phase observed (env.observe_slope/observe_phase)
+#   both   move03 and obs
+# then each policy on the test set, slope5, S-4 and flat (four evaluations at a time).
+#
 # Session 11, one H100 (PHASES=scratch_long; issue 13): the from-scratch learner (--preset=scratch)
 # on flat for 20 M env steps, seeds 0-2 side by side on one GPU, JAX physics; each final policy on
 # 1024 deterministic 20-s episodes. Do speed and pitch error reach the trot-start policies'
@@ -100,6 +109,28 @@ if [[ " $PHASES " == *" scratch_long "* ]]; then  # issue 13: flat from scratch 
     evaluate $L $L/runs/scratch_long_s$seed/policy scratch_long_s$seed flat 1024 20
   done
   pack scratch_long
+fi
+
+if [[ " $PHASES " == *" screen14 "* ]]; then  # issue 14: four generalists side by side
+  W=$C/screen14
+  mkdir -p $W
+  declare -A VARIANT=(
+    [base]=""
+    [move03]="--config.env.survival_min_speed=0.3"
+    [obs]="--config.env.observe_slope=True --config.env.observe_phase=True"
+    [both]="--config.env.survival_min_speed=0.3 --config.env.observe_slope=True --config.env.observe_phase=True")
+  for v in base move03 obs both; do
+    # SCRATCH first: a variant's own survival_min_speed overrides it
+    OUT=$W XLA_PYTHON_CLIENT_MEM_FRACTION=0.22 TRAIN_SECONDS=${SCREEN_SECONDS:-900} bash experiments/train_gpu.sh \
+      any_$v "${GENERALIST[@]}" $SCRATCH ${VARIANT[$v]} &
+  done
+  wait
+  for v in base move03 obs both; do
+    note "any_$v trained: $(tail -n 1 $W/runs/any_$v/train.log)"
+    XLA_PYTHON_CLIENT_MEM_FRACTION=0.22 evaluate_all $W $W/runs/any_$v/policy any_$v &
+  done
+  wait
+  pack screen14
 fi
 
 if [[ " $PHASES " == *" probe "* ]]; then
