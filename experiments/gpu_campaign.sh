@@ -14,6 +14,8 @@
 #   obs    the slope estimate and the oscillator's phase observed (env.observe_slope/observe_phase)
 #   both   move03 and obs
 # then each policy on the test set, slope5, S-4 and flat (four evaluations at a time).
+# Second lease (PHASES=obs_alone): the obs variant alone on the H100, 870 s from process start (the
+# issue's 15-minute training budget), then the test set, slope5, S-4 and flat.
 #
 # Session 11, one H100 (PHASES=scratch_long; issue 13): the from-scratch learner (--preset=scratch)
 # on flat for 20 M env steps, seeds 0-2 side by side on one GPU, JAX physics; each final policy on
@@ -131,6 +133,16 @@ if [[ " $PHASES " == *" screen14 "* ]]; then  # issue 14: four generalists side 
   done
   wait
   pack screen14
+fi
+
+if [[ " $PHASES " == *" obs_alone "* ]]; then  # issue 14: the screen's obs variant alone, 15 min
+  O=$C/obs_alone
+  mkdir -p $O
+  OUT=$O TRAIN_SECONDS=870 bash experiments/train_gpu.sh any_obs_s0 "${GENERALIST[@]}" $SCRATCH \
+    --config.env.observe_slope=True --config.env.observe_phase=True
+  note "any_obs_s0 trained: $(tail -n 1 $O/runs/any_obs_s0/train.log)"
+  evaluate_all $O $O/runs/any_obs_s0/policy any_obs_s0
+  pack obs_alone
 fi
 
 if [[ " $PHASES " == *" probe "* ]]; then
