@@ -14,6 +14,8 @@
 #   obs    the slope estimate and the oscillator's phase observed (env.observe_slope/observe_phase)
 #   both   move03 and obs
 # then each policy on the test set, slope5, S-4 and flat (four evaluations at a time).
+# Third lease (PHASES=best_obs): the same with sac.keep_best_policy (the policy of the best
+# training-time evaluation kept in policy_best/), 600 s; policy_best on the test set, slope5, S-4.
 # Second lease (PHASES=obs_alone): the obs variant alone on the H100, 870 s from process start (the
 # issue's 15-minute training budget), then the test set, slope5, S-4 and flat.
 #
@@ -143,6 +145,20 @@ if [[ " $PHASES " == *" obs_alone "* ]]; then  # issue 14: the screen's obs vari
   note "any_obs_s0 trained: $(tail -n 1 $O/runs/any_obs_s0/train.log)"
   evaluate_all $O $O/runs/any_obs_s0/policy any_obs_s0
   pack obs_alone
+fi
+
+if [[ " $PHASES " == *" best_obs "* ]]; then  # issue 14: obs variant, the best policy kept
+  K=$C/best_obs
+  mkdir -p $K
+  OUT=$K TRAIN_SECONDS=600 bash experiments/train_gpu.sh any_obs_best_s0 "${GENERALIST[@]}" $SCRATCH \
+    --config.env.observe_slope=True --config.env.observe_phase=True --config.sac.keep_best_policy=True
+  note "any_obs_best_s0 trained: $(tail -n 1 $K/runs/any_obs_best_s0/train.log)"
+  cp -r /tmp/quadcos_runs/any_obs_best_s0/policy_best $K/runs/any_obs_best_s0/
+  best=$K/runs/any_obs_best_s0/policy_best
+  evaluate $K $best any_obs_best_testset testset:2026 4288 40
+  evaluate $K $best any_obs_best_slope5 slope5 1024 40
+  evaluate $K $best any_obs_best_s4 s4 1024 30
+  pack best_obs
 fi
 
 if [[ " $PHASES " == *" probe "* ]]; then

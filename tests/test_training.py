@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 import shutil
 import signal
+import types
 
 import jax
 import jax.numpy as jnp
@@ -15,6 +16,8 @@ import pytest
 from quadcos import training
 from quadcos.training import checkpoint
 from quadcos.training import host
+from quadcos.training import loop
+from quadcos.training import policy as policy_lib
 from tests.toy_env import CHUNK, PointEnv, toy_config
 
 pytestmark = pytest.mark.slow
@@ -60,7 +63,9 @@ def random_policy_return(env: PointEnv, episodes: int = 256) -> float:
 @pytest.fixture(scope="module")
 def learned(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("learned")
-    config = toy_config(num_timesteps=CHUNK + 10 * CHUNK, eval_interval=2 * CHUNK)
+    config = toy_config(
+        num_timesteps=CHUNK + 10 * CHUNK, eval_interval=2 * CHUNK, keep_best_policy=True
+    )
     return training.train(PointEnv(), config, run_dir, progress=False)
 
 
@@ -120,6 +125,42 @@ def test_policy_round_trip(learned):
     assert policy.config["config"]["hidden_sizes"]["policy"] == [32, 32]
     again = training.load_policy(learned.run_dir / "policy")
     np.testing.assert_array_equal(again.act(observations), actions)
+
+
+def test_best_policy_is_that_of_the_best_evaluation(learned):
+    rows = learned.history
+    best_row = max(rows, key=lambda row: row["eval/episode_reward"])
+    assert best_row["eval/episode_reward"] > rows[0]["eval/episode_reward"]  # it learned
+    best = training.load_policy(learned.run_dir / "policy_best")
+    assert best.config["best_of_run"] == {
+        "step": best_row["step"],
+        "eval/episode_reward": pytest.approx(best_row["eval/episode_reward"]),
+    }
+    observations = jnp.array([[0.0, 0.5], [0.9, -0.4]])
+    same = np.array_equal(best.act(observations), learned.policy.act(observations))
+    assert same == (best_row["step"] == rows[-1]["step"])
+
+
+def test_best_policy_beats_earlier_rows_only(tmp_path):
+    """Resumed: the rows before the resume count; a worse or equal evaluation saves nothing."""
+    spec = policy_lib.PolicySpec(
+        observation_size=2, action_size=1, hidden_sizes=(4,), normalize_observations=True
+    )
+    state = types.SimpleNamespace(
+        normalizer_params=types.SimpleNamespace(mean=np.zeros(2), std=np.ones(2)),
+        policy_params={"w": np.ones(3)},
+    )
+    best = loop.BestPolicy(
+        tmp_path / "policy_best", spec, {"run_info": {}}, [{"step": 0, "eval/episode_reward": 5.0}]
+    )
+    assert not best.offer(state, {"step": 10, "eval/episode_reward": 5.0})
+    assert not best.offer(state, {"step": 10})  # a row without an evaluation
+    assert not (tmp_path / "policy_best").exists()
+    assert best.offer(state, {"step": 20, "eval/episode_reward": 7.5})
+    saved = json.loads((tmp_path / "policy_best" / "policy.json").read_text())
+    assert saved["config"]["best_of_run"] == {"step": 20, "eval/episode_reward": 7.5}
+    assert not best.offer(state, {"step": 30, "eval/episode_reward": 6.0})
+    assert json.loads((tmp_path / "policy_best" / "policy.json").read_text()) == saved
 
 
 # --- Resume -----------------------------------------------------------------

@@ -122,6 +122,11 @@ def default_config() -> ml_collections.ConfigDict:
     # Checkpoints kept on disk (the newest ones); >= 2 allows falling back when
     # the newest one is corrupt.
     config.keep_checkpoints = 3
+    # Also keep the policy of the best training-time evaluation (eval/episode_reward) in
+    # run_dir/policy_best (its step and reward in its policy.json, under best_of_run): a run whose
+    # last policy is worse than an earlier one (experiments/any_slope: the generalist's late
+    # collapse into stalling) still yields the good one.
+    config.keep_best_policy = False
     # Store the replay buffer in checkpoints (exact resume, large files).
     config.save_replay = False
 

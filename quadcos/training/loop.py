@@ -179,6 +179,9 @@ def train(
             files.atomic_write_text(run_dir / "config.json", json.dumps(run_info, indent=2) + "\n")
             log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
 
+    best = None
+    if run_dir is not None and writer and config.keep_best_policy:
+        best = BestPolicy(run_dir / "policy_best", spec, run_info, log.rows if log else [])
     try:
         with host.SignalStop() as stop:
             state, history = _train_loop(
@@ -189,6 +192,7 @@ def train(
                 stop,
                 host.Clock(_run_age(wall_time_offset, started_at)),
                 host.Progress(config.num_timesteps, enabled=progress and writer, bar=progress_bar),
+                best,
             )
     finally:
         if log is not None:
@@ -284,6 +288,42 @@ def _log_final_step(
         )
 
 
+class BestPolicy:
+    """The policy of the best training-time evaluation of a run (`keep_best_policy`).
+
+    `offer` saves the state's policy to `directory` when its evaluation's episode reward beats
+    every earlier one of the run (rows before a resume included), its step and reward added to
+    the saved config under "best_of_run".
+    """
+
+    def __init__(
+        self,
+        directory: Path,
+        spec: policy_lib.PolicySpec,
+        run_info: dict[str, Any],
+        history: list[dict[str, Any]],
+    ):
+        self.directory = directory
+        self._spec = spec
+        self._run_info = run_info
+        self.reward = max((row[_BEST_BY] for row in history if _BEST_BY in row), default=-math.inf)
+
+    def offer(self, state: sac.TrainingState, row: dict[str, Any]) -> bool:
+        """Saves the policy if `row` (its evaluation) is the best so far; True if it did."""
+        if not row.get(_BEST_BY, -math.inf) > self.reward:
+            return False
+        self.reward = row[_BEST_BY]
+        best_of_run = {"step": int(row["step"]), _BEST_BY: float(self.reward)}
+        config = {**self._run_info, "best_of_run": best_of_run}
+        policy_lib.save_policy(
+            self.directory, policy_lib.Policy.from_training_state(state, self._spec, config)
+        )
+        return True
+
+
+_BEST_BY = "eval/episode_reward"
+
+
 def _train_loop(
     trainer: sac.SACTrainer,
     state: sac.TrainingState,
@@ -292,24 +332,27 @@ def _train_loop(
     stop: host.SignalStop,
     clock: host.Clock,
     progress: host.Progress,
+    best: BestPolicy | None = None,
 ) -> tuple[sac.TrainingState, list[dict[str, Any]]]:
     """Prefills if needed, then runs chunks until num_timesteps or a signal."""
     config = trainer.config
     history = list(log.rows) if log is not None else []
     window = host.Window()
 
-    def record(row: dict[str, Any]) -> None:
+    def record(row: dict[str, Any], state: sac.TrainingState) -> None:
         history.append(row)
         if log is not None:
             log.append(row)
         progress.log_row(row)
+        if best is not None and best.offer(state, row):
+            logger.info("best evaluation so far (reward %.0f): saved to %s", best.reward, best.directory)
 
     def evaluate(state: sac.TrainingState) -> dict[str, float]:
         metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
         return {name: float(value) for name, value in jax.device_get(metrics).items()}
 
     def on_start(state: sac.TrainingState) -> None:
-        record({"step": 0, "wall_time_s": clock(), **evaluate(state)})
+        record({"step": 0, "wall_time_s": clock(), **evaluate(state)}, state)
 
     def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
         nonlocal window
@@ -331,7 +374,8 @@ def _train_loop(
                     "train/gradient_steps": int(state.gradient_steps),
                     "train/replay_size": trainer.replay_size(state),
                     **evaluate(state),
-                }
+                },
+                state,
             )
             window = host.Window()
         if store is not None and (
