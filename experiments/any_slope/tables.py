@@ -15,6 +15,7 @@ from quadcos import terrain
 HERE = Path(__file__).resolve().parent
 SLOPE5 = HERE.parent / "slope5" / "slope5_spawn_s0"
 SCRATCH = HERE.parent / "from_scratch" / "gpu"
+SCREEN = HERE / "screen14"
 TESTSET = "testset:2026"
 # label -> (directory of the named-course JSONs, their file prefix, the test-set JSON); named
 # courses: eval_PREFIX_{slope5,s4,flat}.json
@@ -32,6 +33,18 @@ POLICIES = {
     },
     "slope5 from scratch s0, test episodes of 67 s": (None, None, HERE / "eval_slope5_testset67.json"),
     "committed experiments/policies/slope5 until session 8": (HERE, "committed_slope5", HERE / "eval_committed_slope5_testset.json"),
+    **{
+        f"session 12 screen, a quarter of an H100 for 15 min: {variant} (any_{variant})": (
+            SCREEN, f"any_{variant}", SCREEN / f"eval_any_{variant}_testset.json"
+        )
+        for variant in ("base", "move03", "obs", "both")
+    },
+    "session 12: obs alone on the H100 for 400 s (any_obs_alone)": (
+        SCREEN / "alone", "any_obs_alone", SCREEN / "alone" / "eval_any_obs_alone_testset.json"
+    ),
+    "session 12: obs alone on the H100 for 870 s (any_obs_s0)": (
+        HERE / "obs_alone", "any_obs_s0", HERE / "obs_alone" / "eval_any_obs_s0_testset.json"
+    ),
 }
 
 
