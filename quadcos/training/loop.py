@@ -345,7 +345,7 @@ def _train_loop(
             log.append(row)
         progress.log_row(row)
         if best is not None and best.offer(state, row):
-            logger.info("best evaluation so far (reward %.0f): saved to %s", best.reward, best.directory)
+            logger.info("best evaluation so far (%.0f): saved to %s", best.reward, best.directory)
 
     def evaluate(state: sac.TrainingState) -> dict[str, float]:
         metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
