@@ -15,7 +15,8 @@
 #   both   move03 and obs
 # then each policy on the test set, slope5, S-4 and flat (four evaluations at a time).
 # Third lease (PHASES=best_obs): the same with sac.keep_best_policy (the policy of the best
-# training-time evaluation kept in policy_best/), 600 s; policy_best on the test set, slope5, S-4.
+# training-time evaluation kept in policy_best/), 600 s (BEST_SECONDS; lost: the machine went back
+# before the evaluations returned); policy_best on the test set, slope5, S-4.
 # Second lease (PHASES=obs_alone): the obs variant alone on the H100, 870 s from process start (the
 # issue's 15-minute training budget), then the test set, slope5, S-4 and flat.
 #
@@ -150,7 +151,7 @@ fi
 if [[ " $PHASES " == *" best_obs "* ]]; then  # issue 14: obs variant, the best policy kept
   K=$C/best_obs
   mkdir -p $K
-  OUT=$K TRAIN_SECONDS=600 bash experiments/train_gpu.sh any_obs_best_s0 "${GENERALIST[@]}" $SCRATCH \
+  OUT=$K TRAIN_SECONDS=${BEST_SECONDS:-600} bash experiments/train_gpu.sh any_obs_best_s0 "${GENERALIST[@]}" $SCRATCH \
     --config.env.observe_slope=True --config.env.observe_phase=True --config.sac.keep_best_policy=True
   note "any_obs_best_s0 trained: $(tail -n 1 $K/runs/any_obs_best_s0/train.log)"
   cp -r /tmp/quadcos_runs/any_obs_best_s0/policy_best $K/runs/any_obs_best_s0/
