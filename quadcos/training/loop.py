@@ -288,6 +288,10 @@ def _log_final_step(
         )
 
 
+# The training-time evaluation metric that ranks a run's policies for `keep_best_policy`.
+_BEST_BY = "eval/episode_reward"
+
+
 class BestPolicy:
     """The policy of the best training-time evaluation of a run (`keep_best_policy`).
 
@@ -319,9 +323,6 @@ class BestPolicy:
             self.directory, policy_lib.Policy.from_training_state(state, self._spec, config)
         )
         return True
-
-
-_BEST_BY = "eval/episode_reward"
 
 
 def _train_loop(
