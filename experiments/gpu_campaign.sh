@@ -6,6 +6,17 @@
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
+# Session 13, second lease (PHASES="scratch_best best_obs_s1"): --preset=scratch as it now is
+# (20 M env steps, the best evaluation's policy kept) for seeds 0-2, alone, each policy and
+# policy_best on flat; then issue 14's best_obs learner with seed 1 (its first lease's seed 0
+# reached 0.854 on the test set).
+# Session 13, one H100 (PHASES=scratch20; issue 13), Warp physics: the from-scratch learner
+# (--preset=scratch) on flat for 20 M env steps, seeds 0-2, each run alone on the GPU one after
+# another (times from process start), each final policy on 1024 deterministic 20-s episodes. Does
+# the pitch error reach the trot-start policies' (0.057-0.062 rad) once SAC has more steps than
+# session 11's GPU-sharing runs got? (The orientation term of their evaluations was still falling
+# at 10 M env steps.)
+#
 # Session 12, one H100 (PHASES=screen14; issue 14), Warp physics: why does the generalist stall on
 # downhills? Four generalists side by side on one GPU (a quarter of it each, 900 s from process
 # start), the session-9 command (GENERALIST + SCRATCH) and three changes to the learner:
@@ -99,6 +110,49 @@ if [[ " $PHASES " == *" scaling "* ]]; then
   bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows $ROWS2
   python3 -m quadcos.benchmarking.scaling --out $S/h200x2.json $S/*_?dev.json > $S/table.md 2>&1
   pack scaling
+fi
+
+if [[ " $PHASES " == *" scratch20 "* ]]; then  # issue 13: flat from scratch, 20 M env steps, alone
+  F=$C/scratch20
+  mkdir -p $F
+  for seed in 0 1 2; do
+    OUT=$F TRAIN_SECONDS=${SCRATCH20_SECONDS:-330} bash experiments/train_gpu.sh scratch20_s$seed \
+      --preset=scratch --terrain=flat --seed=$seed --num_timesteps=20000000
+    note "scratch20_s$seed trained: $(tail -n 1 $F/runs/scratch20_s$seed/train.log)"
+    evaluate $F $F/runs/scratch20_s$seed/policy scratch20_s$seed flat 1024 20
+  done
+  pack scratch20
+fi
+
+if [[ " $PHASES " == *" scratch_best "* ]]; then  # issue 13: --preset=scratch (20 M, best kept), alone
+  B=$C/scratch_best
+  mkdir -p $B
+  for seed in 0 1 2; do
+    name=scratch_best_s$seed
+    OUT=$B TRAIN_SECONDS=330 bash experiments/train_gpu.sh $name --preset=scratch --terrain=flat --seed=$seed
+    note "$name trained: $(tail -n 1 $B/runs/$name/train.log)"
+    cp -r /tmp/quadcos_runs/$name/policy_best $B/runs/$name/
+    evaluate $B $B/runs/$name/policy ${name}_last flat 1024 20
+    evaluate $B $B/runs/$name/policy_best ${name}_best flat 1024 20
+  done
+  pack scratch_best
+fi
+
+if [[ " $PHASES " == *" best_obs_s1 "* ]]; then  # issue 14: best_obs, a second seed
+  K=$C/best_obs_s1
+  mkdir -p $K
+  name=any_obs_best_s1
+  OUT=$K TRAIN_SECONDS=${BEST_SECONDS:-600} bash experiments/train_gpu.sh $name "${GENERALIST[@]}" $SCRATCH \
+    --config.env.observe_slope=True --config.env.observe_phase=True --config.sac.keep_best_policy=True \
+    --seed=1
+  note "$name trained: $(tail -n 1 $K/runs/$name/train.log)"
+  cp -r /tmp/quadcos_runs/$name/policy_best $K/runs/$name/
+  best=$K/runs/$name/policy_best
+  evaluate $K $best ${name}_testset testset:2026 4288 40
+  evaluate $K $best ${name}_slope5 slope5 1024 40
+  evaluate $K $best ${name}_s4 s4 1024 30
+  evaluate $K $best ${name}_flat flat 1024 10
+  pack best_obs_s1
 fi
 
 if [[ " $PHASES " == *" scratch_long "* ]]; then  # issue 13: flat from scratch for 20 M env steps

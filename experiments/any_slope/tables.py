@@ -16,12 +16,13 @@ HERE = Path(__file__).resolve().parent
 SLOPE5 = HERE.parent / "slope5" / "slope5_spawn_s0"
 SCRATCH = HERE.parent / "from_scratch" / "gpu"
 SCREEN = HERE / "screen14"
+BEST = HERE / "best_obs"
 TESTSET = "testset:2026"
 # label -> (directory of the named-course JSONs, their file prefix, the test-set JSON); named
 # courses: eval_PREFIX_{slope5,s4,flat}.json
 POLICIES = {
     "generalist, trot start, r_s for movement, 12 min (any_slope_s0)": (HERE, "any_slope", HERE / "eval_any_slope_testset.json"),
-    "generalist from scratch, 9 min (scratch_any_s0 = policies/any_slope)": (HERE, "scratch_any", HERE / "eval_scratch_any_testset.json"),
+    "generalist from scratch, 9 min (scratch_any_s0, policies/any_slope until session 12)": (HERE, "scratch_any", HERE / "eval_scratch_any_testset.json"),
     "the same, test episodes of 67 s": (None, None, HERE / "eval_any_slope_testset67.json"),
     "generalist from scratch, 12 min (scratch_any_long_s0)": (HERE, "scratch_any_long", HERE / "eval_scratch_any_long_testset.json"),
     "slope5, trot start, spawns along the course (slope5_spawn_s0)": (SLOPE5, "slope5_spawn", HERE / "eval_slope5_spawn_testset.json"),
@@ -45,6 +46,13 @@ POLICIES = {
     "session 12: obs alone on the H100 for 870 s (any_obs_s0)": (
         HERE / "obs_alone", "any_obs_s0", HERE / "obs_alone" / "eval_any_obs_s0_testset.json"
     ),
+    **{
+        f"session 13: obs, best policy kept, alone for 600 s, s{seed}"
+        + (" (policies/any_slope)" if seed == 0 else ""): (
+            BEST, f"any_obs_best{suffix}", BEST / f"eval_any_obs_best{suffix}_testset.json"
+        )
+        for seed, suffix in ((0, ""), (1, "_s1"))
+    },
 }
 
 

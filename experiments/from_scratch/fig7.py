@@ -1,10 +1,11 @@
-"""Fig. 7 from scratch: learning curves of the GPU runs in gpu/ (gait search, then SAC) beside the
-trot-start runs of ../flat (3 seeds, the same 10 M env steps), and each seed's time to walk.
+"""Fig. 7 from scratch: learning curves of `--preset=scratch` on flat (gpu/scratch_best: gait search,
+then SAC for 20 M env steps, 3 seeds, each alone on an H100) beside the trot-start runs of ../flat
+(3 seeds, 10 M env steps), and each seed's time to walk.
 
     python experiments/from_scratch/fig7.py     # -> fig7_from_scratch.png, fig7_summary.json
 
-and prints a Markdown table of the final policies' 1024-episode evaluations (gpu/eval_*.json,
-made on the CPU with `quadcos.evaluate`) beside the trot-start policies' (../flat/eval_flat*.json).
+and prints a Markdown table of the final policies' 1024-episode evaluations (gpu/**/eval_*.json,
+some gzipped, made with `quadcos.evaluate`) beside the trot-start policies' (../flat/eval_flat*.json).
 
 A run's curve starts with its gait search: one point per search round (the best candidate's
 5-s episodes, and the fraction of all candidates' robots that fell), then SAC's evaluations
@@ -12,29 +13,40 @@ A run's curve starts with its gait search: one point per search round (the best 
 evaluation episodes fall and the mean forward speed is at least 0.5 m/s.
 """
 
+import gzip
 import json
 import re
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-# Seed 0's first run (session 5) was the lease's cold first run, cut at 170 s before it walked;
-# the run of seed 0 shown is session 6's (warm caches, clock from process start).
-RUNS = {
-    "scratch s0": HERE / "gpu" / "scratch_s0_rerun",
-    **{f"scratch s{seed}": HERE / "gpu" / f"scratch_s{seed}" for seed in (1, 2)},
-}
+# `--preset=scratch` as it is (session 13): clock from process start, s0 the lease's cold first run.
+RUNS = {f"scratch s{seed}": HERE / "gpu" / "scratch_best" / f"scratch_best_s{seed}" for seed in range(3)}
 ABLATIONS = {
-    "s0 first run (cold, capped)": HERE / "gpu" / "scratch_s0",
-    "full 5-D box s0": HERE / "gpu" / "scratch_full_box_s0",
+    "full 5-D box s0 (10 M)": HERE / "gpu" / "scratch_full_box_s0",
     "r_s alive s0": HERE / "gpu" / "scratch_alive_s0",
     # §5's DRL-only (joint targets) with the same learner less the search (shared GPU).
     **{f"DRL-only s{seed}": HERE.parent / "drl_only" / f"joint_scratch_s{seed}" for seed in range(3)},
 }
 TROT_START = {f"trot start s{seed}": HERE.parent / "flat" / f"flat_s{seed}" for seed in range(3)}
 EVALUATIONS = {
-    "scratch s0 (GPU, Warp)": HERE / "gpu" / "eval_scratch_s0_rerun.json",
+    **{
+        f"scratch s{seed}, 20 M, {which} policy (session 13)": HERE
+        / "gpu"
+        / "scratch_best"
+        / f"eval_scratch_best_s{seed}_{which}.json.gz"
+        for seed in range(3)
+        for which in ("last", "best")
+    },
+    **{
+        f"scratch s{seed}, 20 M, no best kept (session 13)": HERE
+        / "gpu"
+        / "scratch20"
+        / f"eval_scratch20_s{seed}.json.gz"
+        for seed in range(3)
+    },
+    "scratch s0, 10 M (GPU, Warp)": HERE / "gpu" / "eval_scratch_s0_rerun.json",
     "s0 first run (cold, capped)": HERE / "gpu" / "eval_scratch_s0.json",
-    **{f"scratch s{seed}": HERE / "gpu" / f"eval_scratch_s{seed}.json" for seed in (1, 2)},
+    **{f"scratch s{seed}, 10 M": HERE / "gpu" / f"eval_scratch_s{seed}.json" for seed in (1, 2)},
     "full 5-D box s0": HERE / "gpu" / "eval_scratch_full_box_s0.json",
     **{
         f"trot start {name} (CPU, experiments/flat)": HERE.parent / "flat" / f"eval_{name}.json"
@@ -132,10 +144,10 @@ def main() -> None:
     axes[1, 1].set_title("x: gait search rounds (share of candidates that fell)", fontsize=9)
     axes[1, 2].set_title("x: gait search rounds (best candidate's 5-s speed)", fontsize=9)
     fig.suptitle(
-        "Flat, 1024 eval episodes. From scratch (gait search, then SAC): H100, Warp physics;"
-        " trot start (dotted): H200, JAX physics, clock from its training loop's start\n"
-        "wall time from process start (s0), the search's start (s1, s2, ablations); DRL-only runs"
-        " shared the GPU"
+        "Flat, 1024 eval episodes. From scratch (--preset=scratch: gait search, then SAC): H100,"
+        " Warp physics, each run alone, wall time from process start (s0: cold caches);\n"
+        "trot start (dotted): H200, JAX physics, clock from its training loop's start; ablations"
+        " (dashed): clock from the search's start, DRL-only runs shared the GPU"
     )
     fig.savefig(HERE / "fig7_from_scratch.png", dpi=110)
     (HERE / "fig7_summary.json").write_text(json.dumps(summary, indent=1) + "\n")
@@ -147,7 +159,9 @@ def evaluation_table() -> str:
     lines = ["| policy | " + " | ".join(_COLUMNS) + " |", "|---" * (len(_COLUMNS) + 1) + "|"]
     for name, path in EVALUATIONS.items():
         if path.is_file():
-            result = json.loads(path.read_text())
+            opener = gzip.open if path.suffix == ".gz" else open
+            with opener(path, "rt") as file:
+                result = json.load(file)
             cells = " | ".join(f"{result[key]:.3f}" for key in _COLUMNS)
             lines.append(f"| {name} ({result['num_episodes']} episodes) | {cells} |")
     return "\n".join(lines)
