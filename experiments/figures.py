@@ -44,8 +44,9 @@ def main() -> None:
         "slope5_s0": slope5 / "slope5_s0",  # the earlier policies/slope5 (trot start, no spawns)
         "slope5_spawn": slope5 / "slope5_spawn_s0",
         "any_slope": HERE / "any_slope",
-        "scratch_any": HERE / "any_slope" / "scratch_any_s0",  # policies/any_slope
+        "scratch_any": HERE / "any_slope" / "scratch_any_s0",  # policies/any_slope until session 12
         "scratch_any_long": HERE / "any_slope" / "scratch_any_long_s0",
+        "any_obs_best": HERE / "any_slope" / "best_obs" / "any_obs_best_s0",  # policies/any_slope
     }
     for name, run in runs.items():
         for course in ("slope5", "s4"):
