@@ -6,6 +6,8 @@
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
+# Session 13, third lease (PHASES=joint20; issue 13 §5): the DRL-only joint controller with the
+# same learner for the scratch preset's new budget, 20 M env steps, seeds 0-2 side by side.
 # Session 13, second lease (PHASES="scratch_best best_obs_s1"): --preset=scratch as it now is
 # (20 M env steps, the best evaluation's policy kept) for seeds 0-2, alone, each policy and
 # policy_best on flat; then issue 14's best_obs learner with seed 1 (its first lease's seed 0
@@ -153,6 +155,19 @@ if [[ " $PHASES " == *" best_obs_s1 "* ]]; then  # issue 14: best_obs, a second 
   evaluate $K $best ${name}_s4 s4 1024 30
   evaluate $K $best ${name}_flat flat 1024 10
   pack best_obs_s1
+fi
+
+if [[ " $PHASES " == *" joint20 "* ]]; then  # issue 13, §5: DRL-only at the preset's 20 M env steps
+  J=$C/joint20
+  mkdir -p $J
+  for seed in 0 1 2; do  # three runs share the GPU
+    OUT=$J XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 TRAIN_SECONDS=${JOINT20_SECONDS:-420} bash experiments/train_gpu.sh \
+      joint20_s$seed --terrain=flat --seed=$seed --controller=joint --config.env.survival_min_speed=0.1 \
+      --config.sac.eval_interval=1000000 --num_timesteps=20000000 &
+  done
+  wait
+  for seed in 0 1 2; do note "joint20_s$seed trained: $(tail -n 1 $J/runs/joint20_s$seed/train.log)"; done
+  pack joint20
 fi
 
 if [[ " $PHASES " == *" scratch_long "* ]]; then  # issue 13: flat from scratch for 20 M env steps

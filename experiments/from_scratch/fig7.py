@@ -24,8 +24,9 @@ RUNS = {f"scratch s{seed}": HERE / "gpu" / "scratch_best" / f"scratch_best_s{see
 ABLATIONS = {
     "full 5-D box s0 (10 M)": HERE / "gpu" / "scratch_full_box_s0",
     "r_s alive s0": HERE / "gpu" / "scratch_alive_s0",
-    # §5's DRL-only (joint targets) with the same learner less the search (shared GPU).
-    **{f"DRL-only s{seed}": HERE.parent / "drl_only" / f"joint_scratch_s{seed}" for seed in range(3)},
+    # §5's DRL-only (joint targets) with the same learner less the search, 20 M env steps (the
+    # three seeds shared one GPU; the 10 M-step runs of sessions 6 and 9: ../drl_only/joint_scratch_s*).
+    **{f"DRL-only s{seed}": HERE.parent / "drl_only" / f"joint20_s{seed}" for seed in range(3)},
 }
 TROT_START = {f"trot start s{seed}": HERE.parent / "flat" / f"flat_s{seed}" for seed in range(3)}
 EVALUATIONS = {
