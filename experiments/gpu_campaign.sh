@@ -3,6 +3,7 @@
 # (each call returns within 10 minutes):
 #   setsid nohup bash experiments/gpu_campaign.sh > /tmp/campaign.log 2>&1 < /dev/null &
 #   bash experiments/gpu_poll.sh 540      # in each later call: waits, copies finished phases to $OUT
+# (Here, before the lease: `bash experiments/gpu_tree.sh slim`, and `restore` after it.)
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
