@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from quadcos import oscillator
+from quadcos import oscillator, train
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from tests.cli_runs import run_cli
 
@@ -42,6 +42,14 @@ def test_only_the_scratch_preset_searches_and_the_gpu_bench_walks_with_it():
     # measured from scratch.
     assert BENCH_PRESETS["gpu"]["training_preset"] == "gpu"
     assert BENCH_PRESETS["gpu"]["walk_training_preset"] == "scratch"
+
+
+def test_the_scratch_preset_trains_20m_steps_and_keeps_its_best_policy():
+    # experiments/from_scratch, "20 M env steps": speed and pitch error still improve after 10 M,
+    # and a run can lose its gait in its last evaluations.
+    scratch, gpu = (train.build_config(train.PRESETS[name], {}) for name in ("scratch", "gpu"))
+    assert scratch.sac.num_timesteps == 20_000_000 and gpu.sac.num_timesteps == 10_000_000
+    assert scratch.sac.keep_best_policy and not gpu.sac.keep_best_policy
 
 
 def test_bad_search_settings_are_refused_before_anything_runs(tmp_path):
