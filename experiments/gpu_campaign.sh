@@ -13,9 +13,11 @@
 # (20 M env steps, the best evaluation's policy kept) for seeds 0-2, alone, each policy and
 # policy_best on flat; then issue 14's best_obs learner with seed 1 (its first lease's seed 0
 # reached 0.854 on the test set).
-# Session 13, one H100 (PHASES=scratch20; issue 13), Warp physics: the from-scratch learner
-# (--preset=scratch) on flat for 20 M env steps, seeds 0-2, each run alone on the GPU one after
-# another (times from process start), each final policy on 1024 deterministic 20-s episodes. Does
+# Session 13, one H100 (PHASES="scratch20 best_obs"; issues 13, 14), Warp physics: the from-scratch
+# learner (--preset=scratch) on flat for 20 M env steps, seeds 0-2, each run alone on the GPU one
+# after another (times from process start), each final policy on 1024 deterministic 20-s episodes
+# (the phase was scratch_best's loop before the preset kept its best policy: its command is in
+# experiments/from_scratch/README.md); then best_obs (seed 0, no flat evaluation). Does
 # the pitch error reach the trot-start policies' (0.057-0.062 rad) once SAC has more steps than
 # session 11's GPU-sharing runs got? (The orientation term of their evaluations was still falling
 # at 10 M env steps.)
@@ -115,18 +117,6 @@ if [[ " $PHASES " == *" scaling "* ]]; then
   pack scaling
 fi
 
-if [[ " $PHASES " == *" scratch20 "* ]]; then  # issue 13: flat from scratch, 20 M env steps, alone
-  F=$C/scratch20
-  mkdir -p $F
-  for seed in 0 1 2; do
-    OUT=$F TRAIN_SECONDS=${SCRATCH20_SECONDS:-330} bash experiments/train_gpu.sh scratch20_s$seed \
-      --preset=scratch --terrain=flat --seed=$seed --num_timesteps=20000000
-    note "scratch20_s$seed trained: $(tail -n 1 $F/runs/scratch20_s$seed/train.log)"
-    evaluate $F $F/runs/scratch20_s$seed/policy scratch20_s$seed flat 1024 20
-  done
-  pack scratch20
-fi
-
 if [[ " $PHASES " == *" scratch_best "* ]]; then  # issue 13: --preset=scratch (20 M, best kept), alone
   B=$C/scratch_best
   mkdir -p $B
@@ -139,23 +129,6 @@ if [[ " $PHASES " == *" scratch_best "* ]]; then  # issue 13: --preset=scratch (
     evaluate $B $B/runs/$name/policy_best ${name}_best flat 1024 20
   done
   pack scratch_best
-fi
-
-if [[ " $PHASES " == *" best_obs_s1 "* ]]; then  # issue 14: best_obs, a second seed
-  K=$C/best_obs_s1
-  mkdir -p $K
-  name=any_obs_best_s1
-  OUT=$K TRAIN_SECONDS=${BEST_SECONDS:-600} bash experiments/train_gpu.sh $name "${GENERALIST[@]}" $SCRATCH \
-    --config.env.observe_slope=True --config.env.observe_phase=True --config.sac.keep_best_policy=True \
-    --seed=1
-  note "$name trained: $(tail -n 1 $K/runs/$name/train.log)"
-  cp -r /tmp/quadcos_runs/$name/policy_best $K/runs/$name/
-  best=$K/runs/$name/policy_best
-  evaluate $K $best ${name}_testset testset:2026 4288 40
-  evaluate $K $best ${name}_slope5 slope5 1024 40
-  evaluate $K $best ${name}_s4 s4 1024 30
-  evaluate $K $best ${name}_flat flat 1024 10
-  pack best_obs_s1
 fi
 
 if [[ " $PHASES " == *" joint20 "* ]]; then  # issue 13, §5: DRL-only at the preset's 20 M env steps
@@ -218,19 +191,25 @@ if [[ " $PHASES " == *" obs_alone "* ]]; then  # issue 14: the screen's obs vari
   pack obs_alone
 fi
 
-if [[ " $PHASES " == *" best_obs "* ]]; then  # issue 14: obs variant, the best policy kept
-  K=$C/best_obs
+for phase_seed in best_obs:0 best_obs_s1:1; do  # issue 14: obs variant, the best policy kept
+  phase=${phase_seed%:*} seed=${phase_seed#*:}
+  [[ " $PHASES " == *" $phase "* ]] || continue
+  K=$C/$phase
   mkdir -p $K
-  OUT=$K TRAIN_SECONDS=${BEST_SECONDS:-600} bash experiments/train_gpu.sh any_obs_best_s0 "${GENERALIST[@]}" $SCRATCH \
-    --config.env.observe_slope=True --config.env.observe_phase=True --config.sac.keep_best_policy=True
-  note "any_obs_best_s0 trained: $(tail -n 1 $K/runs/any_obs_best_s0/train.log)"
-  cp -r /tmp/quadcos_runs/any_obs_best_s0/policy_best $K/runs/any_obs_best_s0/
-  best=$K/runs/any_obs_best_s0/policy_best
-  evaluate $K $best any_obs_best_testset testset:2026 4288 40
-  evaluate $K $best any_obs_best_slope5 slope5 1024 40
-  evaluate $K $best any_obs_best_s4 s4 1024 30
-  pack best_obs
-fi
+  name=any_obs_best_s$seed
+  prefix=any_obs_best${phase#best_obs}  # seed 0's files are eval_any_obs_best_*
+  OUT=$K TRAIN_SECONDS=${BEST_SECONDS:-600} bash experiments/train_gpu.sh $name "${GENERALIST[@]}" $SCRATCH \
+    --config.env.observe_slope=True --config.env.observe_phase=True --config.sac.keep_best_policy=True \
+    --seed=$seed
+  note "$name trained: $(tail -n 1 $K/runs/$name/train.log)"
+  cp -r /tmp/quadcos_runs/$name/policy_best $K/runs/$name/
+  best=$K/runs/$name/policy_best
+  evaluate $K $best ${prefix}_testset testset:2026 4288 40
+  evaluate $K $best ${prefix}_slope5 slope5 1024 40
+  evaluate $K $best ${prefix}_s4 s4 1024 30
+  evaluate $K $best ${prefix}_flat flat 1024 10  # not in session 13's seed-0 lease (flat: CPU)
+  pack $phase
+done
 
 if [[ " $PHASES " == *" probe "* ]]; then
   P=$C/probe
