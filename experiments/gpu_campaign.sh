@@ -7,6 +7,9 @@
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
+# Session 14 (PHASES=posture, POSTURE_SEEDS="0" or "1 2"; issue 14): the best_obs learner with
+# env.posture_bound=0.6 (front and hind hip offsets in the action), 870 s from process start,
+# each seed alone on the GPU; policy_best on the test set, slope5, S-4, flat and the 11° descent.
 # Session 13, third lease (PHASES=joint20; issue 13 §5): the DRL-only joint controller with the
 # same learner for the scratch preset's new budget, 20 M env steps, seeds 0-2 side by side.
 # Session 13, second lease (PHASES="scratch_best best_obs_s1"): --preset=scratch as it now is
@@ -208,6 +211,22 @@ for phase_seed in best_obs:0 best_obs_s1:1; do  # issue 14: obs variant, the bes
   evaluate $K $best ${prefix}_slope5 slope5 1024 40
   evaluate $K $best ${prefix}_s4 s4 1024 30
   evaluate $K $best ${prefix}_flat flat 1024 10  # not in session 13's seed-0 lease (flat: CPU)
+  pack $phase
+done
+
+for seed in ${POSTURE_SEEDS:-0}; do  # issue 14: best_obs plus the front/hind hip offsets, 15 min
+  phase=posture_s$seed
+  [[ " $PHASES " == *" posture "* ]] || break
+  P=$C/$phase
+  mkdir -p $P
+  OUT=$P TRAIN_SECONDS=${POSTURE_SECONDS:-870} bash experiments/train_gpu.sh $phase "${GENERALIST[@]}" \
+    $SCRATCH --config.env.observe_slope=True --config.env.observe_phase=True \
+    --config.sac.keep_best_policy=True --config.env.posture_bound=0.6 --seed=$seed
+  note "$phase trained: $(tail -n 1 $P/runs/$phase/train.log)"
+  cp -r /tmp/quadcos_runs/$phase/policy_best $P/runs/$phase/
+  evaluate_all $P $P/runs/$phase/policy_best $phase
+  evaluate $P $P/runs/$phase/policy_best ${phase}_down11 "sections:0@1,-11@4,0@2" 1024 20
+  evaluate $P $P/runs/$phase/policy ${phase}_last_testset testset:2026 4288 40
   pack $phase
 done
 

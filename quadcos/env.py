@@ -61,6 +61,10 @@ def default_config() -> ml_collections.ConfigDict:
     # walking gait; all of §3.3's ranges stay reachable), "midpoint" = the middle of each range
     # (a plain linear map: the zero action stands still). See oscillator.action_to_parameters.
     config.action_centre = "trot"
+    # rad: > 0 adds two action values, front and hind hip offsets of up to ± this (a posture
+    # beyond §3.3's rhythm, for leaning back on steep descents: oscillator.posture_offsets);
+    # 0 = the paper's five-value action.
+    config.posture_bound = 0.0
     config.reward_variant = "full"  # "full" (Eq. 13) or "xy" (Fig. 9's r_xy)
     # m/s: Eq. 9 pays r_s "for every step of movement". 0 reads that as every control step
     # alive, standing still included; > 0 pays r_s only on steps whose forward speed reaches
@@ -101,7 +105,8 @@ class QuadrupedEnv(base.Env):
     velocity (m/s), attitude (rad, pitch nose-up), joint angles (rad, Eq. 3 order); optionally the
     slope estimate and (cos ψ, sin ψ); the filtered action (the
     controller's command) when `action_filter_tau` > 0. Action: [−1, 1]^5 = (A_k, A_h, T, φ1, φ3) for the oscillator
-    controller, [−1, 1]^8 joint targets (×0.5 rad) for the joint controller.
+    controller (then front and hind hip offsets with `posture_bound` > 0), [−1, 1]^8 joint targets
+    (×0.5 rad) for the joint controller.
     """
 
     def __init__(
@@ -153,7 +158,7 @@ class QuadrupedEnv(base.Env):
 
     @property
     def action_size(self) -> int:
-        return 5 if self.config.controller == "oscillator" else len(constants.JOINTS)
+        return action_size(self.config)
 
     @property
     def backend(self) -> str:
@@ -271,8 +276,17 @@ class QuadrupedEnv(base.Env):
         )
 
     def action_for(self, params: oscillator.RhythmParameters) -> jax.Array:
-        """The (..., 5) action that commands rhythm parameters `params` in this env."""
-        return oscillator.parameters_to_action(params, self.config.period_min, self.action_centre)
+        """The (..., action_size) action that commands rhythm parameters `params` in this env (no
+        posture offset)."""
+        action = oscillator.parameters_to_action(params, self.config.period_min, self.action_centre)
+        padding = [(0, 0)] * (action.ndim - 1) + [(0, self.action_size - 5)]
+        return jnp.pad(action, padding)
+
+    def rhythm_parameters(self, action: jax.Array) -> oscillator.RhythmParameters:
+        """The rhythm parameters (§3.3) that the oscillator controller's `action` sets."""
+        return oscillator.action_to_parameters(
+            action[..., :5], self.config.period_min, self.action_centre
+        )
 
     # --- pieces of a step ---------------------------------------------------------------------
 
@@ -280,15 +294,19 @@ class QuadrupedEnv(base.Env):
         """(8,) joint targets (rad) that `action` commands at oscillator phase ψ / time t."""
         if self.config.controller == "joint":
             return JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
-        params = oscillator.action_to_parameters(action, self.config.period_min, self.action_centre)
+        params = self.rhythm_parameters(action)
         phases = oscillator.trot_phases(params.phi1, params.phi3)
         if self.config.oscillator_form == "literal":
-            return oscillator.cosine_rhythm(
+            targets = oscillator.cosine_rhythm(
                 time, params.amplitude_hip, params.amplitude_knee, params.period, phases
             )
-        return oscillator.rhythm_at_phase(
-            phase, params.amplitude_hip, params.amplitude_knee, phases
-        )
+        else:
+            targets = oscillator.rhythm_at_phase(
+                phase, params.amplitude_hip, params.amplitude_knee, phases
+            )
+        if self.config.posture_bound > 0:
+            targets += oscillator.posture_offsets(action[..., 5:], self.config.posture_bound)
+        return targets
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -355,9 +373,7 @@ class QuadrupedEnv(base.Env):
         phase runs at the fixed trot's period (it is observable with `observe_phase` only)."""
         if self.config.controller == "joint":
             return jnp.asarray(oscillator.FIXED_TROT.period, jnp.float32)
-        return oscillator.action_to_parameters(
-            command, self.config.period_min, self.action_centre
-        ).period
+        return self.rhythm_parameters(command).period
 
     def _observe(self, data: mjx.Data, phase: jax.Array, command: jax.Array) -> _Observed:
         quaternion = data.sensordata[self._orientation_slice]
@@ -396,7 +412,15 @@ class QuadrupedEnv(base.Env):
 
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
+_POSTURE_BOUND_MAX = 0.7  # rad: a hip offset plus §3.3's hip swing (≤ 0.5) stays in ±1.2 rad
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
+
+
+def action_size(config: ml_collections.ConfigDict) -> int:
+    """Values in an action of an env with this config."""
+    if config.controller == "joint":
+        return len(constants.JOINTS)
+    return 5 + (oscillator.POSTURE_SIZE if config.posture_bound > 0 else 0)
 
 
 def validate_config(config: ml_collections.ConfigDict) -> None:
@@ -448,6 +472,12 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         )
     if not 0.0 <= config.spawn_x_max < math.inf:
         raise ValueError(f"spawn_x_max must be finite and >= 0 m; got {config.spawn_x_max}")
+    if not 0.0 <= config.posture_bound <= _POSTURE_BOUND_MAX:
+        raise ValueError(
+            f"posture_bound must be in [0, {_POSTURE_BOUND_MAX}] rad; got {config.posture_bound}"
+        )
+    if config.posture_bound > 0 and config.controller != "oscillator":
+        raise ValueError("posture_bound > 0 needs controller='oscillator' (it offsets the rhythm)")
     if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
         raise ValueError(
             f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"

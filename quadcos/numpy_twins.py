@@ -40,6 +40,12 @@ def rhythm_at_phase(
     return np.where(_HIP_MASK, amplitude_hip * wave, np.maximum(amplitude_knee * wave, 0.0))
 
 
+def posture_offsets(posture: np.ndarray, bound: float) -> np.ndarray:
+    """`oscillator.posture_offsets`: (8,) hip offsets, rad, of (2,) posture actions."""
+    front, hind = bound * np.clip(posture, -1.0, 1.0)
+    return np.array([front, 0.0, front, 0.0, hind, 0.0, hind, 0.0])
+
+
 def advance_phase(phase: float, period: float, dt: float) -> float:
     """`oscillator.advance_phase` (Eq. 1, phase form): ψ + 2π dt/T wrapped to [0, 2π)."""
     return float(np.mod(phase + oscillator.TWO_PI * dt / period, oscillator.TWO_PI))

@@ -184,6 +184,23 @@ def parameters_to_action(
     return jnp.where(offset >= 0, offset / above, offset / below)
 
 
+# Posture: an extension beyond §3.3, off by default (`env.posture_bound` = 0). The paper's rhythm
+# swings every hip about zero, so the legs' mean stays perpendicular to the torso; leaning back on a
+# steep descent (the feet ahead of the centre of mass) then has to come from amplitudes, period and
+# phases alone (experiments/any_slope/downhill11). Two more action values shift the front hips (LF,
+# RF) and the hind hips (LB, RB) by up to ± the bound.
+POSTURE_SIZE = 2
+_FRONT_HIPS = np.array([1.0, 0, 1.0, 0, 0, 0, 0, 0])
+_HIND_HIPS = np.array([0, 0, 0, 0, 1.0, 0, 1.0, 0])
+
+
+def posture_offsets(posture: jnp.ndarray, bound: float) -> jnp.ndarray:
+    """(..., 8) hip offsets (rad) that posture actions (..., 2) in [−1, 1] command: front hips by
+    bound·p_front, hind hips by bound·p_hind; knees none. Actions outside [−1, 1] are clipped."""
+    posture = bound * jnp.clip(posture, -1.0, 1.0)
+    return posture[..., :1] * _FRONT_HIPS + posture[..., 1:2] * _HIND_HIPS
+
+
 # A fixed trot that walks on flat ground (~0.6 m/s) with the quadcos robot: the Fig. 15 baseline
 # and the env's default action centre, found by a grid search over A_h, A_k, T with plain MuJoCo.
 FIXED_TROT = RhythmParameters(

@@ -64,6 +64,7 @@ class Pilot:
             oscillator.parameters_to_action(self.fixed_parameters, self.config.period_min, centre),
             np.float64,
         )
+        action = np.pad(action, (0, env_lib.action_size(self.config) - action.size))
         return lambda obs: action
 
 
@@ -128,7 +129,7 @@ class HostRobot:
         self._blend = 1.0 - math.exp(-config.physics_dt / tau) if tau > 0 else 1.0
         speed_tau = config.survival_speed_tau
         self._speed_blend = 1.0 - math.exp(-self.dt / speed_tau) if speed_tau > 0 else 1.0
-        self.action_size = 5 if config.controller == "oscillator" else len(constants.JOINTS)
+        self.action_size = env_lib.action_size(config)
         self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         sensor = self.model.sensor(constants.IMU_ORIENTATION_SENSOR)
@@ -162,7 +163,7 @@ class HostRobot:
         if self.config.controller != "oscillator":
             return None
         return twins.action_to_parameters(
-            self.command, self.config.period_min, self.action_centre
+            self.command[:5], self.config.period_min, self.action_centre
         )
 
     def step(self, action: np.ndarray) -> StepResult:
@@ -214,7 +215,10 @@ class HostRobot:
         if self.config.oscillator_form == "literal":
             phase = oscillator.TWO_PI * self.data.time / params.period
         phases = twins.trot_phases(params.phi1, params.phi3)
-        return twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
+        targets = twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
+        if self.config.posture_bound > 0:
+            targets += twins.posture_offsets(self.command[5:], self.config.posture_bound)
+        return targets
 
     def _observe(self) -> tuple[np.ndarray, slope.Attitude, float]:
         """`QuadrupedEnv._observe`: (obs, attitude, slope estimate)."""

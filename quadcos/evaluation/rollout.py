@@ -84,8 +84,7 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
         "qpos": qpos,
     }
     if env.config.controller == "oscillator":
-        params = oscillator.action_to_parameters(command, env.config.period_min, env.action_centre)
-        snapshot["parameter"] = jnp.stack(params)
+        snapshot["parameter"] = jnp.stack(env.rhythm_parameters(command))
     return snapshot
 
 

@@ -114,12 +114,12 @@ def fixed_source(params: oscillator.RhythmParameters, name: str | None = None) -
         env_overrides={},
         training_terrain="flat",
         fixed_parameters=oscillator.RhythmParameters(*(float(p) for p in params)),
-        action_size=5,
     )
 
 
 def _constant_action(actions: jax.Array, obs: jax.Array) -> jax.Array:
-    """The (n, 5) actions that `rollout` computed from the fixed parameters for its env."""
+    """The (n, action_size) actions that `rollout` computed from the fixed parameters for its
+    env (`QuadrupedEnv.action_for`)."""
     del obs
     return actions
 
