@@ -7,9 +7,10 @@
 # Each phase leaves /tmp/campaign/<phase>.tar.gz. (Earlier sessions' campaigns are this file's
 # previous versions in git.)
 #
-# Session 14 (PHASES=posture, POSTURE_SEEDS="0" or "1 2"; issue 14): the best_obs learner with
-# env.posture_bound=0.6 (front and hind hip offsets in the action), 870 s from process start,
-# each seed alone on the GPU; policy_best on the test set, slope5, S-4, flat and the 11° descent.
+# Session 14 (PHASES=posture, then PHASES=posture_cap; POSTURE_SEEDS="0"; issue 14): the best_obs
+# learner with env.posture_bound=0.6 (front and hind hip offsets in the action), 870 s from process
+# start, alone on the GPU; posture_cap also with env.forward_speed_cap=0.8 (r_y pays up to 0.8 m/s);
+# policy_best on the test set, slope5, S-4, flat and the 11° descent.
 # Session 13, third lease (PHASES=joint20; issue 13 §5): the DRL-only joint controller with the
 # same learner for the scratch preset's new budget, 20 M env steps, seeds 0-2 side by side.
 # Session 13, second lease (PHASES="scratch_best best_obs_s1"): --preset=scratch as it now is
@@ -214,14 +215,17 @@ for phase_seed in best_obs:0 best_obs_s1:1; do  # issue 14: obs variant, the bes
   pack $phase
 done
 
-for seed in ${POSTURE_SEEDS:-0}; do  # issue 14: best_obs plus the front/hind hip offsets, 15 min
-  phase=posture_s$seed
-  [[ " $PHASES " == *" posture "* ]] || break
+declare -A POSTURE_EXTRA=([posture]="" [posture_cap]="--config.env.forward_speed_cap=0.8")
+for phase_seed in $(for p in posture posture_cap; do for s in ${POSTURE_SEEDS:-0}; do echo $p:$s; done; done); do
+  # issue 14: best_obs plus the front/hind hip offsets (and, posture_cap, r_y paid up to 0.8 m/s)
+  kind=${phase_seed%:*} seed=${phase_seed#*:}
+  [[ " $PHASES " == *" $kind "* ]] || continue
+  phase=${kind}_s$seed
   P=$C/$phase
   mkdir -p $P
   OUT=$P TRAIN_SECONDS=${POSTURE_SECONDS:-870} bash experiments/train_gpu.sh $phase "${GENERALIST[@]}" \
     $SCRATCH --config.env.observe_slope=True --config.env.observe_phase=True \
-    --config.sac.keep_best_policy=True --config.env.posture_bound=0.6 --seed=$seed
+    --config.sac.keep_best_policy=True --config.env.posture_bound=0.6 ${POSTURE_EXTRA[$kind]} --seed=$seed
   note "$phase trained: $(tail -n 1 $P/runs/$phase/train.log)"
   cp -r /tmp/quadcos_runs/$phase/policy_best $P/runs/$phase/
   evaluate_all $P $P/runs/$phase/policy_best $phase

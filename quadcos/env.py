@@ -15,6 +15,14 @@ import ml_collections
 
 from quadcos import backends, constants, oscillator, randomization, reward, robot, slope
 from quadcos import terrain as terrain_lib
+from quadcos.env_config import (  # noqa: F401 (the config's home; re-exported as quadcos.env's)
+    CONTROLLERS,
+    OSCILLATOR_FORMS,
+    action_size,
+    default_config,
+    max_progress,
+    validate_config,
+)
 from quadcos.overrides import apply_overrides
 from quadcos.quiet import warp_absence_unprinted
 
@@ -23,8 +31,6 @@ with warp_absence_unprinted():
     from brax.envs import base
     from mujoco import mjx
 
-CONTROLLERS = ("oscillator", "joint")
-OSCILLATOR_FORMS = ("phase", "literal")
 JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
 
 
@@ -34,68 +40,6 @@ class _Observed(NamedTuple):
     obs: jax.Array
     attitude: slope.Attitude
     slope_estimate: jax.Array
-
-
-def default_config() -> ml_collections.ConfigDict:
-    """A fresh env config; every field is overridable by `make_env(**overrides)`."""
-    config = ml_collections.ConfigDict()
-    config.terrain = "flat"  # name or spec string, see quadcos.terrain.parse
-    config.mjcf_path = ""  # "" = models/mjcf/quadruped.xml
-    # MJX implementation: "auto" = Warp on a CUDA GPU with warp-lang installed, else "jax".
-    config.impl = "auto"
-    config.warp = backends.default_warp_config()
-    # s: one env step = one SAC action (20 Hz; CoppeliaSim's default 50 ms step, the paper's
-    # simulator). The paper's per-step rewards (r_s = 10, r_y = w1 Δy) only favour walking over
-    # standing still when a step is long enough for Δy to matter: at 50 Hz a good trot scores
-    # less per step than standing (measured; see experiments/README.md).
-    config.control_dt = 0.05
-    config.physics_dt = 0.005  # s: MJX step (200 Hz); control_dt must be a multiple
-    config.solver_iterations = 0  # 0 = the MJCF's
-    config.ls_iterations = 0  # 0 = the MJCF's
-    config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
-    # "phase" integrates ψ += 2π dt/T every physics step (continuous when T changes); "literal"
-    # evaluates Eq. 3 at 2πt/T. Equal while T is constant; see quadcos.oscillator.
-    config.oscillator_form = "phase"
-    config.period_min = oscillator.PERIOD_MIN  # s: lower end of T's range (0, 2]
-    # What the zero action means: "trot" = oscillator.FIXED_TROT (a fresh policy starts from a
-    # walking gait; all of §3.3's ranges stay reachable), "midpoint" = the middle of each range
-    # (a plain linear map: the zero action stands still). See oscillator.action_to_parameters.
-    config.action_centre = "trot"
-    # rad: > 0 adds two action values, front and hind hip offsets of up to ± this (a posture
-    # beyond §3.3's rhythm, for leaning back on steep descents: oscillator.posture_offsets);
-    # 0 = the paper's five-value action.
-    config.posture_bound = 0.0
-    config.reward_variant = "full"  # "full" (Eq. 13) or "xy" (Fig. 9's r_xy)
-    # m/s: Eq. 9 pays r_s "for every step of movement". 0 reads that as every control step
-    # alive, standing still included; > 0 pays r_s only on steps whose forward speed reaches
-    # this, so that standing earns nothing and walking is the only way to score (see
-    # experiments/from_scratch: with 0, standing still is a strong optimum of Eq. 13).
-    config.survival_min_speed = 0.0
-    # s: "moving" is judged on the forward speed low-pass filtered with this time constant, so
-    # that rocking back and forth (forward half the time, no progress) does not count.
-    config.survival_speed_tau = 1.0
-    config.reward = ml_collections.ConfigDict(reward.RewardWeights()._asdict())
-    config.observe_slope = False  # append the slope estimate to the paper's 14-d state
-    config.observe_phase = False  # append (cos ψ, sin ψ) of the oscillator
-    # s: time constant of a first-order low-pass filter between the action and the controller,
-    # run at every physics substep; 0 = the paper's literal, instantaneous parameter change.
-    # A trot topples under per-step action noise of std 0.06 (79 % of robots in 10 s) but not
-    # behind a 0.25-s filter (2 %) — SAC explores with such noise (experiments/noise_tolerance). When
-    # > 0 the filtered action is appended to the observation (it is part of the state).
-    config.action_filter_tau = 0.25
-    config.reset_joint_noise = 0.02  # rad: uniform noise on the initial joint angles
-    # m: reset spawns each robot at x ~ U(0, spawn_x_max) (y = 0) instead of the spawn point, so
-    # that training sees a whole course, not only what its robots reach within an episode.
-    # Training's auto-reset returns each env to its own first spawn. Evaluation always starts at
-    # the spawn point (quadcos.evaluate sets 0).
-    config.spawn_x_max = 0.0
-    config.fall_min_height = 0.35  # m: torso centre above the ground below it
-    config.fall_max_roll = 0.8  # rad
-    config.fall_max_pitch_error = 0.8  # rad: |pitch − true slope|
-    # Domain randomisation (friction, torso mass and CoM, servo gain, damping, motor strength,
-    # latency, pushes), off by default: quadcos.randomization.
-    config.randomization = randomization.default_config()
-    return config
 
 
 class QuadrupedEnv(base.Env):
@@ -258,6 +202,7 @@ class QuadrupedEnv(base.Env):
             moving=self._moving(mean_speed),
             weights=self.weights,
             variant=self.config.reward_variant,
+            max_progress=max_progress(self.config, self.dt),
         )
         metrics = {f"reward/{name}": value for name, value in terms.items()}
         metrics |= {
@@ -412,76 +357,7 @@ class QuadrupedEnv(base.Env):
 
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
-_POSTURE_BOUND_MAX = 0.7  # rad: a hip offset plus §3.3's hip swing (≤ 0.5) stays in ±1.2 rad
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
-
-
-def action_size(config: ml_collections.ConfigDict) -> int:
-    """Values in an action of an env with this config."""
-    if config.controller == "joint":
-        return len(constants.JOINTS)
-    return 5 + (oscillator.POSTURE_SIZE if config.posture_bound > 0 else 0)
-
-
-def validate_config(config: ml_collections.ConfigDict) -> None:
-    """Raises ValueError naming the first env config value the env cannot run with."""
-    if config.impl not in backends.IMPLS:
-        raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
-    for key in ("max_envs", "contacts_per_env", "constraints_per_env"):
-        value = config.warp[key]
-        if not (isinstance(value, int) and value >= 1):
-            raise ValueError(f"warp.{key} must be a whole number >= 1; got {value!r}")
-    if config.warp.max_envs * config.warp.contacts_per_env >= 2**31:  # Warp indexes with int32
-        raise ValueError(
-            "warp.max_envs × warp.contacts_per_env must be < 2**31; got"
-            f" {config.warp.max_envs} × {config.warp.contacts_per_env}"
-        )
-    if config.controller not in CONTROLLERS:
-        raise ValueError(
-            f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}"
-        )
-    if config.oscillator_form not in OSCILLATOR_FORMS:
-        raise ValueError(
-            f"unknown oscillator_form {config.oscillator_form!r}; known: {', '.join(OSCILLATOR_FORMS)}"
-        )
-    if config.action_centre != oscillator.SEARCH_CENTRE:
-        oscillator.action_centre(config.action_centre, config.period_min)
-    randomization.validate(config.randomization)
-    if config.reward_variant not in reward.VARIANTS:
-        raise ValueError(
-            f"unknown reward_variant {config.reward_variant!r}; known: {', '.join(reward.VARIANTS)}"
-        )
-    if not (0 < config.physics_dt < math.inf and 0 < config.control_dt < math.inf):
-        raise ValueError(
-            f"control_dt and physics_dt must be finite and > 0; got {config.control_dt}, {config.physics_dt}"
-        )
-    ratio = config.control_dt / config.physics_dt
-    if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
-        raise ValueError(
-            f"control_dt {config.control_dt} must be a whole multiple of physics_dt {config.physics_dt}"
-        )
-    if not config.action_filter_tau >= 0:
-        raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")
-    if not 0.0 <= config.survival_min_speed < math.inf:
-        raise ValueError(
-            f"survival_min_speed must be finite and >= 0 m/s; got {config.survival_min_speed}"
-        )
-    if not 0.0 <= config.survival_speed_tau < math.inf:
-        raise ValueError(
-            f"survival_speed_tau must be finite and >= 0 s; got {config.survival_speed_tau}"
-        )
-    if not 0.0 <= config.spawn_x_max < math.inf:
-        raise ValueError(f"spawn_x_max must be finite and >= 0 m; got {config.spawn_x_max}")
-    if not 0.0 <= config.posture_bound <= _POSTURE_BOUND_MAX:
-        raise ValueError(
-            f"posture_bound must be in [0, {_POSTURE_BOUND_MAX}] rad; got {config.posture_bound}"
-        )
-    if config.posture_bound > 0 and config.controller != "oscillator":
-        raise ValueError("posture_bound > 0 needs controller='oscillator' (it offsets the rhythm)")
-    if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
-        raise ValueError(
-            f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"
-        )
 
 
 def make_env(terrain: terrain_lib.Terrain | str | None = None, **overrides: Any) -> QuadrupedEnv:

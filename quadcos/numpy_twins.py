@@ -129,6 +129,7 @@ def reward_terms(
     moving: bool,
     weights: reward.RewardWeights,
     variant: str,
+    max_progress: float = np.inf,
 ) -> dict[str, float]:
     """`reward.reward_terms` (Eqs. 8–13), each term weighted by α (fell) or β (alive)."""
     alpha = float(fell)
@@ -142,7 +143,7 @@ def reward_terms(
     return {
         "fall": alpha * weights.fall_penalty,
         "survival": walking * (weights.survival if moving else 0.0),
-        "forward": beta * weights.forward * (x_now - x_last),
+        "forward": beta * weights.forward * min(x_now - x_last, max_progress),
         "lateral": beta * -weights.lateral * abs(y_now - y_last),
         "orientation": walking * orientation,
     }

@@ -42,10 +42,15 @@ def survival(weights: RewardWeights, moving: jnp.ndarray = True) -> jnp.ndarray:
 
 
 def forward_progress(
-    x_now: jnp.ndarray, x_last: jnp.ndarray, weights: RewardWeights
+    x_now: jnp.ndarray,
+    x_last: jnp.ndarray,
+    weights: RewardWeights,
+    max_progress: float = jnp.inf,
 ) -> jnp.ndarray:
-    """Eq. 10 (the paper's r_y): w1 (x_now − x_last), metres along the walking direction."""
-    return weights.forward * (x_now - x_last)
+    """Eq. 10 (the paper's r_y): w1 (x_now − x_last), metres along the walking direction; with a
+    finite `max_progress` (m, an extension: the env's `forward_speed_cap` × dt) progress beyond it
+    earns nothing more."""
+    return weights.forward * jnp.minimum(x_now - x_last, max_progress)
 
 
 def lateral_drift(y_now: jnp.ndarray, y_last: jnp.ndarray, weights: RewardWeights) -> jnp.ndarray:
@@ -82,9 +87,10 @@ def reward_terms(
     moving: jnp.ndarray = True,
     weights: RewardWeights = RewardWeights(),
     variant: str = "full",
+    max_progress: float = jnp.inf,
 ) -> dict[str, jnp.ndarray]:
     """Eq. 13's terms, each weighted by α or β; their sum is the step reward. `moving`: whether
-    this step earns Eq. 9's r_s (see `survival`).
+    this step earns Eq. 9's r_s (see `survival`); `max_progress`: see `forward_progress`.
 
     variant "full" is Eq. 13. variant "xy" is Fig. 9's r_xy: only r_y + r_x while walking (no r_s,
     no r_o); a fall still gives r_p and ends the episode, as in the full reward.
@@ -100,7 +106,7 @@ def reward_terms(
     return {
         "fall": alpha * fall_penalty(weights),
         "survival": walking * survival(weights, moving),
-        "forward": beta * forward_progress(x_now, x_last, weights),
+        "forward": beta * forward_progress(x_now, x_last, weights, max_progress),
         "lateral": beta * lateral_drift(y_now, y_last, weights),
         "orientation": walking * orientation(pitch, yaw, roll, slope, weights),
     }

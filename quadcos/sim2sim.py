@@ -199,6 +199,7 @@ class HostRobot:
             moving=self._moving(self.mean_speed),
             weights=self.weights,
             variant=self.config.reward_variant,
+            max_progress=env_lib.max_progress(self.config, self.dt),
         )
         return StepResult(obs, body, slope_estimate, slope_truth, forward_speed, terms, fell)
 

@@ -17,6 +17,7 @@ SLOPE5 = HERE.parent / "slope5" / "slope5_spawn_s0"
 SCRATCH = HERE.parent / "from_scratch" / "gpu"
 SCREEN = HERE / "screen14"
 BEST = HERE / "best_obs"
+POSTURE = HERE / "posture"
 TESTSET = "testset:2026"
 # label -> (directory of the named-course JSONs, their file prefix, the test-set JSON); named
 # courses: eval_PREFIX_{slope5,s4,flat}.json
@@ -53,6 +54,12 @@ POLICIES = {
         )
         for seed, suffix in ((0, ""), (1, "_s1"))
     },
+    "session 14: obs + posture (hip offsets), best policy kept, alone for 870 s, s0": (
+        POSTURE / "posture_s0", "posture_s0", POSTURE / "posture_s0" / "eval_posture_s0_testset.json"
+    ),
+    "the same, its last policy": (
+        None, None, POSTURE / "posture_s0" / "eval_posture_s0_last_testset.json"
+    ),
 }
 
 
