@@ -49,7 +49,7 @@ POLICIES = {
     ),
     **{
         f"session 13: obs, best policy kept, alone for 600 s, s{seed}"
-        + (" (policies/any_slope)" if seed == 0 else ""): (
+        + (" (policies/any_slope until session 14)" if seed == 0 else ""): (
             BEST, f"any_obs_best{suffix}", BEST / f"eval_any_obs_best{suffix}_testset.json"
         )
         for seed, suffix in ((0, ""), (1, "_s1"))
@@ -59,6 +59,12 @@ POLICIES = {
     ),
     "the same, its last policy": (
         None, None, POSTURE / "posture_s0" / "eval_posture_s0_last_testset.json"
+    ),
+    "session 14: obs + posture + r_y paid up to 0.8 m/s, best policy kept, 870 s, s0 (policies/any_slope)": (
+        POSTURE / "posture_cap_s0", "posture_cap_s0", POSTURE / "posture_cap_s0" / "eval_posture_cap_s0_testset.json"
+    ),
+    "the same, its last policy ": (
+        None, None, POSTURE / "posture_cap_s0" / "eval_posture_cap_s0_last_testset.json"
     ),
 }
 
