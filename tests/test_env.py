@@ -212,6 +212,9 @@ def test_estimator_on_ramps_within_one_degree():
         ({"control_dt": 0.052}, "whole multiple of physics_dt"),
         ({"action_filter_tau": -0.1}, "action_filter_tau must be >= 0"),
         ({"spawn_x_max": -1.0}, "spawn_x_max must be finite and >= 0"),
+        ({"posture_bound": 0.8}, r"posture_bound must be in \[0, 0.7\]"),
+        ({"posture_bound": 0.3, "controller": "joint"}, "posture_bound > 0 needs controller"),
+        ({"forward_speed_cap": -1.0}, "forward_speed_cap must be finite and >= 0"),
         ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
     ],
 )
@@ -260,3 +263,22 @@ def test_mjcf_that_fails_to_compile_is_named(tmp_path):
     bad.write_text(text)
     with pytest.raises(ValueError, match="negative_mass.xml"):
         quadcos.make_env("flat", mjcf_path=str(bad))
+
+
+def test_posture_adds_front_and_hind_hip_offsets_to_the_rhythm(flat_env):
+    posed = quadcos.make_env("flat", posture_bound=0.4)
+    assert posed.action_size == 7
+    assert posed.observation_size == flat_env.observation_size + 2  # its command has 7 values
+    np.testing.assert_allclose(posed.action_for(oscillator.FIXED_TROT), np.zeros(7), atol=1e-6)
+    action = jnp.array([0.3, -0.2, 0.1, 0.5, -0.4, 1.0, -0.5])
+    offsets = posed.joint_targets(action, 1.0, 0.0) - flat_env.joint_targets(action[:5], 1.0, 0.0)
+    np.testing.assert_allclose(offsets, [0.4, 0, 0.4, 0, -0.2, 0, -0.2, 0], atol=1e-6)
+    assert posed.rhythm_parameters(action) == flat_env.rhythm_parameters(action[:5])
+
+
+def test_the_speed_cap_limits_what_a_step_of_progress_pays():
+    from quadcos import env as env_lib
+
+    capped = quadcos.make_env("flat", forward_speed_cap=0.8).config
+    assert env_lib.max_progress(capped, 0.05) == pytest.approx(0.04)
+    assert env_lib.max_progress(env_lib.default_config(), 0.05) == float("inf")

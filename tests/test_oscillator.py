@@ -160,3 +160,12 @@ def test_centre_on_a_bound_is_refused():
         oscillator.action_to_parameters(
             np.zeros(5), centre=oscillator.RhythmParameters(0.5, 0.1, 1.0, 0.0, 0.0)
         )
+
+
+def test_posture_offsets_move_the_front_and_hind_hips_only():
+    offsets = oscillator.posture_offsets(np.array([0.5, -1.5]), 0.6)  # -1.5 is clipped to -1
+    np.testing.assert_allclose(offsets, [0.3, 0, 0.3, 0, -0.6, 0, -0.6, 0], atol=1e-6)
+    batch = oscillator.posture_offsets(np.ones((3, 2)), 0.2)
+    assert batch.shape == (3, 8)
+    np.testing.assert_allclose(batch[:, 0::2], 0.2, atol=1e-7)  # every hip
+    np.testing.assert_allclose(batch[:, 1::2], 0.0)  # no knee

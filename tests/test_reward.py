@@ -76,3 +76,15 @@ def test_survival_only_for_steps_of_movement():
 
 def test_term_names_are_the_keys_of_reward_terms_in_order():
     assert tuple(reward.reward_terms(**WALK, fell=False)) == reward.TERM_NAMES
+
+
+def test_progress_beyond_the_cap_earns_nothing_more():
+    # WALK moves 0.01 m in the step; a cap of 0.004 m pays for 0.004 m, slower steps in full.
+    capped = reward.reward_terms(**WALK, fell=False, max_progress=0.004)
+    assert float(capped["forward"]) == pytest.approx(150 * 0.004)
+    slow = reward.reward_terms(**{**WALK, "x_now": 1.002}, fell=False, max_progress=0.004)
+    assert float(slow["forward"]) == pytest.approx(150 * 0.002)
+    back = reward.reward_terms(**{**WALK, "x_now": 0.99}, fell=False, max_progress=0.004)
+    assert float(back["forward"]) == pytest.approx(-150 * 0.01)
+    uncapped = reward.reward_terms(**WALK, fell=False)
+    assert float(uncapped["forward"]) == pytest.approx(150 * 0.01)

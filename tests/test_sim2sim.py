@@ -39,6 +39,10 @@ def test_oscillator_twins(centre):
         assert twins.advance_phase(phase, params.period, 0.005) == pytest.approx(
             float(oscillator.advance_phase(phase, params.period, 0.005)), abs=1e-5
         )
+        posture = RNG.uniform(-1.3, 1.3, 2)
+        np.testing.assert_allclose(
+            twins.posture_offsets(posture, 0.6), oscillator.posture_offsets(posture, 0.6), atol=1e-6
+        )
 
 
 def test_slope_twins():
@@ -68,11 +72,15 @@ def test_terrain_twins(ground):
 
 @pytest.mark.parametrize("variant", reward.VARIANTS)
 @pytest.mark.parametrize("fell", [False, True])
-def test_reward_twin(variant, fell):
+@pytest.mark.parametrize("max_progress", [np.inf, 0.01])
+def test_reward_twin(variant, fell, max_progress):
     x, y, angles = RNG.normal(size=4), RNG.normal(size=2), RNG.normal(size=4) * 0.2
     body = slope.Attitude(roll=angles[0], pitch=angles[1], yaw=angles[2])
     weights = reward.RewardWeights()
-    common = dict(x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=fell, moving=False)
+    common = dict(
+        x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=fell, moving=False,
+        max_progress=max_progress,
+    )
     host = twins.reward_terms(
         **common, body=body, slope_estimate=angles[3], weights=weights, variant=variant
     )
@@ -225,3 +233,19 @@ def test_evaluate_cli_runs_c_mujoco_with_engine_mujoco(tmp_path, capsys):
     assert result["setup"]["engine"] == "mujoco" and result["num_episodes"] == 2
     assert "in C MuJoCo: success 1.000" in capsys.readouterr().out
     assert evaluate.main([*argv, "--trace=t.json"]) == 2
+
+
+def test_posture_offsets_the_host_robots_hips():
+    posed = sim2sim.HostRobot("flat", sim2sim.env_config({"posture_bound": 0.4}))
+    plain = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    assert posed.action_size == 7
+    posed.reset(0)
+    plain.reset(0)
+    posed.command = np.r_[np.full(5, 0.2), 0.5, -1.0]
+    plain.command = np.full(5, 0.2)
+    offsets = posed._joint_targets(posed.rhythm_parameters()) - plain._joint_targets(
+        plain.rhythm_parameters()
+    )
+    np.testing.assert_allclose(offsets, [0.2, 0, 0.2, 0, -0.4, 0, -0.4, 0], atol=1e-12)
+    result = posed.step(np.r_[np.zeros(5), 1.0, 1.0])  # a step in C MuJoCo takes 7 values
+    assert result.obs.shape == (14 + 7,)
