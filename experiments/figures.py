@@ -46,7 +46,8 @@ def main() -> None:
         "any_slope": HERE / "any_slope",
         "scratch_any": HERE / "any_slope" / "scratch_any_s0",  # policies/any_slope until session 12
         "scratch_any_long": HERE / "any_slope" / "scratch_any_long_s0",
-        "any_obs_best": HERE / "any_slope" / "best_obs" / "any_obs_best_s0",  # policies/any_slope
+        "any_obs_best": HERE / "any_slope" / "best_obs" / "any_obs_best_s0",  # until session 14
+        "posture_cap_s0": HERE / "any_slope" / "posture" / "posture_cap_s0",  # policies/any_slope
     }
     for name, run in runs.items():
         for course in ("slope5", "s4"):
