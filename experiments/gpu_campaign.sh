@@ -10,7 +10,9 @@
 # Session 14 (PHASES=posture, then PHASES=posture_cap; POSTURE_SEEDS="0"; issue 14): the best_obs
 # learner with env.posture_bound=0.6 (front and hind hip offsets in the action), 870 s from process
 # start, alone on the GPU; posture_cap also with env.forward_speed_cap=0.8 (r_y pays up to 0.8 m/s);
-# policy_best on the test set, slope5, S-4, flat and the 11° descent.
+# policy_best on the test set, slope5, S-4, flat and the 11° descent. Then (PHASES=more_testsets,
+# GENERALIST_POLICY=a copy of experiments/policies/any_slope outside experiments/, which
+# gpu_tree.sh slim keeps home) the generalist on two more held-out test sets, seeds 2027 and 4242.
 # Session 13, third lease (PHASES=joint20; issue 13 §5): the DRL-only joint controller with the
 # same learner for the scratch preset's new budget, 20 M env steps, seeds 0-2 side by side.
 # Session 13, second lease (PHASES="scratch_best best_obs_s1"): --preset=scratch as it now is
@@ -233,6 +235,16 @@ for phase_seed in $(for p in posture posture_cap; do for s in ${POSTURE_SEEDS:-0
   evaluate $P $P/runs/$phase/policy ${phase}_last_testset testset:2026 4288 40
   pack $phase
 done
+
+if [[ " $PHASES " == *" more_testsets "* ]]; then  # issue 14: the generalist on two more test sets
+  M=$C/more_testsets
+  mkdir -p $M
+  policy=${GENERALIST_POLICY:-experiments/policies/any_slope}
+  for seed in 2027 4242; do
+    evaluate $M $policy any_slope_testset$seed testset:$seed 4288 40
+  done
+  pack more_testsets
+fi
 
 if [[ " $PHASES " == *" probe "* ]]; then
   P=$C/probe
