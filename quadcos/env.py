@@ -224,13 +224,13 @@ class QuadrupedEnv(base.Env):
         """The (..., action_size) action that commands rhythm parameters `params` in this env (no
         posture offset)."""
         action = oscillator.parameters_to_action(params, self.config.period_min, self.action_centre)
-        padding = [(0, 0)] * (action.ndim - 1) + [(0, self.action_size - 5)]
+        padding = [(0, 0)] * (action.ndim - 1) + [(0, self.action_size - oscillator.RHYTHM_SIZE)]
         return jnp.pad(action, padding)
 
     def rhythm_parameters(self, action: jax.Array) -> oscillator.RhythmParameters:
         """The rhythm parameters (§3.3) that the oscillator controller's `action` sets."""
         return oscillator.action_to_parameters(
-            action[..., :5], self.config.period_min, self.action_centre
+            action[..., : oscillator.RHYTHM_SIZE], self.config.period_min, self.action_centre
         )
 
     # --- pieces of a step ---------------------------------------------------------------------
@@ -250,7 +250,9 @@ class QuadrupedEnv(base.Env):
                 phase, params.amplitude_hip, params.amplitude_knee, phases
             )
         if self.config.posture_bound > 0:
-            targets += oscillator.posture_offsets(action[..., 5:], self.config.posture_bound)
+            targets += oscillator.posture_offsets(
+                action[..., oscillator.RHYTHM_SIZE :], self.config.posture_bound
+            )
         return targets
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:

@@ -88,7 +88,7 @@ def action_size(config: ml_collections.ConfigDict) -> int:
     """Values in an action of an env with this config."""
     if config.controller == "joint":
         return len(constants.JOINTS)
-    return 5 + (oscillator.POSTURE_SIZE if config.posture_bound > 0 else 0)
+    return oscillator.RHYTHM_SIZE + (oscillator.POSTURE_SIZE if config.posture_bound > 0 else 0)
 
 
 def validate_config(config: ml_collections.ConfigDict) -> None:

@@ -189,6 +189,7 @@ def parameters_to_action(
 # steep descent (the feet ahead of the centre of mass) then has to come from amplitudes, period and
 # phases alone (experiments/any_slope/downhill11). Two more action values shift the front hips (LF,
 # RF) and the hind hips (LB, RB) by up to ± the bound.
+RHYTHM_SIZE = len(RhythmParameters._fields)  # the values of §3.3's action
 POSTURE_SIZE = 2
 _FRONT_HIPS = np.array([1.0, 0, 1.0, 0, 0, 0, 0, 0])
 _HIND_HIPS = np.array([0, 0, 0, 0, 1.0, 0, 1.0, 0])

@@ -163,7 +163,7 @@ class HostRobot:
         if self.config.controller != "oscillator":
             return None
         return twins.action_to_parameters(
-            self.command[:5], self.config.period_min, self.action_centre
+            self.command[: oscillator.RHYTHM_SIZE], self.config.period_min, self.action_centre
         )
 
     def step(self, action: np.ndarray) -> StepResult:
@@ -218,7 +218,9 @@ class HostRobot:
         phases = twins.trot_phases(params.phi1, params.phi3)
         targets = twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
         if self.config.posture_bound > 0:
-            targets += twins.posture_offsets(self.command[5:], self.config.posture_bound)
+            targets += twins.posture_offsets(
+                self.command[oscillator.RHYTHM_SIZE :], self.config.posture_bound
+            )
         return targets
 
     def _observe(self) -> tuple[np.ndarray, slope.Attitude, float]:
