@@ -1,9 +1,10 @@
-"""Draws every experiment's figures (PNG) from the committed traces and metrics.
+"""Draws every experiment's figures (PNG) from training metrics and evaluation traces.
 
     python experiments/figures.py
 
-Inputs are the files `python -m quadcos.evaluate --trace` and `python -m quadcos.train` wrote
-(see each experiment's README); outputs go next to them.
+Inputs: the committed `metrics.jsonl` of the runs, and the traces that each experiment's
+evaluation command writes with `--trace` (traces are not committed: rerun the commands in the
+experiment's README first). Outputs go next to them.
 """
 
 import sys
@@ -40,23 +41,13 @@ def main() -> None:
         plots.plot_attitude(trace, title=f"{course}: attitude", path=slope5 / f"{course}_attitude.png")
         plots.plot_controller(trace, title=f"{course}: controller outputs (Figs. {figs})",
                               path=slope5 / f"{course}_controller.png")
-    runs = {
-        "slope5_s0": slope5 / "slope5_s0",  # the earlier policies/slope5 (trot start, no spawns)
-        "slope5_spawn": slope5 / "slope5_spawn_s0",
-        "any_slope": HERE / "any_slope",
-        "scratch_any": HERE / "any_slope" / "scratch_any_s0",  # policies/any_slope until session 12
-        "scratch_any_long": HERE / "any_slope" / "scratch_any_long_s0",
-        "any_obs_best": HERE / "any_slope" / "best_obs" / "any_obs_best_s0",  # until session 14
-        "posture_cap_s0": HERE / "any_slope" / "posture" / "posture_cap_s0",  # policies/any_slope
-    }
-    for name, run in runs.items():
-        for course in ("slope5", "s4"):
-            trace = run / f"trace_{name}_{course}.json"
-            label = f"{name} on {course}"
-            plots.plot_cog(trace, title=f"{label}: CoG", path=run / f"{course}_cog.png")
-            plots.plot_attitude(trace, title=f"{label}: attitude", path=run / f"{course}_attitude.png")
-            plots.plot_controller(trace, title=f"{label}: controller outputs",
-                                  path=run / f"{course}_controller.png")
+    run = HERE / "any_slope" / "posture" / "posture_cap_s0"  # policies/any_slope
+    for course in ("slope5", "s4"):
+        trace = run / f"trace_posture_cap_s0_{course}.json"
+        label = f"any_slope on {course}"
+        plots.plot_cog(trace, title=f"{label}: CoG", path=run / f"{course}_cog.png")
+        plots.plot_attitude(trace, title=f"{label}: attitude", path=run / f"{course}_attitude.png")
+        plots.plot_controller(trace, title=f"{label}: controller outputs", path=run / f"{course}_controller.png")
     plots.plot_cog(fixed / "trace_slope5.json", title="best fixed parameters on slope5 (Fig. 15)",
                    path=fixed / "fig15_cog.png")
     plots.plot_attitude(fixed / "trace_slope5.json", title="best fixed parameters on slope5: attitude",

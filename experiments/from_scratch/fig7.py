@@ -5,7 +5,7 @@ then SAC for 20 M env steps, 3 seeds, each alone on an H100) beside the trot-sta
     python experiments/from_scratch/fig7.py     # -> fig7_from_scratch.png, fig7_summary.json
 
 and prints a Markdown table of the final policies' 1024-episode evaluations (gpu/**/eval_*.json,
-some gzipped, made with `quadcos.evaluate`) beside the trot-start policies' (../flat/eval_flat*.json).
+summaries written by `quadcos.evaluate`) beside the trot-start policies' (../flat/eval_flat*.json).
 
 A run's curve starts with its gait search: one point per search round (the best candidate's
 5-s episodes, and the fraction of all candidates' robots that fell), then SAC's evaluations
@@ -19,30 +19,30 @@ import re
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-# `--preset=scratch` as it is (session 13): clock from process start, s0 the lease's cold first run.
+# `--preset=scratch`: clock from process start; s0 ran first on a cold machine.
 RUNS = {f"scratch s{seed}": HERE / "gpu" / "scratch_best" / f"scratch_best_s{seed}" for seed in range(3)}
 ABLATIONS = {
     "full 5-D box s0 (10 M)": HERE / "gpu" / "scratch_full_box_s0",
     "r_s alive s0": HERE / "gpu" / "scratch_alive_s0",
     # §5's DRL-only (joint targets) with the same learner less the search, 20 M env steps (the
-    # three seeds shared one GPU; the 10 M-step runs of sessions 6 and 9: ../drl_only/joint_scratch_s*).
+    # three seeds shared one GPU; the 10 M-step runs: ../drl_only/joint_scratch_s*).
     **{f"DRL-only s{seed}": HERE.parent / "drl_only" / f"joint20_s{seed}" for seed in range(3)},
 }
 TROT_START = {f"trot start s{seed}": HERE.parent / "flat" / f"flat_s{seed}" for seed in range(3)}
 EVALUATIONS = {
     **{
-        f"scratch s{seed}, 20 M, {which} policy (session 13)": HERE
+        f"scratch s{seed}, 20 M, {which} policy": HERE
         / "gpu"
         / "scratch_best"
-        / f"eval_scratch_best_s{seed}_{which}.json.gz"
+        / f"eval_scratch_best_s{seed}_{which}.json"
         for seed in range(3)
         for which in ("last", "best")
     },
     **{
-        f"scratch s{seed}, 20 M, no best kept (session 13)": HERE
+        f"scratch s{seed}, 20 M, no best kept": HERE
         / "gpu"
         / "scratch20"
-        / f"eval_scratch20_s{seed}.json.gz"
+        / f"eval_scratch20_s{seed}.json"
         for seed in range(3)
     },
     "scratch s0, 10 M (GPU, Warp)": HERE / "gpu" / "eval_scratch_s0_rerun.json",

@@ -2,9 +2,9 @@
 # Learning from nothing at `make train` scale (2 CPU cores, --preset=cpu's 32 envs), Eq. 9's r_s
 # paid only for steps of movement (low-passed forward speed >= 0.1 m/s), with one of two learners:
 #   LEARNER=midpoint (default): the zero action stands still (midpoint action centre), Brax's SAC
-#     exploration (sessions 2-4: every run stood);
+#     exploration (every such run stood);
 #   LEARNER=search: --preset=scratch's gait search for the action centre (256 candidates instead
-#     of the GPU's 2048), then SAC from it as the trot start does (session 13: cpu_search_s0).
+#     of the GPU's 2048), then SAC from it as the trot start does (cpu_search_s0).
 # TRAIN_SECONDS caps the wall time (SIGTERM: checkpoint and policy saved; the issue allows 15 min).
 # Usage, from the repo root with .venv: [LEARNER=...] [TRAIN_SECONDS=...] run_cpu.sh NAME [more train flags]
 set -uo pipefail

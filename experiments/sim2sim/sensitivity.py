@@ -27,7 +27,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=128)
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
-    pilot = sim2sim.load_pilot("experiments/slope5/slope5_s0/policy")  # policies/slope5 of its time
+    pilot = sim2sim.load_pilot("experiments/policies/slope5_trot")
     rows = {}
     for name, (overrides, terrain) in VARIANTS.items():
         config = config_lib.apply_overrides(pilot.config, overrides)

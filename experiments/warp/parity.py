@@ -12,7 +12,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 POLICIES = Path(__file__).resolve().parent.parent / "policies"
-CASES = {"flat": ("flat", 20.0), "slope5": ("slope5", 40.0)}  # policy -> (terrain, seconds)
+CASES = {"flat": ("flat", 20.0), "slope5_trot": ("slope5", 40.0)}  # policy -> (terrain, seconds)
 IMPLS = ("jax", "warp")
 SUCCESS_TOLERANCE = 0.02  # the bounds
 SPEED_TOLERANCE = 0.03

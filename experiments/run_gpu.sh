@@ -1,0 +1,133 @@
+#!/usr/bin/env bash
+# Runs one experiment on a GPU machine, from the repository root:
+#   bash experiments/run_gpu.sh EXPERIMENT
+# EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
+#   fixed_params | warp | scaling | bench_slope5 (scaling needs 2 GPUs).
+# Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
+# metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
+# and traces, status (one line per step). Copy the summaries into experiments/EXPERIMENT.
+# SEEDS overrides the seeds (default "0 1 2"; any_slope: "0"). Each training run is capped by the
+# wall time given below (SIGTERM: the trainer checkpoints, saves its policy and stops).
+set -uo pipefail
+experiment=${1:?usage: run_gpu.sh EXPERIMENT}
+source experiments/gpu_setup.sh || exit 1
+export OUT=${OUT:-/tmp/quadcos_out}/$experiment
+mkdir -p "$OUT"
+note() { echo "$(date +%T) $*" | tee -a "$OUT/status"; }
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$OUT/gpu.txt"
+python3 -c "import jax, mujoco; print(jax.__version__, mujoco.__version__, jax.devices())" >> "$OUT/gpu.txt" 2>&1
+
+train() {  # SECONDS NAME [train flags]: one training run (experiments/train_gpu.sh)
+  local seconds=$1 name=$2; shift 2
+  TRAIN_SECONDS=$seconds bash experiments/train_gpu.sh "$name" "$@"
+  note "$name trained: $(tail -n 1 "$OUT/runs/$name/train.log")"
+  [ -d "/tmp/quadcos_runs/$name/policy_best" ] && cp -r "/tmp/quadcos_runs/$name/policy_best" "$OUT/runs/$name/"
+}
+evaluate() {  # POLICY NAME TERRAIN NUM_ENVS SECONDS [more flags]: eval_NAME.json and .log
+  local policy=$1 name=$2 terrain=$3 n=$4 secs=$5; shift 5
+  python3 -m quadcos.evaluate --no_progress --num_envs="$n" --policy="$policy" --terrain="$terrain" \
+    --seconds="$secs" --out="$OUT/eval_$name.json" "$@" > "$OUT/eval_$name.log" 2>&1
+  note "eval $name: exit $? $(tail -n 1 "$OUT/eval_$name.log")"
+}
+SCRATCH=(--config.env.action_centre=search --config.env.survival_min_speed=0.1)  # = --preset=scratch
+SLOPE5_COURSE=("--terrain=sections:5@3,0@3,-5@3;run_out=10" --config.sac.episode_length=400)
+GENERALIST=("--terrain=random:max_deg=12,sections=3-5,len=1-3,seed=0" --config.sac.episode_length=400
+  --config.env.spawn_x_max=20 --config.sac.gait_search.num_candidates=1024
+  --config.sac.gait_search.robots_per_candidate=4 --config.sac.eval_interval=10000000
+  --config.sac.num_timesteps=400000000 "${SCRATCH[@]}" --config.env.observe_slope=True
+  --config.env.observe_phase=True --config.sac.keep_best_policy=True --config.env.posture_bound=0.6)
+
+case $experiment in
+flat)  # Figs. 7-8: the trot start, --preset=gpu, 10 M env steps
+  for s in ${SEEDS:-0 1 2}; do
+    train 200 flat_s$s --terrain=flat --seed=$s
+    evaluate "$OUT/runs/flat_s$s/policy" flat_s$s flat 1024 20 --trace="$OUT/trace_flat_s$s.json"
+  done ;;
+reward_xy)  # Fig. 9: r_xy = r_x + r_y only
+  train 200 xy_s0 --terrain=flat --reward=xy --seed=0
+  evaluate "$OUT/runs/xy_s0/policy" xy_s0 flat 1024 20 --trace="$OUT/trace_xy_s0.json" ;;
+drl_only)  # §5: SAC on the 8 joint targets; trot-start settings, then the from-scratch learner at 20 M
+  train 230 joint_s0 --terrain=flat --controller=joint --seed=0
+  evaluate "$OUT/runs/joint_s0/policy" joint_s0 flat 1024 20
+  for s in ${SEEDS:-0 1 2}; do  # the three runs share the GPU
+    XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 train 420 joint20_s$s --terrain=flat --seed=$s --controller=joint \
+      --config.env.survival_min_speed=0.1 --config.sac.eval_interval=1000000 --num_timesteps=20000000 &
+  done
+  wait
+  for s in ${SEEDS:-0 1 2}; do evaluate "$OUT/runs/joint20_s$s/policy" joint20_s$s flat 256 20; done ;;
+from_scratch)  # Fig. 7 from scratch: --preset=scratch (gait search, then SAC, 20 M env steps)
+  for s in ${SEEDS:-0 1 2}; do
+    train 330 scratch_best_s$s --preset=scratch --terrain=flat --seed=$s
+    evaluate "$OUT/runs/scratch_best_s$s/policy" scratch_best_s${s}_last flat 1024 20
+    evaluate "$OUT/runs/scratch_best_s$s/policy_best" scratch_best_s${s}_best flat 1024 20
+  done ;;
+slope5)  # Figs. 11-19: slope5 from scratch, robots spawned along the course
+  for s in ${SEEDS:-0 1 2}; do
+    name=scratch_slope5_s$s
+    train 480 $name "${SLOPE5_COURSE[@]}" --config.env.spawn_x_max=10 --seed=$s "${SCRATCH[@]}" \
+      --config.sac.eval_interval=1000000
+    evaluate "$OUT/runs/$name/policy" ${name}_slope5 slope5 1024 40 --trace="$OUT/trace_${name}_slope5.json"
+    evaluate "$OUT/runs/$name/policy" ${name}_s4 s4 1024 30 --trace="$OUT/trace_${name}_s4.json"
+    evaluate "$OUT/runs/$name/policy" ${name}_testset testset:2026 4288 40
+    evaluate "$OUT/runs/$name/policy" ${name}_flat flat 1024 10
+  done ;;
+any_slope)  # one policy for any slope: hip offsets, with and without the r_y cap, 870 s each
+  for s in ${SEEDS:-0}; do
+    for variant in posture_cap posture; do
+      name=${variant}_s$s extra=()
+      [ $variant = posture_cap ] && extra=(--config.env.forward_speed_cap=0.8)
+      train 870 $name "${GENERALIST[@]}" "${extra[@]}" --seed=$s
+      best=$OUT/runs/$name/policy_best
+      evaluate "$best" ${name}_testset testset:2026 4288 40
+      evaluate "$best" ${name}_slope5 slope5 1024 40 --trace="$OUT/trace_${name}_slope5.json"
+      evaluate "$best" ${name}_s4 s4 1024 30 --trace="$OUT/trace_${name}_s4.json"
+      evaluate "$best" ${name}_flat flat 1024 10
+      evaluate "$best" ${name}_down11 "sections:0@1,-11@4,0@2" 1024 20
+      evaluate "$OUT/runs/$name/policy" ${name}_last_testset testset:2026 4288 40
+    done
+  done
+  for seed in 2027 4242; do
+    evaluate experiments/policies/any_slope any_slope_testset$seed testset:$seed 4288 40
+  done ;;
+robustness)  # trained with domain randomisation vs without, under fixed perturbations
+  train 330 flat_randomized_s0 --terrain=flat --seed=0 --config.env.impl=jax \
+    --config.env.randomization.enabled=True
+  python3 experiments/robustness/measure.py --policy="$OUT/runs/flat_randomized_s0/policy" \
+    --num_envs=1024 --out="$OUT/flat_trained_with.json" > "$OUT/flat_trained_with.log" 2>&1
+  python3 experiments/robustness/measure.py --policy=experiments/policies/flat --num_envs=1024 \
+    --out="$OUT/flat_trained_without.json" > "$OUT/flat_trained_without.log" 2>&1
+  python3 experiments/robustness/measure.py --table "$OUT/flat_trained_without.json" "$OUT/flat_trained_with.json" ;;
+fixed_params)  # Fig. 15: the search for the best fixed parameters, and FIXED_TROT
+  python3 -m quadcos.evaluate --no_progress --search_fixed --terrain=flat --num_candidates=512 \
+    --robots_per_candidate=8 --rounds=3 --seconds=25 --out="$OUT/fixed_search_flat.json"
+  best=fixed:0.415688,0.13653,0.539947,1.63701,-1.50056
+  evaluate $best flat flat 1024 20 --trace="$OUT/trace_flat.json"
+  evaluate $best slope5 slope5 1024 40 --trace="$OUT/trace_slope5.json"
+  evaluate fixed:trot trot_flat flat 1024 20
+  evaluate fixed:trot trot_slope5 slope5 1024 40 --trace="$OUT/trace_trot_slope5.json" ;;
+warp)  # MJX-JAX vs MJX-Warp parity, start-up (warp-lang installed)
+  bash experiments/warp/run_gpu.sh ;;
+scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench)
+  export NCCL_NVLS_ENABLE=0
+  bench() {  # NAME ARGS...
+    local name=$1; shift
+    python3 -m quadcos.bench --train_seconds 10 --walk_timeout_s 480 --impl jax \
+      --out "$OUT/$name.json" "$@" > "$OUT/$name.log" 2>&1
+    note "$name: exit $?"
+  }
+  CUDA_VISIBLE_DEVICES=0 bench slope5cross_1dev --num_devices 1 --only slope5 &
+  CUDA_VISIBLE_DEVICES=1 bench flat_1dev --num_devices 1 --only train --terrain flat --train_rows 4096x8192x8,8192x8192x8
+  CUDA_VISIBLE_DEVICES=1 bench slope5_1dev --num_devices 1 --only train --terrain slope5 --train_rows 4096x8192x8,8192x8192x8
+  wait
+  bench flat_2dev --num_devices 2 --only train --terrain flat --train_rows 8192x16384x8,16384x16384x8
+  bench slope5cross_2dev --num_devices 2 --only slope5
+  bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows 8192x16384x8,16384x16384x8
+  python3 -m quadcos.benchmarking.scaling --out "$OUT/scaling.json" "$OUT"/*_?dev.json > "$OUT/table.md" 2>&1 ;;
+bench_slope5)  # BENCHMARKS.md's slope5 section: time until >= 99 % of 1024 episodes cross
+  python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_timeout_s=420 \
+    --out="$OUT/bench_warp_slope5_scratch.json" > "$OUT/bench_warp_slope5_scratch.log" 2>&1
+  python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_training_preset=gpu --walk_timeout_s=240 \
+    --out="$OUT/bench_warp_slope5_trot.json" > "$OUT/bench_warp_slope5_trot.log" 2>&1 ;;
+*) echo "unknown experiment '$experiment'" >&2; exit 2 ;;
+esac
+note "$experiment done"
