@@ -1,8 +1,7 @@
 """Each compiled stage of the data-parallel trainer on the quadruped, one after another, with the
 seconds each takes (first call: compile + run): where a device count fails, the last line says at
 which stage. `python -X faulthandler experiments/scaling/stages.py NUM_DEVICES IMPL MODE`, MODE:
-`trainer` (SACTrainer over NUM_DEVICES: the one-device program jitted on a sharded state; was
-`gspmd` in README.md) or `step` (nothing but `jax.vmap(env.step)` under `jax.shard_map`: the
+`trainer` (SACTrainer over NUM_DEVICES: the one-device program jitted on a sharded state) or `step` (nothing but `jax.vmap(env.step)` under `jax.shard_map`: the
 reproducer of XLA's GPU compiler crash, README.md)."""
 
 import sys

@@ -3,7 +3,7 @@ hip offsets (`env.posture_bound=0.6`, each offset 0, 0.15, ..., 0.6 rad) on the 
 directory's README (`sections:0@1,-11@4,0@2`: crest at x = 3 m, foot at x ≈ 6.9 m), 4 robots per
 pair, 20 s, CPU (JAX physics). Prints falls and the torso's x at the fall or at the end.
 
-    python experiments/any_slope/downhill11/posture_probe.py > experiments/any_slope/downhill11/posture_probe.log
+    python experiments/any_slope/downhill11/posture_probe.py > experiments/any_slope/downhill11/posture_probe.txt
 """
 
 import itertools

@@ -3,7 +3,7 @@
     python experiments/any_slope/posture/flat_start/start_vs_walk.py > experiments/any_slope/posture/flat_start/start_vs_walk.txt
 
 Reads the traces of four of the 16 CPU episodes (`trace_flat_e{0,5,10,15}.json`, made by the
-commands in ../../README.md, "Session 14") and prints max |pitch − θ|, |yaw| and |roll| (rad) over
+commands in ../../README.md) and prints max |pitch − θ|, |yaw| and |roll| (rad) over
 t < 1 s and t ≥ 1 s of each.
 """
 
