@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 TRAIN_ARGS ?=
 
-.PHONY: install test test-fast train notebooks clean
+.PHONY: install test test-fast train notebooks docs docs-build clean
 
 install: $(STAMP)
 
@@ -38,6 +38,18 @@ notebooks: $(VENV)/.notebooks-stamp
 
 $(VENV)/.notebooks-stamp: $(STAMP)
 	$(BIN)/python -m pip install -q -e ".[notebooks,plots,video]"
+	touch $@
+
+# The documentation (the `docs` extra into .venv): `make docs` serves docs/ at http://127.0.0.1:8000
+# while you edit; `make docs-build` builds it into site/ and fails on any broken link.
+docs: $(VENV)/.docs-stamp
+	$(BIN)/python -m mkdocs serve
+
+docs-build: $(VENV)/.docs-stamp
+	$(BIN)/python -m mkdocs build --strict -d site
+
+$(VENV)/.docs-stamp: $(STAMP)
+	$(BIN)/python -m pip install -q -e ".[docs]"
 	touch $@
 
 # Keeps runs/: trained runs are results, not build products.

@@ -1,5 +1,7 @@
-"""The README's code blocks run as written: the library example, and the command lines that train
-on terrains of the user's own (up to the training itself, which tests/test_cli.py runs)."""
+"""The code blocks of the README and of the documentation pages (docs/*.md) run as written: the
+README's library example, the evaluation example, the Python blocks of the pages, and the command
+lines that train on terrains of the user's own (up to the training itself, which
+tests/test_cli.py runs)."""
 
 import pathlib
 import re
@@ -13,23 +15,44 @@ from quadcos import gait_search, terrain
 from quadcos import train
 from quadcos import training
 
-README = (pathlib.Path(__file__).resolve().parent.parent / "README.md").read_text()
-PYTHON_BLOCKS = re.findall(r"```python\n(.*?)```", README, re.S)
-BASH_BLOCKS = re.findall(r"```bash\n(.*?)```", README, re.S)
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+# The README first (its first Python block is the library example), then the pages in name order.
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def _blocks(language: str) -> list[tuple[str, str]]:
+    """(file name relative to the repository, block) of every ```language block, in page order."""
+    return [
+        (str(page.relative_to(ROOT)), block)
+        for page in PAGES
+        for block in re.findall(rf"```{language}\n(.*?)```", page.read_text(), re.S)
+    ]
+
+
+PYTHON_BLOCKS = _blocks("python")
+BASH_BLOCKS = [block for _, block in _blocks("bash")]
+LIBRARY_EXAMPLE = PYTHON_BLOCKS[0]
 MODULE_HEADER = "# my_courses.py\n"
 EVALUATION_HEADER = "# Evaluate a policy from Python.\n"
+
+
+def test_the_blocks_are_where_the_tests_look():
+    assert LIBRARY_EXAMPLE[0] == "README.md" and "quadcos.make_env(course)" in LIBRARY_EXAMPLE[1]
+    assert sum(block.startswith(MODULE_HEADER) for _, block in PYTHON_BLOCKS) == 1
+    assert sum(block.startswith(EVALUATION_HEADER) for _, block in PYTHON_BLOCKS) == 1
 
 
 @pytest.fixture
 def registry(monkeypatch):
     """The README registers terrains; keep them out of the other tests."""
-    monkeypatch.setattr(terrain, "_REGISTRY", dict(terrain._REGISTRY))
+    monkeypatch.setattr(terrain.registry, "_REGISTRY", dict(terrain.registry._REGISTRY))
 
 
 @pytest.mark.slow
 def test_readme_library_example_runs(registry):
     namespace: dict = {}
-    exec(compile(PYTHON_BLOCKS[0], "README.md", "exec"), namespace)
+    name, block = LIBRARY_EXAMPLE
+    exec(compile(block, name, "exec"), namespace)
     state = namespace["state"]
     assert float(state.pipeline_state.qpos[0]) > 0.3  # the fixed trot walked forward
     assert not bool(state.done)
@@ -37,16 +60,17 @@ def test_readme_library_example_runs(registry):
 
 
 def test_readme_custom_terrain_commands_build_their_envs(registry, tmp_path, monkeypatch):
-    """my_courses.py and course.npy as the README writes them, then each `--terrain=` command line
-    of its block, with the training replaced by a check of the env it was handed."""
-    module = next(block for block in PYTHON_BLOCKS if block.startswith(MODULE_HEADER))
+    """my_courses.py and course.npy as the docs write them (and every other Python block of the
+    pages but the two run by their own tests), then each `--terrain=my_courses:` command line, with
+    the training replaced by a check of the env it was handed."""
+    module = next(block for _, block in PYTHON_BLOCKS if block.startswith(MODULE_HEADER))
     (tmp_path / "my_courses.py").write_text(module)
     monkeypatch.chdir(tmp_path)
     monkeypatch.syspath_prepend(str(tmp_path))  # as `python -m` puts the current directory
     monkeypatch.delitem(sys.modules, "my_courses", raising=False)
-    for block in PYTHON_BLOCKS[1:]:
+    for name, block in PYTHON_BLOCKS[1:]:
         if not block.startswith((MODULE_HEADER, EVALUATION_HEADER)):
-            exec(compile(block, "README.md", "exec"), {})
+            exec(compile(block, name, "exec"), {})
     commands = [
         shlex.split(line)
         for block in BASH_BLOCKS
@@ -74,10 +98,10 @@ def test_readme_custom_terrain_commands_build_their_envs(registry, tmp_path, mon
 
 @pytest.mark.slow
 def test_readme_evaluation_example_runs(monkeypatch):
-    block = next(block for block in PYTHON_BLOCKS if block.startswith(EVALUATION_HEADER))
-    monkeypatch.chdir(pathlib.Path(__file__).resolve().parent.parent)
+    name, block = next(pair for pair in PYTHON_BLOCKS if pair[1].startswith(EVALUATION_HEADER))
+    monkeypatch.chdir(ROOT)
     namespace: dict = {}
-    exec(compile(block, "README.md", "exec"), namespace)
+    exec(compile(block, name, "exec"), namespace)
     result = namespace["result"]
     assert result.success == 1.0 and result.falls == 0.0  # the pretrained policy, 2 s on flat
     assert 0.2 < result.speed < 1.5
@@ -85,8 +109,8 @@ def test_readme_evaluation_example_runs(monkeypatch):
 
 
 def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypatch):
-    """The README's `--terrain=random:` training command line, with the training replaced by a
-    check of the env and trainer config it was handed."""
+    """The docs' `--terrain=random:` training command line, with the training replaced by a check
+    of the env and trainer config it was handed."""
     lines = [
         line
         for block in BASH_BLOCKS
