@@ -15,7 +15,7 @@ import jax
 from mujoco import mjx
 
 import quadcos
-from quadcos import constants
+from quadcos.robot import constants
 from quadcos.benchmarking import physics
 
 

@@ -45,7 +45,8 @@ from typing import Any
 
 import jax
 
-from quadcos import backends, caches, cli, gait_search, train, training
+from quadcos import training
+from quadcos._util import caches, cli, files
 from quadcos.benchmarking import physics, trainers
 from quadcos.benchmarking import results as results_lib
 from quadcos.benchmarking.settings import (
@@ -61,8 +62,10 @@ from quadcos.benchmarking.settings import (
 )
 from quadcos.benchmarking.time_to_walk import rollout_evaluator, terrain_goal, time_to_success
 from quadcos.benchmarking.timing import log, since_start
-from quadcos.train import PRESETS as TRAIN_PRESETS
-from quadcos.training import files
+from quadcos.env import backends
+from quadcos.evaluation import gait_search
+from quadcos.training import presets
+from quadcos.training.presets import PRESETS as TRAIN_PRESETS
 
 _PROG = "quadcos.bench"
 
@@ -220,7 +223,7 @@ def run(
         preset = settings.walk_training_preset
         if searches_gait(preset):  # part of the timed section
             found = gait_search.find_gait(
-                train.build_config(TRAIN_PRESETS[preset], {"env.terrain": course.terrain})
+                presets.build_config(TRAIN_PRESETS[preset], {"env.terrain": course.terrain})
             )
             centre = found["action_centre"]
             details[f"{section}_gait_search"] = {

@@ -42,7 +42,9 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from quadcos import cli, evaluation, video
+from quadcos import evaluation
+from quadcos._util import cli
+from quadcos.viz import video
 
 _PROG = "quadcos.evaluate"
 
@@ -253,10 +255,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _evaluate_in_mujoco(args: argparse.Namespace) -> int:
-    """--engine=mujoco: `quadcos.sim2sim.evaluate_mujoco`, the same JSON and summary line."""
-    from quadcos import sim2sim
+    """--engine=mujoco: `quadcos.deploy.host_robot.evaluate_mujoco`, the same JSON and summary line."""
+    from quadcos.deploy import host_robot
 
-    result = sim2sim.evaluate_mujoco(
+    result = host_robot.evaluate_mujoco(
         args.policy,
         args.terrain,
         episodes=args.num_envs,

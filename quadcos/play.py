@@ -1,7 +1,7 @@
 """Watch a policy walk: `python -m quadcos.play --policy DIR|fixed:trot --terrain SPEC`.
 
 MuJoCo's interactive viewer (`mujoco.viewer.launch_passive`) shows the robot on the terrain, driven
-in real time through `quadcos.sim2sim.HostRobot` (the env's controller path in C MuJoCo, the
+in real time through `quadcos.deploy.host_robot.HostRobot` (the env's controller path in C MuJoCo, the
 policy's NumPy forward pass), the camera following the torso. The overlay reads the time, forward
 speed, attitude, the slope estimate beside the ground truth and the five rhythm parameters.
 
@@ -20,8 +20,8 @@ from collections.abc import Sequence
 
 import mujoco
 
-from quadcos import constants
-from quadcos.sim2sim import HostRobot, Pilot, StepResult, load_pilot, pilot_parser
+from quadcos.deploy.host_robot import HostRobot, Pilot, StepResult, load_pilot, pilot_parser
+from quadcos.robot import constants
 
 KEY_SPACE, KEY_R, KEY_BACKSPACE = 32, ord("R"), 259  # GLFW key codes
 _TEXT_INTERVAL = 0.2  # s of wall time between overlay updates

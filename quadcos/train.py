@@ -16,10 +16,8 @@ import ast
 import contextlib
 import json
 import logging
-import math
 import os
 import pathlib
-import re
 import sys
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -27,109 +25,13 @@ from typing import Any
 import jax
 import ml_collections
 
-from quadcos import caches, cli, run_dirs
 from quadcos import env as env_lib
-from quadcos import gait_search, oscillator, provenance
 from quadcos import terrain as terrain_lib
-from quadcos.cli import UsageError
-from quadcos.training import parallel
-from quadcos.overrides import apply_overrides, flat_keys
-
-# Presets: overrides of the default config, applied before the flags.
-# SAC set up to start from the env's action centre (the fixed trot, or the gait a search found) and
-# explore around it: a fresh
-# policy's mean is the centre with a small exploration std, the prefill acts with it, and the
-# actor waits until the critics have seen its data (experiments/README.md, "learning to walk").
-_START_FROM_THE_TROT: dict[str, Any] = {
-    "sac.policy_output_scale": 0.01,
-    "sac.init_std": 0.15,
-    "sac.init_alpha": 0.01,
-    "sac.prefill_actions": "policy",
-    "sac.actor_warmup_steps": 2_000,
-}
-
-PRESETS: dict[str, dict[str, Any]] = {
-    # A complete, tiny run (a few minutes on two CPU cores, mostly compilation); used by tests.
-    "smoke": {
-        "sac.num_envs": 4,
-        "sac.num_timesteps": 1_024,
-        "sac.episode_length": 100,
-        "sac.batch_size": 32,
-        "sac.replay_size": 4_096,
-        "sac.min_replay_size": 256,
-        "sac.hidden_sizes.policy": (32, 32),
-        "sac.hidden_sizes.q": (32, 32),
-        "sac.steps_per_chunk": 32,
-        "sac.eval_interval": 512,
-        "sac.num_eval_envs": 2,
-        "sac.eval_episode_length": 50,
-        "sac.checkpoint_interval": 512,
-    },
-    # The paper's flat experiment at CPU scale: `make train`.
-    "cpu": {
-        "sac.num_envs": 32,
-        "sac.num_timesteps": 200_000,
-        "sac.episode_length": 500,
-        "sac.batch_size": 256,
-        # 4 updates per env step lose the trot at the actor's first updates and end no faster
-        # than it; 12 learn past it (experiments/make_train/sweep).
-        "sac.updates_per_step": 12,
-        "sac.replay_size": 200_000,
-        "sac.min_replay_size": 4_096,
-        "sac.hidden_sizes.policy": (128, 128),
-        "sac.hidden_sizes.q": (128, 128),
-        **_START_FROM_THE_TROT,
-        "sac.reward_scaling": 0.1,
-        "sac.learning_rate.actor": 3e-4,
-        "sac.learning_rate.critic": 1e-3,
-        "sac.learning_rate.alpha": 1e-3,
-        "sac.steps_per_chunk": 100,
-        "sac.eval_interval": 50_000,
-        "sac.num_eval_envs": 16,
-        "sac.eval_episode_length": 500,
-        "sac.checkpoint_interval": 50_000,
-    },
-    # The fast path: thousands of robots on one GPU.
-    "gpu": {
-        "sac.num_envs": 4_096,
-        "sac.num_timesteps": 10_000_000,
-        "sac.episode_length": 1_000,
-        "sac.batch_size": 8_192,
-        # 1 update per step loses the trot at the actor's first updates; 8 learns
-        # (experiments/flat_gpu).
-        "sac.updates_per_step": 8,
-        "sac.replay_size": 4_000_000,
-        "sac.min_replay_size": 65_536,
-        "sac.hidden_sizes.policy": (256, 256),
-        "sac.hidden_sizes.q": (256, 256),
-        **_START_FROM_THE_TROT,
-        "sac.reward_scaling": 0.1,
-        "sac.learning_rate.actor": 3e-4,
-        "sac.learning_rate.critic": 1e-3,
-        "sac.learning_rate.alpha": 1e-3,
-        "sac.steps_per_chunk": 50,
-        "sac.eval_interval": 2_000_000,
-        "sac.num_eval_envs": 1_024,
-        "sac.eval_episode_length": 400,
-        "sac.checkpoint_interval": 2_000_000,
-    },
-}
-# From scratch on one GPU (experiments/from_scratch): no gait is given. The run first searches
-# constant rhythm parameters (quadcos.gait_search, a few seconds on a GPU), then SAC starts from
-# the gait found, exploring around it as the trot start does around the trot. Eq. 9's r_s is paid
-# only while the robot moves (≥ 0.1 m/s, low-passed over 1 s): paid for standing too, SAC
-# unlearns the found gait and stands (experiments/from_scratch, run scratch_alive_s0). 20 M env
-# steps (about 3 minutes on an H100 with Warp): speed and pitch error still improve after 10 M;
-# the policy of the best evaluation is kept beside the last, which one seed lost in its last
-# million steps (experiments/from_scratch, "20 M env steps").
-PRESETS["scratch"] = {
-    **PRESETS["gpu"],
-    "env.action_centre": "search",
-    "env.survival_min_speed": 0.1,
-    "sac.num_timesteps": 20_000_000,
-    "sac.eval_interval": 1_000_000,
-    "sac.keep_best_policy": True,
-}
+from quadcos._util import caches, cli, provenance
+from quadcos._util.cli import UsageError
+from quadcos.evaluation import gait_search
+from quadcos.training import parallel, run_dirs
+from quadcos.training.presets import PRESETS, build_config, default_config  # noqa: F401 (re-exported)
 
 # Short flags -> the config key each one sets.
 FLAGS = {
@@ -145,16 +47,6 @@ FLAGS = {
 
 
 logger = logging.getLogger("quadcos.train")  # also when run as __main__
-
-
-def default_config() -> ml_collections.ConfigDict:
-    """The whole run's config: {"env": env config, "sac": trainer config}."""
-    from quadcos.training.config import default_config as sac_config
-
-    config = ml_collections.ConfigDict()
-    config.env = env_lib.default_config()
-    config.sac = sac_config()
-    return config
 
 
 def _parse_value(text: str) -> Any:
@@ -265,59 +157,6 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
         key, text = item[len("--config.") :].split("=", 1)
         overrides[key] = _parse_value(text)
     return args, overrides
-
-
-def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collections.ConfigDict:
-    """default_config() with `base` then `overrides` applied, then checked (terrain spec, env and
-    trainer values) so that a bad value is reported before anything is built or written."""
-    from quadcos import training
-
-    try:
-        config = apply_overrides(default_config(), base)
-        overrides = _expand_groups(overrides, flat_keys(config))
-        centre = overrides.get("env.action_centre")
-        if isinstance(centre, tuple) and all(isinstance(v, (int, float)) for v in centre):
-            overrides["env.action_centre"] = oscillator.centre_spec(centre)  # A_k,A_h,T,φ1,φ3
-        non_finite = {
-            key: value
-            for key, value in overrides.items()
-            if isinstance(value, float) and not math.isfinite(value)
-        }
-        finite = {key: value for key, value in overrides.items() if key not in non_finite}
-        config = apply_overrides(config, finite)
-        # apply_overrides refuses non-finite floats before any range check: set them here, so
-        # that the checks below name the allowed range.
-        for key, value in non_finite.items():
-            try:
-                apply_overrides(config, {key: 1.0})  # the key exists and takes floats
-            except ValueError:
-                apply_overrides(config, {key: value})  # raises naming the key and the value
-            *parents, leaf = key.split(".")
-            node = config
-            for parent in parents:
-                node = node[parent]
-            node[leaf] = value
-        terrain_lib.parse(config.env.terrain)
-        env_lib.validate_config(config.env)
-        try:
-            training.check_config(config.sac)
-        except training.ConfigError as error:  # it names fields as config.<sac key>
-            raise ValueError(re.sub(r"\bconfig\.", "config.sac.", str(error))) from None
-        if non_finite:  # in range, as far as the checks above know
-            key, value = next(iter(non_finite.items()))
-            raise ValueError(f"bad value {value} for config key {key!r}: it must be finite")
-    except (ValueError, TypeError) as error:
-        raise UsageError(str(error)) from None
-    return config
-
-
-def _expand_groups(overrides: dict[str, Any], known: list[str]) -> dict[str, Any]:
-    """A group key (`sac.learning_rate`) as each of its values (`sac.learning_rate.actor`, ...)."""
-    expanded = {}
-    for key, value in overrides.items():
-        members = [name for name in known if name.startswith(key + ".")]
-        expanded |= dict.fromkeys(members, value) if members and key not in known else {key: value}
-    return expanded
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -448,7 +287,7 @@ def _physics_for_devices(config: ml_collections.ConfigDict) -> None:
 
 def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
     """The flattened config a run was trained with (its config.json, migrated), to resume it."""
-    from quadcos import runs
+    from quadcos.training import run_config as runs
 
     path = run_dir / "config.json" if run_dir else None
     if path is None or not path.is_file():

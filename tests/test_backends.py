@@ -3,7 +3,8 @@
 import ml_collections
 import pytest
 
-from quadcos import backends, env as env_lib
+from quadcos import env as env_lib
+from quadcos.env import backends
 
 
 def test_auto_is_jax_on_the_cpu():

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from quadcos import bench, evaluation, training
+from quadcos._util.overrides import apply_overrides
 from quadcos.benchmarking import results as results_lib
 from quadcos.benchmarking import settings, time_to_walk, trainers
-from quadcos.overrides import apply_overrides
 from tests.toy_env import PointEnv
 
 _TOY_SAC = {

@@ -9,8 +9,9 @@ import pytest
 from brax.envs import base
 from brax.envs.wrappers import training as training_wrappers
 
-from quadcos import courses, evaluation, terrain
+from quadcos import evaluation, terrain
 from quadcos.evaluation import fixed_search
+from quadcos.terrain import courses
 from quadcos.training import config as training_config
 from quadcos.training import curriculum
 from tests.test_terrain import _compile, _ray_heights

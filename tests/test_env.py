@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 import quadcos
-from quadcos import constants, oscillator
 from quadcos import terrain as terrain_lib
+from quadcos.equations import oscillator
+from quadcos.robot import constants
 
 CONTROL_STEPS_10_S = 200  # 10 s at the default 20 Hz control
 RAMP_DEGREES = (-9.0, -5.0, 0.0, 5.0, 9.0)

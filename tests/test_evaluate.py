@@ -16,9 +16,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from quadcos import constants, evaluate, oscillator, plots, reward, video
+from quadcos import evaluate
 from quadcos import evaluation as evaluation_lib
+from quadcos.equations import oscillator, reward
 from quadcos.evaluation import rollout as rollout_lib
+from quadcos.robot import constants
+from quadcos.viz import plots, video
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # A trained flat-ground run, standing in for the pretrained policies to come (as in the notebooks).

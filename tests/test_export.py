@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from quadcos import export, sim2sim
-from quadcos.numpy_policy import NumpyPolicy
+from quadcos.deploy.numpy_policy import NumpyPolicy
 from quadcos.training import load_policy
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -48,7 +48,7 @@ def test_numpy_policy_imports_numpy_only(tmp_path):
     script = (
         "import sys, importlib.util\n"
         "for name in ('jax', 'flax', 'brax', 'quadcos', 'mujoco'): sys.modules[name] = None\n"
-        f"path = {str(ROOT / 'quadcos' / 'numpy_policy.py')!r}\n"
+        f"path = {str(ROOT / 'quadcos' / 'deploy' / 'numpy_policy.py')!r}\n"
         "spec = importlib.util.spec_from_file_location('np_policy', path)\n"
         "module = importlib.util.module_from_spec(spec); spec.loader.exec_module(module)\n"
         f"policy = module.NumpyPolicy.load({str(tmp_path / 'flat.npz')!r})\n"

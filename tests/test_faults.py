@@ -21,16 +21,13 @@ import time
 from unittest import mock
 
 import hypothesis
-from hypothesis import strategies as st
 import pytest
+from hypothesis import strategies as st
 
-from quadcos import overrides as overrides_lib
-from quadcos import terrain
-from quadcos import train
-from quadcos import training
+from quadcos import terrain, train, training
+from quadcos._util import overrides as overrides_lib
 from quadcos.training import checkpoint
-from tests.cli_runs import run_cli
-from tests.cli_runs import start_cli
+from tests.cli_runs import run_cli, start_cli
 from tests.toy_env import PointEnv
 
 ORBAX_TMP = ".orbax-checkpoint-tmp"

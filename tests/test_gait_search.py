@@ -6,8 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from quadcos import oscillator, train
+from quadcos import train
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
+from quadcos.equations import oscillator
 from tests.cli_runs import run_cli
 
 

@@ -17,13 +17,10 @@ from unittest import mock
 import pytest
 
 import quadcos
-from quadcos import terrain
-from quadcos import train
-from quadcos import training
+from quadcos import terrain, train, training
 from quadcos.terrain import Section
 from quadcos.training import host, loop
-from tests.cli_runs import ROOT
-from tests.cli_runs import run_cli
+from tests.cli_runs import ROOT, run_cli
 
 
 def tree_digest(directory: pathlib.Path) -> dict[str, str]:
@@ -229,7 +226,7 @@ def test_an_unwritable_output_dir_is_refused_before_training(capsys):
 
 
 def test_terrain_specs_from_a_module_and_a_file_name_their_errors(tmp_path, monkeypatch):
-    monkeypatch.setattr(terrain, "_REGISTRY", dict(terrain._REGISTRY))
+    monkeypatch.setattr(terrain.registry, "_REGISTRY", dict(terrain.registry._REGISTRY))
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.chdir(tmp_path)
     (tmp_path / "newcomer_courses.py").write_text(

@@ -4,7 +4,7 @@ import jax
 import numpy as np
 import pytest
 
-from quadcos import oscillator
+from quadcos.equations import oscillator
 
 
 def numpy_eq3(t, amplitude_hip, amplitude_knee, period, phases):

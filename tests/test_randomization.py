@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 import quadcos
-from quadcos import constants, randomization
+from quadcos._util.overrides import apply_overrides
+from quadcos.env import randomization
+from quadcos.robot import constants
 
 
 def _config(**values):
@@ -84,7 +86,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
 def test_bad_ranges_are_named(key, value, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
         quadcos.env.validate_config(
-            quadcos.env.apply_overrides(quadcos.env.default_config(), {key: value})
+            apply_overrides(quadcos.env.default_config(), {key: value})
         )
 
 

@@ -11,9 +11,7 @@ from unittest import mock
 
 import pytest
 
-from quadcos import gait_search, terrain
-from quadcos import train
-from quadcos import training
+from quadcos import gait_search, terrain, train, training
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # The README first (its first Python block is the library example), then the pages in name order.

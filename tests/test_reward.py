@@ -4,7 +4,7 @@ import jax
 import numpy as np
 import pytest
 
-from quadcos import reward
+from quadcos.equations import reward
 
 WALK = dict(
     x_now=1.01, x_last=1.0, y_now=0.002, y_last=0.0, pitch=0.1, yaw=-0.05, roll=0.02, slope=0.08

@@ -7,9 +7,10 @@ import pathlib
 import pytest
 
 from quadcos import env as env_lib
-from quadcos import runs, train
+from quadcos import train
+from quadcos._util.overrides import apply_overrides
 from quadcos.evaluation import sources
-from quadcos.overrides import apply_overrides
+from quadcos.training import run_config as runs
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 CONFIGS = sorted(ROOT.glob("experiments/**/config.json"))

@@ -8,8 +8,9 @@ import pathlib
 import numpy as np
 import pytest
 
-from quadcos import numpy_twins as twins
-from quadcos import oscillator, play, reward, sim2sim, slope, terrain
+from quadcos import play, sim2sim, terrain
+from quadcos.deploy import twins
+from quadcos.equations import oscillator, reward, slope
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FLAT_POLICY = str(ROOT / "experiments" / "policies" / "flat")

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from quadcos import constants, slope
+from quadcos.equations import slope
+from quadcos.robot import constants
 
 
 def test_slope_angle_eq5_quadcos_axes():

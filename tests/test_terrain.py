@@ -317,7 +317,7 @@ def test_bad_heightfields_raise(kwargs, message):
 @pytest.fixture
 def registry(monkeypatch):
     """An isolated copy of the registry, so registrations do not leak between tests."""
-    monkeypatch.setattr(terrain, "_REGISTRY", dict(terrain._REGISTRY))
+    monkeypatch.setattr(terrain.registry, "_REGISTRY", dict(terrain.registry._REGISTRY))
 
 
 def test_register_and_get_custom_terrain(registry):

@@ -3,10 +3,10 @@
 import json
 import logging
 import os
-from pathlib import Path
 import shutil
 import signal
 import types
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -14,9 +14,7 @@ import numpy as np
 import pytest
 
 from quadcos import training
-from quadcos.training import checkpoint
-from quadcos.training import host
-from quadcos.training import loop
+from quadcos.training import checkpoint, host, loop
 from quadcos.training import policy as policy_lib
 from tests.toy_env import CHUNK, PointEnv, toy_config
 

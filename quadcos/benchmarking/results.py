@@ -10,8 +10,9 @@ from typing import Any
 
 import jax
 
-from quadcos import backends, caches, provenance
+from quadcos._util import caches, provenance
 from quadcos.benchmarking.settings import Settings, TrainRow
+from quadcos.env import backends
 
 _VERSIONED_PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "brax", "flax", "optax", "numpy")
 

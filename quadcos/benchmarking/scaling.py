@@ -15,8 +15,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from quadcos import cli
-from quadcos.training import files
+from quadcos._util import cli, files
 
 _PROG = "quadcos.benchmarking.scaling"
 

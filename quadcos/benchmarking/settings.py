@@ -8,10 +8,10 @@ from typing import Any
 import ml_collections
 
 from quadcos import env as env_lib
-from quadcos import oscillator
 from quadcos import training
-from quadcos.overrides import apply_overrides
-from quadcos.train import PRESETS as TRAIN_PRESETS
+from quadcos._util.overrides import apply_overrides
+from quadcos.equations import oscillator
+from quadcos.training.presets import PRESETS as TRAIN_PRESETS
 
 SECTIONS = ("physics", "env", "train", "stock", "walk", "slope5")
 

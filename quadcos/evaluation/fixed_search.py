@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from quadcos import oscillator
 from quadcos import terrain as terrain_lib
+from quadcos.equations import oscillator
 from quadcos.evaluation.metrics import episode_values
 from quadcos.evaluation.rollout import FORMAT_VERSION, rollout
 from quadcos.evaluation.sources import FIXED_PREFIX, PARAMETER_NAMES, build_env, fixed_source

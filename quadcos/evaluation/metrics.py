@@ -8,7 +8,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from quadcos import reward
+from quadcos.equations import reward
 from quadcos.evaluation.rollout import EpisodeStats
 
 

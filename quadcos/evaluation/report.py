@@ -13,12 +13,13 @@ from typing import Any
 import numpy as np
 
 from quadcos import env as env_lib
-from quadcos import provenance, video
 from quadcos import terrain as terrain_lib
+from quadcos._util import provenance
 from quadcos.evaluation.metrics import aggregate, episode_values, per_course
 from quadcos.evaluation.rollout import FORMAT_VERSION, rollout
 from quadcos.evaluation.sources import PARAMETER_NAMES, ActionSource, build_env, resolve_source
 from quadcos.evaluation.traces import trace_dict
+from quadcos.viz import video
 
 FORMAT = "quadcos.evaluation"
 _VERSIONED_PACKAGES = ("quadcos", "jax", "mujoco", "mujoco-mjx", "brax")
@@ -199,7 +200,7 @@ def course_table(summary: Mapping[str, Any]) -> str:
 
 def write_json(path: str | os.PathLike[str], content: Any) -> pathlib.Path:
     """Writes `content` as JSON, atomically; non-finite floats become null."""
-    from quadcos.training.files import atomic_write_text
+    from quadcos._util.files import atomic_write_text
 
     path = pathlib.Path(path)
     atomic_write_text(path, json.dumps(_finite_json(content), indent=1, allow_nan=False) + "\n")

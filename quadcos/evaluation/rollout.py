@@ -11,10 +11,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from quadcos import constants, oscillator, reward, slope
 from quadcos import env as env_lib
+from quadcos.env import episodes
+from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import sources
-from quadcos import episodes
+from quadcos.robot import constants
 
 FORMAT_VERSION = 1  # of every file quadcos.evaluation writes
 CHUNK_STEPS = 20  # control steps per compiled call: the progress granularity

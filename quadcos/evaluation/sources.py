@@ -18,8 +18,9 @@ import jax
 import jax.numpy as jnp
 
 from quadcos import env as env_lib
-from quadcos import oscillator, runs
 from quadcos import terrain as terrain_lib
+from quadcos.equations import oscillator
+from quadcos.training import run_config as runs
 
 FIXED_PREFIX = "fixed:"
 PARAMETER_NAMES = oscillator.RhythmParameters._fields

@@ -8,11 +8,12 @@ from typing import Any
 
 import numpy as np
 
-from quadcos import constants, video
 from quadcos import env as env_lib
-from quadcos import overrides as overrides_lib
+from quadcos._util import overrides as overrides_lib
 from quadcos.evaluation.rollout import FORMAT_VERSION, Rollout
 from quadcos.evaluation.sources import PARAMETER_NAMES
+from quadcos.robot import constants
+from quadcos.viz import video
 
 TRACE_FORMAT = "quadcos.trace"
 # Per-step series of a trace, besides controller/<joint>, joint/<joint>, parameter/<name>, action/<i>.

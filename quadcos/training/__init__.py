@@ -4,17 +4,11 @@
 the compiled pieces; `load_policy` reads back a trained policy.
 """
 
+from quadcos.training.checks import ConfigError, check_config
 from quadcos.training.config import default_config
-from quadcos.training.checks import ConfigError
-from quadcos.training.loop import NonFiniteLossError
-from quadcos.training.loop import TrainResult
-from quadcos.training.checks import check_config
-from quadcos.training.loop import train
-from quadcos.training.policy import Policy
-from quadcos.training.policy import load_policy
-from quadcos.training.policy import save_policy
-from quadcos.training.sac import SACTrainer
-from quadcos.training.sac import TrainingState
+from quadcos.training.loop import NonFiniteLossError, TrainResult, train
+from quadcos.training.policy import Policy, load_policy, save_policy
+from quadcos.training.sac import SACTrainer, TrainingState
 
 __all__ = [
     "ConfigError",

@@ -4,11 +4,11 @@ import contextlib
 import dataclasses
 import logging
 import os
-from pathlib import Path
 import shutil
 import sys
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import jax

@@ -8,7 +8,7 @@ from typing import Any
 import jax
 import ml_collections
 
-from quadcos.overrides import flat_keys
+from quadcos._util.overrides import flat_keys
 from quadcos.training import config as config_lib
 from quadcos.training import sac
 

@@ -15,24 +15,19 @@ import json
 import logging
 import math
 import os
-from pathlib import Path
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
-from brax import envs
 import jax
 import ml_collections
+from brax import envs
 
-from quadcos import provenance
-from quadcos.training import checkpoint
+from quadcos._util import files, provenance
+from quadcos.training import checkpoint, host, metrics_log, parallel, sac
 from quadcos.training import config as config_lib
-from quadcos.training import files
-from quadcos.training import host
-from quadcos.training import metrics_log
-from quadcos.training import parallel
 from quadcos.training import policy as policy_lib
-from quadcos.training import sac
 from quadcos.training.checks import ConfigError, check_config, check_memory
 
 logger = logging.getLogger(__name__)

@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from quadcos.training import files
+from quadcos._util import files
 
 logger = logging.getLogger(__name__)
 

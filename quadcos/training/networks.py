@@ -3,11 +3,11 @@ training envs explore with them."""
 
 from typing import Any, Sequence
 
+import jax
+import jax.numpy as jnp
 from brax.training import types
 from brax.training.acme import running_statistics
 from brax.training.agents.sac import networks as sac_networks
-import jax
-import jax.numpy as jnp
 
 MIN_STD = 0.001  # Brax's NormalTanhDistribution: std = softplus(raw) + min_std
 

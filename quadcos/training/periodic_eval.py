@@ -2,12 +2,12 @@
 
 from collections.abc import Callable
 
-from brax import envs
 import flax
 import jax
 import jax.numpy as jnp
+from brax import envs
 
-from quadcos import episodes
+from quadcos.env import episodes
 
 Metrics = dict[str, jax.Array]
 

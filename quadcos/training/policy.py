@@ -12,14 +12,14 @@ import os
 from pathlib import Path
 from typing import Any
 
-from brax.training.acme import running_statistics
-from brax.training.agents.sac import networks as sac_networks
 import flax.serialization
 import jax
 import jax.numpy as jnp
 import numpy as np
+from brax.training.acme import running_statistics
+from brax.training.agents.sac import networks as sac_networks
 
-from quadcos.training import files
+from quadcos._util import files
 from quadcos.training import sac
 
 _FORMAT = "quadcos.sac_policy"

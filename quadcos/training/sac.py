@@ -15,25 +15,20 @@ transitions into the replay buffer, update the observation statistics, then
 
 from typing import Any
 
-from brax import envs
-from brax.envs.wrappers import training as training_wrappers
-from brax.training import types
-from brax.training.acme import running_statistics
-from brax.training.acme import specs
-from brax.training.agents.sac import losses as sac_losses
-from brax.training.agents.sac import networks as sac_networks
 import flax
 import jax
 import jax.numpy as jnp
 import ml_collections
 import optax
+from brax import envs
+from brax.envs.wrappers import training as training_wrappers
+from brax.training import types
+from brax.training.acme import running_statistics, specs
+from brax.training.agents.sac import losses as sac_losses
+from brax.training.agents.sac import networks as sac_networks
 
-from quadcos.training import curriculum
-from quadcos.training import networks
-from quadcos.training import parallel
-from quadcos.training import periodic_eval
+from quadcos.training import curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import replay as replay_lib
-from quadcos.training import updates
 
 Metrics = dict[str, jax.Array]
 PREFILL_ACTIONS = ("uniform", "policy")

@@ -5,14 +5,14 @@ Brax's SAC. On several devices the batch is split over them and XLA sums the gra
 losses are means over the whole batch), so every device applies the same update.
 """
 
-from collections.abc import Callable
 import dataclasses
+from collections.abc import Callable
 from typing import Any
 
-from brax.training import types
 import jax
 import jax.numpy as jnp
 import optax
+from brax.training import types
 
 Metrics = dict[str, jax.Array]
 

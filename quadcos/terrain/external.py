@@ -19,7 +19,8 @@ import re
 
 import numpy as np
 
-from quadcos import terrain as terrain_lib
+from quadcos.terrain import registry
+from quadcos.terrain.ground import Terrain
 
 HEIGHTFIELD_PREFIX = "heightfield:"
 HEIGHTFIELD_FORMAT = (
@@ -30,7 +31,7 @@ _MODULE_SPEC = re.compile(r"(?P<module>[A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*):(?P<name
 _HEIGHTFIELD_OPTIONS = {"x_range": (-2.0, 20.0), "y_range": (-2.0, 2.0), "course_end_x": None}
 
 
-def parse_external(spec: str) -> terrain_lib.Terrain | None:
+def parse_external(spec: str) -> Terrain | None:
     """The terrain of a `MODULE:NAME` or `heightfield:...` spec; None for other specs.
 
     The terrain's `spec` is `spec`, so that `terrain.parse(terrain.spec)` builds it again.
@@ -48,7 +49,7 @@ def parse_external(spec: str) -> terrain_lib.Terrain | None:
     return _from_module(spec, match["module"], match["name"])
 
 
-def _from_module(spec: str, module_name: str, name: str) -> terrain_lib.Terrain:
+def _from_module(spec: str, module_name: str, name: str) -> Terrain:
     try:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as error:
@@ -63,16 +64,16 @@ def _from_module(spec: str, module_name: str, name: str) -> terrain_lib.Terrain:
         ) from None
     if hasattr(module, name):
         entry = getattr(module, name)
-        found = entry if isinstance(entry, terrain_lib.Terrain) else None
+        found = entry if isinstance(entry, Terrain) else None
         if found is None and callable(entry):
             found = entry()
-        if not isinstance(found, terrain_lib.Terrain):
+        if not isinstance(found, Terrain):
             raise TypeError(
                 f"terrain spec {spec!r}: {module_name}.{name} is {type(entry).__name__}, not a"
                 " Terrain or a function returning one"
             )
-    elif name in terrain_lib.names():
-        found = terrain_lib.parse(name)
+    elif name in registry.names():
+        found = registry.registered(name)
     else:
         raise ValueError(
             f"terrain spec {spec!r}: module {module_name!r} has no attribute {name!r} and"
@@ -81,7 +82,7 @@ def _from_module(spec: str, module_name: str, name: str) -> terrain_lib.Terrain:
     return dataclasses.replace(found, spec=spec)
 
 
-def _heightfield(spec: str) -> terrain_lib.Terrain:
+def _heightfield(spec: str) -> Terrain:
     file_text, *option_tokens = spec.removeprefix(HEIGHTFIELD_PREFIX).split(";")
     options = dict(_HEIGHTFIELD_OPTIONS)
     given = set()
@@ -117,7 +118,7 @@ def _grid_terrain(
     x_range: tuple[float, float],
     y_range: tuple[float, float],
     course_end_x: float | None,
-) -> terrain_lib.Terrain:
+) -> Terrain:
     """A Terrain from heights spread evenly over the ranges (a 1-D array is an x-profile)."""
     where = f"terrain spec {spec!r}"
     if heights.ndim not in (1, 2) or heights.shape[-1] < 2 or heights.dtype.kind not in "iuf":
@@ -135,7 +136,7 @@ def _grid_terrain(
         raise ValueError(f"{where}: course_end_x {course_end_x} must lie in x_range {x_range}")
     grid = heights.reshape(1, -1) if profile else heights
     try:
-        return terrain_lib.Terrain(
+        return Terrain(
             name=name,
             spec=spec,
             x_knots=np.linspace(x_min, x_max, grid.shape[1]),

@@ -6,7 +6,7 @@ import os
 import pathlib
 import tempfile
 
-from quadcos.cli import UsageError
+from quadcos._util.cli import UsageError
 
 logger = logging.getLogger("quadcos.train")
 

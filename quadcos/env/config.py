@@ -7,7 +7,9 @@ import math
 
 import ml_collections
 
-from quadcos import backends, constants, oscillator, randomization, reward
+from quadcos.env import backends, randomization
+from quadcos.equations import oscillator, reward
+from quadcos.robot import constants
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")

@@ -13,9 +13,12 @@ import jax
 import jax.numpy as jnp
 import ml_collections
 
-from quadcos import backends, constants, oscillator, randomization, reward, robot, slope
+from quadcos import robot
 from quadcos import terrain as terrain_lib
-from quadcos.env_config import (  # noqa: F401 (the config's home; re-exported as quadcos.env's)
+from quadcos._util.overrides import apply_overrides
+from quadcos._util.quiet import warp_absence_unprinted
+from quadcos.env import backends, randomization
+from quadcos.env.config import (  # noqa: F401 (the config's home; re-exported as quadcos.env's)
     CONTROLLERS,
     OSCILLATOR_FORMS,
     action_size,
@@ -23,8 +26,8 @@ from quadcos.env_config import (  # noqa: F401 (the config's home; re-exported a
     max_progress,
     validate_config,
 )
-from quadcos.overrides import apply_overrides
-from quadcos.quiet import warp_absence_unprinted
+from quadcos.equations import oscillator, reward, slope
+from quadcos.robot import constants
 
 # The first import of MJX in a quadcos process (brax imports it too).
 with warp_absence_unprinted():

@@ -9,7 +9,8 @@ import functools
 
 import numpy as np
 
-from quadcos import constants, oscillator, reward, slope
+from quadcos.equations import oscillator, reward, slope
+from quadcos.robot import constants
 from quadcos.terrain import Terrain
 
 _HIP_MASK = np.array([True, False] * 4)

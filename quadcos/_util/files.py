@@ -1,8 +1,8 @@
 """Atomic file and directory writes: readers never see a partial result."""
 
 import os
-from pathlib import Path
 import shutil
+from pathlib import Path
 from typing import Callable
 
 

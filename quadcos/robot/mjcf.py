@@ -1,11 +1,19 @@
 """The quadruped's MJCF (models/mjcf/quadruped.xml) on a terrain: host-side MuJoCo only."""
 
 import pathlib
+from typing import Protocol
 
 import mujoco
 
-from quadcos import constants
-from quadcos.terrain import Terrain
+from quadcos.robot import constants
+
+
+class Ground(Protocol):
+    """What `build_model` needs of a terrain (`quadcos.terrain.Terrain` is one)."""
+
+    name: str
+
+    def attach(self, spec: mujoco.MjSpec) -> None: ...
 
 
 def load_spec(mjcf_path: str | pathlib.Path | None = None) -> mujoco.MjSpec:
@@ -43,7 +51,7 @@ def _check_names(spec: mujoco.MjSpec, path: pathlib.Path) -> None:
 
 
 def build_model(
-    terrain: Terrain,
+    terrain: Ground,
     mjcf_path: str | pathlib.Path | None = None,
     *,
     timestep: float | None = None,

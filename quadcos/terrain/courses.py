@@ -30,9 +30,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from quadcos import terrain as terrain_lib
-from quadcos.ground import Lane, Terrain
-from quadcos.terrain import Section
+from quadcos.terrain import builders, registry
+from quadcos.terrain.builders import Section
+from quadcos.terrain.ground import Lane, Terrain
 
 RANDOM_PREFIX = "random:"
 TESTSET_PREFIX = "testset:"
@@ -85,12 +85,12 @@ def lanes(
         if not sections:
             profiles.append((course_name, None, np.array([0.0]), np.array([0.0])))
             continue
-        course = terrain_lib.sections(sections, lead_in=lead_in, run_out=1.0, resolution=resolution)
+        course = builders.sections(sections, lead_in=lead_in, run_out=1.0, resolution=resolution)
         knots, heights = course.x_knots[1:-1], course.heights[0, 1:-1]  # spawn-side flat held
         profiles.append((course_name, course.course_end_x, knots, heights))
     ends = [end for _, end, _, _ in profiles if end is not None]
     x_max = max(ends, default=lead_in) + run_out
-    back = -terrain_lib._BACK_RUN  # the flat ground behind the spawn points of sections courses
+    back = -builders._BACK_RUN  # the flat ground behind the spawn points of sections courses
     x_knots = np.unique(np.concatenate([[back, x_max], *(p[2] for p in profiles)]))
     lane_rows = np.stack([np.interp(x_knots, knots, heights) for _, _, knots, heights in profiles])
 
@@ -165,9 +165,9 @@ def random_family(
         for i in range(num_lanes)
     ]
     spec = (
-        f"{RANDOM_PREFIX}max_deg={terrain_lib._format_number(max_deg)},"
+        f"{RANDOM_PREFIX}max_deg={builders._format_number(max_deg)},"
         f"sections={sections[0]}-{sections[1]},"
-        f"len={terrain_lib._format_number(length[0])}-{terrain_lib._format_number(length[1])},"
+        f"len={builders._format_number(length[0])}-{builders._format_number(length[1])},"
         f"seed={seed},lanes={num_lanes}"
     )
     return lanes(courses, name=spec, spec=spec)
@@ -194,7 +194,7 @@ def testset(seed: int) -> Terrain:
         for i in range(_TEST_COURSES)
     ]
     for named in _TEST_NAMED:  # flat as a 10-m level course: its robots stop at its end
-        course = terrain_lib.parse(named)
+        course = registry.registered(named)
         courses.append((named, course_sections(course) or [Section(0.0, _TEST_FLAT_M)]))
     spec = f"{TESTSET_PREFIX}{seed}"
     return lanes(courses, name=spec, spec=spec)

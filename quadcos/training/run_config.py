@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from quadcos import env as env_lib
-from quadcos.overrides import flat_keys, flatten
+from quadcos._util.overrides import flat_keys, flatten
 from quadcos.training import config as training_config
 
 # Options added after runs were committed, with the value those earlier runs were trained with.

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from quadcos import constants
+from quadcos.robot import constants
 
 _FRONT = np.array([0, 1])  # LF, RF in constants.LEGS order
 _REAR = np.array([2, 3])  # LB, RB

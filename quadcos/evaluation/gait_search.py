@@ -16,8 +16,8 @@ from typing import Any
 
 import ml_collections
 
-from quadcos import oscillator
-from quadcos.overrides import flatten
+from quadcos._util.overrides import flatten
+from quadcos.equations import oscillator
 
 logger = logging.getLogger("quadcos.train")
 
@@ -44,7 +44,9 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     Raises:
       NoGaitFound: every candidate fell at least once.
     """
-    from quadcos import evaluation  # heavy: builds envs; only a from-scratch run needs it
+    from quadcos.evaluation import (
+        fixed_search,  # heavy: builds envs; only a from-scratch run needs it
+    )
 
     search = config.sac.gait_search
     overrides = flatten(config.env.to_dict())
@@ -72,7 +74,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
             entry["best_forward_speed"],
         )
 
-    result = evaluation.search_fixed(
+    result = fixed_search.search_fixed(
         config.env.terrain,
         num_candidates=search.num_candidates,
         robots_per_candidate=search.robots_per_candidate,
@@ -112,7 +114,7 @@ def resolve_centre(
     search = find_gait(config)
     config.env.action_centre = search["action_centre"]
     if run_dir is not None:
-        from quadcos.training import files
+        from quadcos._util import files
 
         run_dir.mkdir(parents=True, exist_ok=True)
         files.atomic_write_text(run_dir / SEARCH_FILE, json.dumps(search, indent=2) + "\n")

@@ -2,7 +2,14 @@
 
 import pathlib
 
-MJCF_PATH = pathlib.Path(__file__).resolve().parent.parent / "models" / "mjcf" / "quadruped.xml"
+_PACKAGE = pathlib.Path(__file__).resolve().parent.parent
+# The robot files live in the repository's models/mjcf/; a wheel carries them as quadcos/models/mjcf/
+# (pyproject.toml maps the folder into the package).
+MJCF_DIR = next(
+    (d for d in (_PACKAGE / "models" / "mjcf", _PACKAGE.parent / "models" / "mjcf") if d.is_dir()),
+    _PACKAGE.parent / "models" / "mjcf",
+)
+MJCF_PATH = MJCF_DIR / "quadruped.xml"
 
 LEGS = ("LF", "RF", "LB", "RB")
 # Paper Eq. 3 order: LF hip, LF knee, RF hip, RF knee, LB hip, LB knee, RB hip, RB knee.

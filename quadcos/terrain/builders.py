@@ -1,6 +1,6 @@
-"""Terrains: built (`flat`, `sections`, `heightfield`), registered by name and parsed from specs.
+"""Terrains built from a profile: `flat`, `sections` (the paper's courses), `heightfield`.
 
-A `Terrain` (`quadcos.ground`, re-exported here) is an immutable description of the ground. On the
+A `Terrain` (`quadcos.terrain.ground`) is an immutable description of the ground. On the
 host it adds the ground to a robot's `mujoco.MjSpec` (`Terrain.attach`); inside the env its
 `height_at` / `slope_at` are pure `jax.numpy` functions giving the ground-truth height and pitch.
 
@@ -12,24 +12,22 @@ Terrains of the paper (§4), registered by name: "flat"; "slope5" (Fig. 10: 5° 
 3 m each); "s4" (Fig. 16, the unseen course S-4: 5°, 0°, 9°, 0° of 1.4, 1.4, 1.2, 1.4 m).
 """
 
-import dataclasses
 import decimal
 import itertools
 import math
-import re
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numpy as np
 
-from quadcos.ground import (  # noqa: F401 -- part of this module's API
+from quadcos.terrain.ground import (  # noqa: F401 -- part of this module's API
+    _MAX_HFIELD_CELLS,
     FLOOR_GEOM,
     FLOOR_HFIELD,
     GROUND_CONDIM,
     GROUND_FRICTION,
     Lane,
     Terrain,
-    _MAX_HFIELD_CELLS,
     _vertex_count,
 )
 
@@ -39,10 +37,6 @@ _MIN_SECTION_LENGTH = 1e-3  # m
 _MAX_SECTION_ANGLE = 45.0  # deg
 _SECTIONS_DEFAULTS = {"lead_in": 2.0, "run_out": 3.0, "resolution": 0.05}
 _SECTIONS_PREFIX = "sections:"
-_SECTIONS_FORMAT = (
-    "sections:ANGLE_DEG@LENGTH_M[,ANGLE_DEG@LENGTH_M...][;lead_in=M][;run_out=M][;resolution=M]"
-)
-_NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_.-]*")
 
 
 class Section(NamedTuple):
@@ -257,128 +251,11 @@ def heightfield(
     )
 
 
-def _slope5() -> Terrain:
+def slope5() -> Terrain:
     """Paper Fig. 10: 5° uphill, 0°, 5° downhill, 3 m each."""
     return sections([Section(5.0, 3.0), Section(0.0, 3.0), Section(-5.0, 3.0)])
 
 
-def _s4() -> Terrain:
+def s4() -> Terrain:
     """Paper Fig. 16, the unseen course S-4: 5°, 0°, 9°, 0° of 1.4, 1.4, 1.2, 1.4 m."""
     return sections([Section(5.0, 1.4), Section(0.0, 1.4), Section(9.0, 1.2), Section(0.0, 1.4)])
-
-
-_REGISTRY: dict[str, Terrain | Callable[[], Terrain]] = {"flat": flat, "slope5": _slope5, "s4": _s4}
-
-
-def register(
-    name: str, terrain: Terrain | Callable[[], Terrain], *, overwrite: bool = False
-) -> None:
-    """Makes a terrain available to `get` / `parse` (and so to the CLI) under `name`.
-
-    Args:
-      name: a letter, then letters, digits, '_', '.' or '-'; not "sections".
-      terrain: the terrain, or a zero-argument factory called on each `get`.
-      overwrite: replace an existing entry (built-ins included) instead of raising.
-
-    Raises:
-      ValueError: bad name, or the name is taken and not `overwrite`.
-      TypeError: `terrain` is neither a Terrain nor callable.
-    """
-    if not isinstance(name, str) or not _NAME_PATTERN.fullmatch(name) or name == "sections":
-        raise ValueError(
-            f"bad terrain name {name!r}: expected a letter, then letters, digits, '_', '.', '-'"
-            " (and not 'sections')"
-        )
-    if not (isinstance(terrain, Terrain) or callable(terrain)):
-        raise TypeError(
-            f"terrain must be a Terrain or a callable returning one, got {type(terrain).__name__}"
-        )
-    if name in _REGISTRY and not overwrite:
-        raise ValueError(f"terrain {name!r} is already registered; pass overwrite=True to replace")
-    _REGISTRY[name] = terrain
-
-
-def names() -> list[str]:
-    """Registered terrain names, sorted."""
-    return sorted(_REGISTRY)
-
-
-def parse(spec: str) -> Terrain:
-    """Builds a terrain from a spec string (the CLI's --terrain).
-
-    Accepted, surrounding whitespace ignored:
-      - a registered name (`flat`, `slope5`, `s4`, ...); the terrain comes back with `name` and
-        `spec` set to that name;
-      - `sections:ANGLE_DEG@LENGTH_M,...` with optional `;lead_in=M`, `;run_out=M`,
-        `;resolution=M` (see `sections`), e.g. `sections:5@1.4,0@1.4,9@1.2,0@1.4`;
-      - `MODULE:NAME` (a terrain from the user's module) and `heightfield:FILE.npy;...` (heights
-        from a NumPy file): see `quadcos.terrain_spec`.
-
-    Raises:
-      ValueError: unknown name or malformed sections spec, naming the bad token.
-      TypeError: `spec` is not a string, or a registered factory returned no Terrain.
-    """
-    if not isinstance(spec, str):
-        raise TypeError(f"terrain spec must be a string, got {type(spec).__name__}")
-    text = spec.strip()
-    if text.startswith(_SECTIONS_PREFIX):
-        return _parse_sections(text)
-    from quadcos import courses, terrain_spec  # pylint: disable=g-import-not-at-top (they import this)
-
-    if (lanes := courses.parse(text)) is not None:
-        return lanes
-    if (external := terrain_spec.parse_external(text)) is not None:
-        return external
-    if text not in _REGISTRY:
-        raise ValueError(
-            f"unknown terrain {spec!r}; known: {', '.join(names())}, {_SECTIONS_FORMAT},"
-            f" {courses.RANDOM_FORMAT}, {courses.TESTSET_FORMAT},"
-            f" {terrain_spec.HEIGHTFIELD_FORMAT} or {terrain_spec.MODULE_FORMAT}"
-        )
-    entry = _REGISTRY[text]
-    terrain = entry if isinstance(entry, Terrain) else entry()
-    if not isinstance(terrain, Terrain):
-        raise TypeError(
-            f"the factory registered as {text!r} returned {type(terrain).__name__}, not a Terrain"
-        )
-    return dataclasses.replace(terrain, name=text, spec=text)
-
-
-def get(name_or_spec: str) -> Terrain:
-    """The terrain for a registered name or a spec string; see `parse`."""
-    return parse(name_or_spec)
-
-
-def _parse_sections(spec: str) -> Terrain:
-    body, *option_tokens = spec.removeprefix(_SECTIONS_PREFIX).split(";")
-    if not body.strip():
-        raise ValueError(f"no sections in {spec!r}: expected {_SECTIONS_FORMAT}")
-    segments = []
-    for token in body.split(","):
-        angle_deg, at, length = token.partition("@")
-        try:
-            if not at:
-                raise ValueError
-            segments.append(Section(float(angle_deg), float(length)))
-        except ValueError:
-            raise ValueError(
-                f"bad section {token!r} in {spec!r}: expected ANGLE_DEG@LENGTH_M"
-            ) from None
-    options: dict[str, float] = {}
-    for token in option_tokens:
-        key, equals, value = (part.strip() for part in token.partition("="))
-        if not equals or key not in _SECTIONS_DEFAULTS or key in options:
-            raise ValueError(
-                f"bad option {token!r} in {spec!r}: expected at most one each of"
-                " lead_in=M, run_out=M, resolution=M"
-            )
-        try:
-            options[key] = float(value)
-        except ValueError:
-            raise ValueError(
-                f"bad option {token!r} in {spec!r}: {value!r} is not a number"
-            ) from None
-    try:
-        return sections(segments, **options)
-    except ValueError as error:
-        raise ValueError(f"bad terrain spec {spec!r}: {error}") from None

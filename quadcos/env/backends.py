@@ -16,7 +16,7 @@ import importlib.util
 import jax
 import ml_collections
 
-from quadcos.quiet import warp_absence_unprinted
+from quadcos._util.quiet import warp_absence_unprinted
 
 with warp_absence_unprinted():  # MJX prints a notice to stdout when warp-lang is absent
     from mujoco import mjx

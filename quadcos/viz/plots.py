@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from quadcos import constants
+from quadcos.robot import constants
 
 TraceLike = Mapping[str, Any] | str | os.PathLike[str]
 _LEG_COLOURS = {"hip": "tab:blue", "knee": "tab:red"}  # Fig. 3: blue hip, red knee
