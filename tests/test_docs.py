@@ -9,8 +9,6 @@ import sys
 
 import pytest
 
-pytest.importorskip("mkdocs", reason="the docs extra (mkdocs, mkdocs-material) is not installed")
-pytest.importorskip("material", reason="the docs extra (mkdocs, mkdocs-material) is not installed")
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
