@@ -3,6 +3,7 @@ only modules of lower layers or of its own package, with no circle, lazy imports
 included; read from the source (AST), nothing is imported."""
 
 import ast
+import re
 import pathlib
 
 import pytest
@@ -105,3 +106,11 @@ def test_the_checks_can_fail():
     assert _layer("quadcos.equations.slope") < _layer("quadcos.env.quadruped")
     assert _layer("quadcos.train") == _layer("quadcos.sim2sim")  # so neither may import the other
     assert "quadcos.env.backends" in GRAPH["quadcos.env.quadruped"]
+
+
+def test_the_architecture_page_shows_the_layers_as_they_are():
+    page = (PACKAGE.parent / "docs" / "architecture.md").read_text()
+    table = re.findall(r"^\| `(\w+)/` \|", page, re.M)
+    assert tuple(table) == LAYERS
+    chain = re.search(r"^\s*util --> (.*)$", page, re.M).group(1).split(" --> ")
+    assert tuple(["_util", *chain[:-1]]) == LAYERS and chain[-1] == "clis"
