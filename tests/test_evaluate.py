@@ -25,8 +25,8 @@ from quadcos.viz import plots, video
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # A trained flat-ground run, standing in for the pretrained policies to come (as in the notebooks).
-STAND_IN_RUN = ROOT / "experiments" / "flat" / "flat_s0"
-LEGACY_POLICY = ROOT / "experiments" / "archive" / "flat_gpu" / "paper_20hz" / "policy"
+STAND_IN_RUN = ROOT / "tests" / "data" / "trained" / "flat" / "flat_s0"
+LEGACY_POLICY = ROOT / "tests" / "data" / "trained" / "archive" / "flat_gpu" / "paper_20hz" / "policy"
 NUM_ENVS, SECONDS = 4, 2.0
 
 
