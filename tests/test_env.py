@@ -248,14 +248,14 @@ def test_unknown_terrain_is_named():
 
 def test_missing_mjcf_is_named(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.xml"):
-        quadcos.make_env("flat", mjcf_path=str(tmp_path / "nope.xml"))
+        quadcos.make_env("flat", robot=str(tmp_path / "nope.xml"))
 
 
 def test_broken_mjcf_is_named(tmp_path):
     broken = tmp_path / "broken.xml"
     broken.write_text("<mujoco><worldbody><body><geom type='sphere'/></worldbody></mujoco>")
     with pytest.raises(ValueError, match="broken.xml"):
-        quadcos.make_env("flat", mjcf_path=str(broken))
+        quadcos.make_env("flat", robot=str(broken))
 
 
 def test_mjcf_that_fails_to_compile_is_named(tmp_path):
@@ -263,7 +263,7 @@ def test_mjcf_that_fails_to_compile_is_named(tmp_path):
     bad = tmp_path / "negative_mass.xml"
     bad.write_text(text)
     with pytest.raises(ValueError, match="negative_mass.xml"):
-        quadcos.make_env("flat", mjcf_path=str(bad))
+        quadcos.make_env("flat", robot=str(bad))
 
 
 def test_posture_adds_front_and_hind_hip_offsets_to_the_rhythm(flat_env):

@@ -372,7 +372,7 @@ def test_hostile_mjcf_files_fail_in_one_line_and_write_nothing(content):
             run_dir = pathlib.Path(directory) / "out"
             with mock.patch.object(training, "train", side_effect=AssertionError("trained")):
                 status, stderr = run_main(
-                    ["--preset=smoke", f"--config.env.mjcf_path={path}", f"--output_dir={run_dir}"]
+                    ["--preset=smoke", f"--config.env.robot={path}", f"--output_dir={run_dir}"]
                 )
             assert_one_line_error(status, stderr)
             assert "MJCF" in stderr and not run_dir.exists()

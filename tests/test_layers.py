@@ -13,8 +13,8 @@ import quadcos
 PACKAGE = pathlib.Path(quadcos.__file__).resolve().parent
 LAYERS = (
     "_util",
-    "robot",
     "equations",
+    "robot",
     "terrain",
     "viz",
     "env",

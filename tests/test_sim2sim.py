@@ -50,11 +50,11 @@ def test_slope_twins():
     for _ in range(50):
         quaternion = RNG.normal(size=4)
         quaternion /= np.linalg.norm(quaternion)
-        joints = RNG.uniform(-0.8, 0.8, 8)
+        feet = RNG.uniform(-0.4, 0.4, (4, 3)) + np.array([[0.3, 0, -0.6]] * 2 + [[-0.3, 0, -0.6]] * 2)
         expected = slope.attitude(quaternion)
         np.testing.assert_allclose(twins.attitude(quaternion), expected, atol=1e-5)
-        assert twins.estimate_slope(joints, quaternion) == pytest.approx(
-            float(slope.estimate_slope(joints, quaternion)), abs=1e-5
+        assert twins.estimate_slope(feet, quaternion) == pytest.approx(
+            float(slope.estimate_slope(feet, quaternion)), abs=1e-5
         )
 
 

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from quadcos.equations import slope
+from quadcos import robot as quadcos_robot
+from quadcos.equations import kinematics, slope
 from quadcos.robot import constants
 
 
@@ -35,15 +36,27 @@ def test_attitude_matches_scipy_zyx(roll, pitch_down, yaw):
     )
 
 
-def test_forward_kinematics_matches_mujoco():
+def test_forward_kinematics_is_the_papers_two_link_legs_and_matches_mujoco():
+    """The generic chain kinematics on the paper's robot: its closed form (thigh and shank, hip
+    offsets) and MuJoCo's own foot positions."""
+    description = quadcos_robot.load("quadcos").description
     model = mujoco.MjModel.from_xml_path(str(constants.MJCF_PATH))
     data = mujoco.MjData(model)
     rng = np.random.default_rng(0)
+    torso = model.body(constants.TORSO_BODY).id
     for _ in range(5):
         joints = rng.uniform(-1.0, 1.0, 8)
         data.qpos[constants.QPOS_JOINTS] = joints
         mujoco.mj_kinematics(model, data)
-        torso = model.body(constants.TORSO_BODY).id
         world = np.stack([data.site(name).xpos for name in constants.FEET])
         in_torso = (world - data.xpos[torso]) @ data.xmat[torso].reshape(3, 3)
-        np.testing.assert_allclose(slope.foot_positions(joints), in_torso, atol=1e-5)
+        hip, shank = joints[0::2], joints[0::2] - joints[1::2]
+        x = constants.THIGH_LENGTH * np.sin(hip) + constants.SHANK_LENGTH * np.sin(shank)
+        z = -constants.THIGH_LENGTH * np.cos(hip) - constants.SHANK_LENGTH * np.cos(shank)
+        closed_form = np.asarray(constants.HIP_OFFSETS) + np.stack([x, 0 * x, z], axis=-1)
+        feet = kinematics.foot_positions(description.chains, joints, xp=np)
+        np.testing.assert_allclose(feet, in_torso, atol=1e-9)
+        np.testing.assert_allclose(feet, closed_form, atol=1e-9)
+        np.testing.assert_allclose(
+            kinematics.foot_positions(description.chains, joints), closed_form, atol=1e-5
+        )

@@ -32,9 +32,9 @@ from quadcos._util import cli
 from quadcos._util import overrides as config_lib
 from quadcos.deploy import export, twins
 from quadcos.deploy.numpy_policy import NumpyPolicy
+from quadcos.env.layout import Layout
 from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import report, rollout, sources
-from quadcos.robot import constants
 
 ENGINE = "mujoco"
 # Per-episode maxima of evaluation.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
@@ -113,14 +113,17 @@ class HostRobot:
 
     def __init__(self, terrain: terrain_lib.Terrain | str, config: ml_collections.ConfigDict):
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
+        self.robot = robot.load(config.robot)
+        config = env_lib.resolve(config)
         self.config = config
         self.model = robot.build_model(
             self.terrain,
-            config.mjcf_path or None,
+            self.robot,
             timestep=config.physics_dt,
-            solver_iterations=config.solver_iterations or None,
-            ls_iterations=config.ls_iterations or None,
+            solver_iterations=config.solver_iterations,
+            ls_iterations=config.ls_iterations,
         )
+        self.layout = Layout.of(self.robot.description, self.model, xp=np)
         self.data = mujoco.MjData(self.model)
         self.substeps = round(config.control_dt / config.physics_dt)
         self.dt = self.substeps * config.physics_dt
@@ -131,28 +134,25 @@ class HostRobot:
         self.action_size = env_lib.action_size(config)
         self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
         self.weights = reward.RewardWeights(**config.reward.to_dict())
-        sensor = self.model.sensor(constants.IMU_ORIENTATION_SENSOR)
-        self._orientation = slice(sensor.adr[0], sensor.adr[0] + 4)
-        self._torso = self.model.body(constants.TORSO_BODY).id
-        self._torso_half_size = self.model.geom(constants.TORSO_GEOM).size.copy()
+        self._torso = self.model.body(self.robot.description.root_body).id
         self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
 
     def reset(self, seed: int | Sequence[int], x: float = 0.0, y: float = 0.0) -> np.ndarray:
         """`QuadrupedEnv.reset_at`: standing at (x, y), pitched with the ground, joints perturbed
         by U(±reset_joint_noise) from `np.random.default_rng(seed)`. Returns the observation."""
-        noise = self.config.reset_joint_noise
-        joints = np.random.default_rng(seed).uniform(-noise, noise, len(constants.JOINTS))
+        noise, layout = self.config.reset_joint_noise, self.layout
+        joints = layout.home + np.random.default_rng(seed).uniform(-noise, noise, layout.home.size)
         ground_slope = float(twins.slope_at(self.terrain, x, y))
-        height = twins.height_at(self.terrain, x, y) + constants.STANDING_HEIGHT / math.cos(
+        height = twins.height_at(self.terrain, x, y) + layout.standing_height / math.cos(
             ground_slope
         )
         mujoco.mj_resetData(self.model, self.data)
         qpos = self.data.qpos
-        qpos[constants.QPOS_POSITION] = x, y, height + env_lib._SPAWN_CLEARANCE  # noqa: SLF001
+        qpos[layout.position] = x, y, height + env_lib._SPAWN_CLEARANCE  # noqa: SLF001
         half = ground_slope / 2
-        qpos[constants.QPOS_QUATERNION] = math.cos(half), 0.0, -math.sin(half), 0.0
-        qpos[constants.QPOS_JOINTS] = joints
-        self.data.ctrl[:] = joints
+        qpos[layout.quaternion] = math.cos(half), 0.0, -math.sin(half), 0.0
+        qpos[layout.joint_qpos] = joints
+        self.data.ctrl[:] = layout.controls(joints, self.data)
         mujoco.mj_forward(self.model, self.data)
         self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
         return self._observe()[0]
@@ -168,20 +168,20 @@ class HostRobot:
     def step(self, action: np.ndarray) -> StepResult:
         """One control period: `substeps` mj_steps under the controller, then observe, reward and
         check for a fall."""
-        x_last, y_last = self.data.qpos[0], self.data.qpos[1]
+        x_last, y_last, _ = self.data.qpos[self.layout.position]
         action = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
         period = oscillator.FIXED_TROT.period
         for _ in range(self.substeps):
             self.command = self.command + self._blend * (action - self.command)
             params = self.rhythm_parameters()
-            self.data.ctrl[:] = self._joint_targets(params)
+            self.data.ctrl[:] = self.layout.controls(self._joint_targets(params), self.data)
             mujoco.mj_step(self.model, self.data)
             period = period if params is None else params.period
             self.phase = twins.advance_phase(self.phase, period, self.config.physics_dt)
         if self.config.oscillator_form == "literal":
             self.phase = math.fmod(oscillator.TWO_PI * self.data.time / period, oscillator.TWO_PI)
         obs, body, slope_estimate = self._observe()
-        x, y = self.data.qpos[0], self.data.qpos[1]
+        x, y, _ = self.data.qpos[self.layout.position]
         slope_truth = float(twins.slope_at(self.terrain, x, y))
         finite = np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all()
         fell = not finite or self._fell(body, slope_truth)
@@ -210,7 +210,7 @@ class HostRobot:
     def _joint_targets(self, params: oscillator.RhythmParameters | None) -> np.ndarray:
         """`QuadrupedEnv.joint_targets` of the current command and phase."""
         if params is None:
-            return env_lib.JOINT_TARGET_BOUND * np.clip(self.command, -1.0, 1.0)
+            return self.layout.home + env_lib.JOINT_TARGET_BOUND * np.clip(self.command, -1.0, 1.0)
         phase = self.phase
         if self.config.oscillator_form == "literal":
             phase = oscillator.TWO_PI * self.data.time / params.period
@@ -220,15 +220,16 @@ class HostRobot:
             targets += twins.posture_offsets(
                 self.command[oscillator.RHYTHM_SIZE :], self.config.posture_bound
             )
-        return targets
+        return self.layout.rhythm_targets(targets)
 
     def _observe(self) -> tuple[np.ndarray, slope.Attitude, float]:
         """`QuadrupedEnv._observe`: (obs, attitude, slope estimate)."""
-        quaternion = self.data.sensordata[self._orientation]
+        layout = self.layout
+        quaternion = layout.orientation(self.data)
         body = twins.attitude(quaternion)
-        joints = self.data.qpos[constants.QPOS_JOINTS]
-        slope_estimate = twins.estimate_slope(joints, quaternion)
-        parts = [self.data.qvel[constants.QVEL_LINEAR], [body.pitch, body.yaw, body.roll], joints]
+        joints = self.data.qpos[layout.joint_qpos]
+        slope_estimate = twins.estimate_slope(layout.foot_positions(self.data), quaternion)
+        parts = [self.data.qvel[layout.linear_velocity], [body.pitch, body.yaw, body.roll], joints]
         if self.config.observe_slope:
             parts.append([slope_estimate])
         if self.config.observe_phase:
@@ -240,10 +241,12 @@ class HostRobot:
     def _fell(self, body: slope.Attitude, slope_truth: float) -> bool:
         """`QuadrupedEnv._fell`: torso too low, attitude beyond limits, or a torso corner below
         the ground."""
-        x, y, z = self.data.qpos[constants.QPOS_POSITION]
+        layout = self.layout
+        x, y, z = self.data.qpos[layout.position]
         config = self.config
         rotation = self.data.xmat[self._torso].reshape(3, 3)
-        corners = self.data.xpos[self._torso] + (_CORNER_SIGNS * self._torso_half_size) @ rotation.T
+        box = layout.torso_centre + _CORNER_SIGNS * layout.torso_half_size
+        corners = self.data.xpos[self._torso] + box @ rotation.T
         ground = twins.height_at(self.terrain, corners[:, 0], corners[:, 1])
         return bool(
             z - twins.height_at(self.terrain, x, y) < config.fall_min_height
@@ -265,7 +268,8 @@ def run_episode(
     """One episode of at most `num_steps` control steps from `host.reset(seed)`; returns the
     fields of `evaluation.EpisodeStats` for it (scalars), accumulated as `evaluate` does."""
     obs = host.reset(seed)
-    x, y = float(host.data.qpos[0]), float(host.data.qpos[1])
+    position = host.layout.position
+    x, y, _ = (float(value) for value in host.data.qpos[position])
     record = dict(fell=False, finished=False, steps=0, start_x=x, start_y=y, x=x, y=y)
     maxima = np.zeros(len(_MAXIMA))
     slope_sq_error, reward_terms = 0.0, dict.fromkeys(reward.TERM_NAMES, 0.0)
@@ -273,14 +277,15 @@ def run_episode(
     for _ in range(num_steps):
         result = host.step(act(obs))
         obs, qpos = result.obs, host.data.qpos
-        body = twins.attitude(qpos[constants.QPOS_QUATERNION])  # as evaluate: from qpos
-        record.update(steps=record["steps"] + 1, x=float(qpos[0]), y=float(qpos[1]))
-        now = [qpos[1] - record["start_y"], body.roll, body.yaw, body.pitch - result.slope_truth]
+        body = twins.attitude(qpos[host.layout.quaternion])  # as evaluate: from qpos
+        x, y, _ = (float(value) for value in qpos[position])
+        record.update(steps=record["steps"] + 1, x=x, y=y)
+        now = [y - record["start_y"], body.roll, body.yaw, body.pitch - result.slope_truth]
         maxima = np.maximum(maxima, np.abs(now))
         slope_sq_error += (result.slope_estimate - result.slope_truth) ** 2
         for term, value in result.reward_terms.items():
             reward_terms[term] += value
-        at_end = course_end_x is not None and qpos[0] >= course_end_x
+        at_end = course_end_x is not None and x >= course_end_x
         record.update(fell=result.fell, finished=not result.fell and at_end)
         if record["fell"] or record["finished"]:
             break

@@ -10,7 +10,6 @@ import functools
 import numpy as np
 
 from quadcos.equations import oscillator, reward, slope
-from quadcos.robot import constants
 from quadcos.terrain import Terrain
 
 _HIP_MASK = np.array([True, False] * 4)
@@ -61,13 +60,9 @@ def attitude(quaternion: np.ndarray) -> slope.Attitude:
     return slope.Attitude(roll=float(roll), pitch=float(-pitch_about_y), yaw=float(yaw))
 
 
-def estimate_slope(joint_angles: np.ndarray, quaternion: np.ndarray) -> float:
-    """`slope.estimate_slope` (§3.2, Eq. 5): rad, from (8,) joint angles and the IMU quaternion."""
-    hip = joint_angles[0::2]
-    shank = hip - joint_angles[1::2]
-    x = constants.THIGH_LENGTH * np.sin(hip) + constants.SHANK_LENGTH * np.sin(shank)
-    z = -constants.THIGH_LENGTH * np.cos(hip) - constants.SHANK_LENGTH * np.cos(shank)
-    feet = np.asarray(constants.HIP_OFFSETS) + np.stack([x, np.zeros_like(x), z], axis=-1)
+def estimate_slope(feet: np.ndarray, quaternion: np.ndarray) -> float:
+    """`slope.estimate_slope` (§3.2, Eq. 5): rad, from (4, 3) torso-frame foot ends (LF, RF, LB,
+    RB) and the IMU quaternion."""
     body = attitude(quaternion)
     cr, sr = np.cos(body.roll), np.sin(body.roll)
     cp, sp = np.cos(-body.pitch), np.sin(-body.pitch)

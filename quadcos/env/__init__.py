@@ -2,16 +2,18 @@
 
 Modules, lowest first: `backends` (the MJX implementation: JAX or Warp), `randomization` (a
 robot's physics drawn per episode), `config` (the env's options, defaults and checks), `episodes`
-(the one deterministic rollout loop), `quadruped` (the env itself).
+(the one deterministic rollout loop), `layout` (where the robot's state sits, and its
+controls), `quadruped` (the env itself).
 """
 
-from quadcos.env import backends, config, episodes, quadruped, randomization
+from quadcos.env import backends, config, episodes, layout, quadruped, randomization
 from quadcos.env.config import (
     CONTROLLERS,
     OSCILLATOR_FORMS,
     action_size,
     default_config,
     max_progress,
+    resolve,
     validate_config,
 )
 from quadcos.env.quadruped import (
@@ -30,5 +32,6 @@ __all__ = [
     "default_config",
     "make_env",
     "max_progress",
+    "resolve",
     "validate_config",
 ]

@@ -7,9 +7,9 @@ import math
 
 import ml_collections
 
+from quadcos import robot as robot_lib
 from quadcos.env import backends, randomization
 from quadcos.equations import oscillator, reward
-from quadcos.robot import constants
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")
@@ -20,7 +20,9 @@ def default_config() -> ml_collections.ConfigDict:
     """A fresh env config; every field is overridable by `make_env(**overrides)`."""
     config = ml_collections.ConfigDict()
     config.terrain = "flat"  # name or spec string, see quadcos.terrain.parse
-    config.mjcf_path = ""  # "" = models/mjcf/quadruped.xml
+    # The quadruped: "quadcos" (the paper's), "quad12" (our 12-joint test robot), an MJCF path,
+    # "menagerie:NAME" (MuJoCo Menagerie) or a name registered with quadcos.robot.register.
+    config.robot = "quadcos"
     # MJX implementation: "auto" = Warp on a CUDA GPU with warp-lang installed, else "jax".
     config.impl = "auto"
     config.warp = backends.default_warp_config()
@@ -29,9 +31,11 @@ def default_config() -> ml_collections.ConfigDict:
     # standing still when a step is long enough for Δy to matter: at 50 Hz a good trot scores
     # less per step than standing (measured; see experiments/README.md).
     config.control_dt = 0.05
-    config.physics_dt = 0.005  # s: MJX step (200 Hz); control_dt must be a multiple
-    config.solver_iterations = 0  # 0 = the MJCF's
-    config.ls_iterations = 0  # 0 = the MJCF's
+    # s: MJX step; control_dt must be a multiple. 0 = the robot's (quadcos.robot.presets: the
+    # paper's robot 0.005 s, 200 Hz).
+    config.physics_dt = 0.0
+    config.solver_iterations = 0  # 0 = the robot's preset's, else the MJCF's
+    config.ls_iterations = 0  # 0 = the robot's preset's, else the MJCF's
     config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
     # "phase" integrates ψ += 2π dt/T every physics step (continuous when T changes); "literal"
     # evaluates Eq. 3 at 2πt/T. Equal while T is constant; see quadcos.oscillator.
@@ -72,7 +76,9 @@ def default_config() -> ml_collections.ConfigDict:
     # Training's auto-reset returns each env to its own first spawn. Evaluation always starts at
     # the spawn point (quadcos.evaluate sets 0).
     config.spawn_x_max = 0.0
-    config.fall_min_height = 0.35  # m: torso centre above the ground below it
+    # m: the torso centre above the ground below it; 0 = the robot's (the paper's robot 0.35 m of
+    # its 0.67 m standing height; others the same fraction of theirs).
+    config.fall_min_height = 0.0
     config.fall_max_roll = 0.8  # rad
     config.fall_max_pitch_error = 0.8  # rad: |pitch − true slope|
     # Domain randomisation (friction, torso mass and CoM, servo gain, damping, motor strength,
@@ -86,15 +92,38 @@ def max_progress(config: ml_collections.ConfigDict, dt: float) -> float:
     return config.forward_speed_cap * dt if config.forward_speed_cap > 0 else math.inf
 
 
+def resolve(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
+    """A copy of `config` with the values that 0 leaves to the robot filled in from it.
+
+    Raises:
+      FileNotFoundError, ValueError: the robot cannot be loaded (see quadcos.robot.load).
+    """
+    robot = robot_lib.load(config.robot)
+    resolved = ml_collections.ConfigDict(config.to_dict())
+    if not resolved.physics_dt:
+        resolved.physics_dt = robot.preset.physics_dt
+    if not resolved.fall_min_height:
+        resolved.fall_min_height = robot.fall_min_height
+    if not resolved.solver_iterations:
+        resolved.solver_iterations = robot.preset.solver_iterations
+    if not resolved.ls_iterations:
+        resolved.ls_iterations = robot.preset.ls_iterations
+    return resolved
+
+
 def action_size(config: ml_collections.ConfigDict) -> int:
     """Values in an action of an env with this config."""
     if config.controller == "joint":
-        return len(constants.JOINTS)
+        return len(robot_lib.load(config.robot).description.joint_names)
     return oscillator.RHYTHM_SIZE + (oscillator.POSTURE_SIZE if config.posture_bound > 0 else 0)
 
 
 def validate_config(config: ml_collections.ConfigDict) -> None:
-    """Raises ValueError naming the first env config value the env cannot run with."""
+    """Raises ValueError naming the first env config value the env cannot run with (and
+    FileNotFoundError for a robot MJCF that does not exist)."""
+    if not isinstance(config.robot, str) or not config.robot:
+        raise ValueError(f"robot must be a robot spec string; got {config.robot!r}")
+    config = resolve(config)
     if config.impl not in backends.IMPLS:
         raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
     for key in ("max_envs", "contacts_per_env", "constraints_per_env"):
@@ -121,7 +150,7 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(
             f"unknown reward_variant {config.reward_variant!r}; known: {', '.join(reward.VARIANTS)}"
         )
-    if not (0 < config.physics_dt < math.inf and 0 < config.control_dt < math.inf):
+    if not (0 < config.physics_dt < math.inf and 0 < config.control_dt < math.inf):  # resolved
         raise ValueError(
             f"control_dt and physics_dt must be finite and > 0; got {config.control_dt}, {config.physics_dt}"
         )

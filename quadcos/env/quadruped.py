@@ -24,10 +24,11 @@ from quadcos.env.config import (  # noqa: F401 (the config's home; re-exported a
     action_size,
     default_config,
     max_progress,
+    resolve,
     validate_config,
 )
-from quadcos.equations import oscillator, reward, slope
-from quadcos.robot import constants
+from quadcos.env.layout import Layout
+from quadcos.equations import kinematics, oscillator, reward, slope
 
 # The first import of MJX in a quadcos process (brax imports it too).
 with warp_absence_unprinted():
@@ -63,6 +64,8 @@ class QuadrupedEnv(base.Env):
     ):
         config = default_config() if config is None else config
         validate_config(config)
+        self.robot = robot.load(config.robot)
+        config = resolve(config)
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.config = config
         extent = self.terrain.extent
@@ -73,10 +76,10 @@ class QuadrupedEnv(base.Env):
             )
         self.mj_model = robot.build_model(
             self.terrain,
-            config.mjcf_path or None,
+            self.robot,
             timestep=config.physics_dt,
-            solver_iterations=config.solver_iterations or None,
-            ls_iterations=config.ls_iterations or None,
+            solver_iterations=config.solver_iterations,
+            ls_iterations=config.ls_iterations,
         )
         self.impl = backends.resolve_impl(config.impl)
         self.randomized = bool(config.randomization.enabled)
@@ -91,10 +94,8 @@ class QuadrupedEnv(base.Env):
         self._speed_blend = 1.0 - math.exp(-self.dt / tau) if tau > 0 else 1.0
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
-        orientation_sensor = self.mj_model.sensor(constants.IMU_ORIENTATION_SENSOR)
-        self._orientation_slice = slice(orientation_sensor.adr[0], orientation_sensor.adr[0] + 4)
-        self._torso_body = self.mj_model.body(constants.TORSO_BODY).id
-        self._torso_half_size = self.mj_model.geom(constants.TORSO_GEOM).size.copy()
+        self.layout = Layout.of(self.robot.description, self.mj_model)
+        self._torso_body = self.mj_model.body(self.robot.description.root_body).id
 
     # --- Brax Env API -------------------------------------------------------------------------
 
@@ -136,17 +137,22 @@ class QuadrupedEnv(base.Env):
     def reset_at(self, rng: jax.Array, x: jax.Array, y: jax.Array) -> base.State:
         """A standing robot at (x, y): feet on the ground, torso pitched with the ground's slope."""
         noise = self.config.reset_joint_noise
-        joints = jax.random.uniform(rng, (len(constants.JOINTS),), minval=-noise, maxval=noise)
+        layout = self.layout
+        joints = layout.home + jax.random.uniform(
+            rng, layout.home.shape, minval=-noise, maxval=noise
+        )
         ground_slope = self.terrain.slope_at(x, y)
-        # Legs perpendicular to the ground: the torso centre sits STANDING_HEIGHT along the normal.
-        height = self.terrain.height_at(x, y) + constants.STANDING_HEIGHT / jnp.cos(ground_slope)
+        # Legs perpendicular to the ground: the torso centre sits the standing height along the
+        # normal.
+        height = self.terrain.height_at(x, y) + layout.standing_height / jnp.cos(ground_slope)
         nose_up = jnp.array([jnp.cos(ground_slope / 2), 0.0, -jnp.sin(ground_slope / 2), 0.0])
-        qpos = jnp.zeros(self.mj_model.nq)
-        qpos = qpos.at[constants.QPOS_POSITION].set(jnp.stack([x, y, height + _SPAWN_CLEARANCE]))
-        qpos = qpos.at[constants.QPOS_QUATERNION].set(nose_up)
-        qpos = qpos.at[constants.QPOS_JOINTS].set(joints)
+        qpos = jnp.asarray(self.mj_model.qpos0, jnp.float32)
+        qpos = qpos.at[layout.position].set(jnp.stack([x, y, height + _SPAWN_CLEARANCE]))
+        qpos = qpos.at[layout.quaternion].set(nose_up)
+        qpos = qpos.at[layout.joint_qpos].set(joints)
         data = backends.make_data(self.mj_model, self.impl, self.config)
-        data = data.replace(qpos=qpos, ctrl=joints)
+        data = data.replace(qpos=qpos)
+        data = data.replace(ctrl=layout.controls(joints, data))
         info = {}
         if self.randomized:
             rng, draw_key = jax.random.split(rng)
@@ -186,17 +192,18 @@ class QuadrupedEnv(base.Env):
         if self.randomized:
             info["action"] = jnp.clip(action, -1.0, 1.0)
         observed = self._observe(data, phase, command)
-        position = data.qpos[constants.QPOS_POSITION]
+        position = data.qpos[self.layout.position]
         slope_truth = self.terrain.slope_at(position[0], position[1])
         finite = jnp.isfinite(data.qpos).all() & jnp.isfinite(data.qvel).all()
         fell = self._fell(data, observed.attitude, slope_truth) | ~finite
-        forward_speed = (position[0] - before.qpos[0]) / self.dt
+        last = before.qpos[self.layout.position]
+        forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
         terms = reward.reward_terms(
             x_now=position[0],
-            x_last=before.qpos[0],
+            x_last=last[0],
             y_now=position[1],
-            y_last=before.qpos[1],
+            y_last=last[1],
             pitch=observed.attitude.pitch,
             yaw=observed.attitude.yaw,
             roll=observed.attitude.roll,
@@ -239,9 +246,15 @@ class QuadrupedEnv(base.Env):
     # --- pieces of a step ---------------------------------------------------------------------
 
     def joint_targets(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
-        """(8,) joint targets (rad) that `action` commands at oscillator phase ψ / time t."""
+        """(J,) joint targets (rad; the robot's leg joints, `RobotDescription.joint_names`) that
+        `action` commands at oscillator phase ψ / time t: the home pose moved by the rhythm."""
         if self.config.controller == "joint":
-            return JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
+            return self.layout.home + JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
+        return self.layout.rhythm_targets(self.rhythm(action, phase, time))
+
+    def rhythm(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
+        """(8,) Eq. 3's oscillator outputs (rad; LF hip, LF knee, ..., RB knee) that the oscillator
+        controller's `action` commands at phase ψ / time t, hip offsets included."""
         params = self.rhythm_parameters(action)
         phases = oscillator.trot_phases(params.phi1, params.phi3)
         if self.config.oscillator_form == "literal":
@@ -299,7 +312,8 @@ class QuadrupedEnv(base.Env):
             if self.randomized:  # the previous action acts for the first latency_steps
                 target = jnp.where(index < info["physics"].latency_steps, info["action"], action)
             command = command + blend * (target - command)
-            data = data.replace(ctrl=self.joint_targets(command, phase, data.time))
+            targets = self.joint_targets(command, phase, data.time)
+            data = data.replace(ctrl=self.layout.controls(targets, data))
             data = mjx.step(model, data)
             period = self._period(command)
             return (data, oscillator.advance_phase(phase, period, dt), command), period
@@ -326,12 +340,14 @@ class QuadrupedEnv(base.Env):
         return self.rhythm_parameters(command).period
 
     def _observe(self, data: mjx.Data, phase: jax.Array, command: jax.Array) -> _Observed:
-        quaternion = data.sensordata[self._orientation_slice]
+        layout = self.layout
+        quaternion = layout.orientation(data)
         body = slope.attitude(quaternion)
-        joints = data.qpos[constants.QPOS_JOINTS]
-        slope_estimate = slope.estimate_slope(joints, quaternion)
+        joints = data.qpos[layout.joint_qpos]
+        feet = kinematics.foot_positions(layout.chains, joints)
+        slope_estimate = slope.estimate_slope(feet, quaternion)
         parts = [
-            data.qvel[constants.QVEL_LINEAR],
+            data.qvel[layout.linear_velocity],
             jnp.stack([body.pitch, body.yaw, body.roll]),
             joints,
         ]
@@ -345,11 +361,13 @@ class QuadrupedEnv(base.Env):
 
     def _fell(self, data: mjx.Data, body: slope.Attitude, slope_truth: jax.Array) -> jax.Array:
         """Torso too low, attitude beyond limits, or the torso box touching the ground."""
-        position = data.qpos[constants.QPOS_POSITION]
+        layout = self.layout
+        position = data.qpos[layout.position]
         clearance = position[2] - self.terrain.height_at(position[0], position[1])
         torso = self._torso_body
         signs = jnp.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-        corners = data.xpos[torso] + (signs * self._torso_half_size) @ data.xmat[torso].T
+        box = layout.torso_centre + signs * layout.torso_half_size
+        corners = data.xpos[torso] + box @ data.xmat[torso].T
         corner_clearance = corners[:, 2] - self.terrain.height_at(corners[:, 0], corners[:, 1])
         config = self.config
         return (

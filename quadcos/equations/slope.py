@@ -14,9 +14,7 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from quadcos.robot import constants
-
-_FRONT = np.array([0, 1])  # LF, RF in constants.LEGS order
+_FRONT = np.array([0, 1])  # LF, RF in leg order (LF, RF, LB, RB)
 _REAR = np.array([2, 3])  # LB, RB
 
 
@@ -46,24 +44,6 @@ def slope_angle(foot_a: jnp.ndarray, foot_b: jnp.ndarray) -> jnp.ndarray:
     return jnp.arctan2(foot_b[..., 2] - foot_a[..., 2], foot_b[..., 0] - foot_a[..., 0])
 
 
-def foot_positions(joint_angles: jnp.ndarray) -> jnp.ndarray:
-    """Forward kinematics: foot-sphere centres in the torso frame.
-
-    Hip axis −y (positive swings the foot forward), knee axis +y (positive folds the shank back),
-    straight vertical legs at zero (models/mjcf/quadruped.xml).
-
-    Args:
-      joint_angles: (8,) rad, Eq. 3 order.
-    Returns:
-      (4, 3) metres, legs in LF, RF, LB, RB order.
-    """
-    hip = joint_angles[0::2]
-    shank = hip - joint_angles[1::2]
-    x = constants.THIGH_LENGTH * jnp.sin(hip) + constants.SHANK_LENGTH * jnp.sin(shank)
-    z = -constants.THIGH_LENGTH * jnp.cos(hip) - constants.SHANK_LENGTH * jnp.cos(shank)
-    return jnp.asarray(constants.HIP_OFFSETS) + jnp.stack([x, jnp.zeros_like(x), z], axis=-1)
-
-
 def level_frame(points: jnp.ndarray, body: Attitude) -> jnp.ndarray:
     """Rotate torso-frame points (..., 3) into the gravity-aligned heading frame (yaw removed)."""
     cr, sr = jnp.cos(body.roll), jnp.sin(body.roll)
@@ -75,17 +55,18 @@ def level_frame(points: jnp.ndarray, body: Attitude) -> jnp.ndarray:
     return jnp.stack([x_p, y_r, z_p], axis=-1)
 
 
-def estimate_slope(joint_angles: jnp.ndarray, quaternion: jnp.ndarray) -> jnp.ndarray:
+def estimate_slope(feet: jnp.ndarray, quaternion: jnp.ndarray) -> jnp.ndarray:
     """The paper's proprioceptive slope estimate (§3.2), radians, positive uphill along +x.
 
-    Foot ends from joint angles by forward kinematics, levelled by the IMU's roll and pitch; the
-    lower front foot is B and the lower rear foot is A (the stance feet: a swing foot is lifted),
-    and Eq. 5 gives θ.
+    Foot ends (from joint angles by forward kinematics: `quadcos.equations.kinematics`), levelled
+    by the IMU's roll and pitch; the lower front foot is B and the lower rear foot is A (the stance
+    feet: a swing foot is lifted), and Eq. 5 gives θ.
 
     Args:
-      joint_angles: (8,) rad. quaternion: (4,) torso orientation, w-x-y-z.
+      feet: (4, 3) foot ends in the torso frame, m, legs LF, RF, LB, RB.
+      quaternion: (4,) torso orientation, w-x-y-z.
     """
-    feet = level_frame(foot_positions(joint_angles), attitude(quaternion))
+    feet = level_frame(feet, attitude(quaternion))
     front, rear = feet[_FRONT], feet[_REAR]
     foot_b = front[jnp.argmin(front[:, 2])]
     foot_a = rear[jnp.argmin(rear[:, 2])]

@@ -79,8 +79,12 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
         "slope_estimate": state.metrics["slope_estimate"][index],
         "forward_speed": state.metrics["forward_speed"][index],
         "reward": state.reward[index],
-        "controller": env.joint_targets(command, phase, time_now),
-        "joint": qpos[constants.QPOS_JOINTS],
+        "controller": (
+            env.rhythm(command, phase, time_now)
+            if env.config.controller == "oscillator"
+            else env.joint_targets(command, phase, time_now)
+        ),
+        "joint": qpos[env.layout.joint_qpos],
         "action": command,
         "qpos": qpos,
     }

@@ -37,8 +37,9 @@ def trace_dict(
 ) -> dict[str, Any]:
     """One episode's time series as flat named lists, all of one length (the episode's steps).
 
-    Series: `TRACE_SERIES`, then controller/<joint> (the 8 controller outputs, rad, Eq. 3 order,
-    sampled at the end of each control step), joint/<joint> (measured joint angles, rad),
+    Series: `TRACE_SERIES`, then controller/<name> (the 8 oscillator outputs, rad, Eq. 3 order, named LF_hip ... RB_knee;
+    the joint controller's targets by joint name;
+    sampled at the end of each control step), joint/<joint> (measured joint angles, rad, by the robot's joint names),
     action/<i> (the filtered command in [−1, 1]) and, for the oscillator controller,
     parameter/<name> (A_k, A_h rad, T s, φ1, φ3 rad). Besides the series: "qpos", the positions
     from reset on (one row more than the series), and "env", the env config — enough to render
@@ -48,10 +49,13 @@ def trace_dict(
     raw = {key: value[:steps] for key, value in result.trace.items()}
     qpos = np.concatenate([result.start_qpos[None], result.qpos[:steps]])
     series: dict[str, list[float]] = {name: raw[name].tolist() for name in TRACE_SERIES}
-    for joint_index, joint in enumerate(constants.JOINTS):
-        series[f"controller/{joint}"] = raw["controller"][:, joint_index].tolist()
-    for joint_index, joint in enumerate(constants.JOINTS):
-        series[f"joint/{joint}"] = raw["joint"][:, joint_index].tolist()
+    joints = env.robot.description.joint_names
+    # The oscillator's eight outputs carry the paper's names (LF_hip, ..., RB_knee) on any robot.
+    channels = constants.JOINTS if env.config.controller == "oscillator" else joints
+    for index, name in enumerate(channels):
+        series[f"controller/{name}"] = raw["controller"][:, index].tolist()
+    for index, name in enumerate(joints):
+        series[f"joint/{name}"] = raw["joint"][:, index].tolist()
     for i in range(raw["action"].shape[1]):
         series[f"action/{i}"] = raw["action"][:, i].tolist()
     if "parameter" in raw:

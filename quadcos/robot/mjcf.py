@@ -1,11 +1,10 @@
-"""The quadruped's MJCF (models/mjcf/quadruped.xml) on a terrain: host-side MuJoCo only."""
+"""A robot on a ground, compiled: host-side MuJoCo only."""
 
-import pathlib
 from typing import Protocol
 
 import mujoco
 
-from quadcos.robot import constants
+from quadcos.robot.loading import Robot
 
 
 class Ground(Protocol):
@@ -16,71 +15,36 @@ class Ground(Protocol):
     def attach(self, spec: mujoco.MjSpec) -> None: ...
 
 
-def load_spec(mjcf_path: str | pathlib.Path | None = None) -> mujoco.MjSpec:
-    """Parse the robot MJCF into an editable MjSpec.
-
-    Raises:
-      FileNotFoundError: the file does not exist.
-      ValueError: the file is not valid MJCF, or lacks a joint, foot site or actuator that quadcos
-        needs (see constants.JOINTS, constants.FEET).
-    """
-    path = pathlib.Path(mjcf_path) if mjcf_path is not None else constants.MJCF_PATH
-    if not path.is_file():
-        raise FileNotFoundError(f"MJCF file not found: {path}")
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-    except Exception as error:  # mujoco raises plain ValueError/Exception with the parser message
-        raise ValueError(f"MJCF {path} could not be parsed: {error}") from None
-    _check_names(spec, path)
-    return spec
-
-
-def _check_names(spec: mujoco.MjSpec, path: pathlib.Path) -> None:
-    joints = {joint.name for joint in spec.joints}
-    sites = {site.name for site in spec.sites}
-    actuators = [actuator.target for actuator in spec.actuators]
-    missing = [name for name in constants.JOINTS if name not in joints]
-    missing += [name for name in constants.FEET if name not in sites]
-    missing += [name for name in (constants.ROOT_JOINT,) if name not in joints]
-    if missing:
-        raise ValueError(f"MJCF {path} lacks required element(s): {', '.join(missing)}")
-    if actuators != list(constants.JOINTS):
-        raise ValueError(
-            f"MJCF {path} must actuate {', '.join(constants.JOINTS)} in that order; got {actuators}"
-        )
-
-
 def build_model(
     terrain: Ground,
-    mjcf_path: str | pathlib.Path | None = None,
+    robot: Robot,
     *,
-    timestep: float | None = None,
-    solver_iterations: int | None = None,
-    ls_iterations: int | None = None,
+    timestep: float,
+    solver_iterations: int = 0,
+    ls_iterations: int = 0,
 ) -> mujoco.MjModel:
-    """Compile the robot on `terrain` into an MjModel.
+    """Compile `robot` on `terrain` into an MjModel.
 
     Args:
-      terrain: adds its ground geom (plane or heightfield) to the spec.
-      mjcf_path: robot MJCF; defaults to models/mjcf/quadruped.xml.
-      timestep: physics step, s (None keeps the MJCF's).
-      solver_iterations, ls_iterations: constraint solver iterations (None keeps the MJCF's).
+      terrain: adds its ground geom (plane or heightfield) to the robot's spec.
+      robot: the robot (`quadcos.robot.load`).
+      timestep: the physics step, s.
+      solver_iterations, ls_iterations: constraint solver iterations (0 keeps the MJCF's).
 
     Raises:
-      FileNotFoundError, ValueError: a missing, malformed or non-compiling MJCF, named with its path.
+      ValueError: the robot does not compile on the terrain, naming both.
     """
-    spec = load_spec(mjcf_path)
+    spec = robot.spec()
     terrain.attach(spec)
-    if timestep is not None:
-        spec.option.timestep = timestep
-    if solver_iterations is not None:
+    spec.option.timestep = timestep
+    if solver_iterations:
         spec.option.iterations = solver_iterations
-    if ls_iterations is not None:
+    if ls_iterations:
         spec.option.ls_iterations = ls_iterations
     try:
         return spec.compile()
-    except Exception as error:
-        path = mjcf_path if mjcf_path is not None else constants.MJCF_PATH
+    except Exception as error:  # mujoco raises plain ValueError with the compiler's message
         raise ValueError(
-            f"MJCF {path} failed to compile on terrain {terrain.name!r}: {error}"
+            f"robot {robot.source.spec} ({robot.source.path}) failed to compile on terrain"
+            f" {terrain.name!r}: {error}"
         ) from None

@@ -37,6 +37,10 @@ LEGACY_VALUES: dict[str, Any] = {
 }
 
 
+# Options renamed since runs were committed: old key -> today's.
+RENAMED: dict[str, str] = {"env.mjcf_path": "env.robot"}
+
+
 def known_keys() -> set[str]:
     """Every dotted key of a run config: env.* and sac.*."""
     return {f"env.{key}" for key in flat_keys(env_lib.default_config())} | {
@@ -60,6 +64,11 @@ def migrate(saved: Mapping[str, Any]) -> dict[str, Any]:
             " (run_info.env)"
         ) from None
     flat = flatten(tree)
+    for old, new in RENAMED.items():
+        if old in flat:
+            value = flat.pop(old)
+            if value != "":  # "" was the default: the paper's robot, today's default too
+                flat[new] = value
     if unknown := sorted(set(flat) - known_keys()):
         raise ValueError(
             f"the run was made with options this quadcos does not know: {', '.join(unknown)}"

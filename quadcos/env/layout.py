@@ -1,0 +1,109 @@
+"""Where a robot's state sits in MuJoCo's arrays, and how the rhythm and joint targets become its
+controls: the env's fixed data about its robot (`quadcos.robot.RobotDescription`), as jax.numpy
+arrays for the env or NumPy arrays for the robot in C MuJoCo (`quadcos.deploy.host_robot`)."""
+
+import dataclasses
+from types import ModuleType
+from typing import Any
+
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+
+from quadcos.equations import kinematics
+from quadcos.equations.kinematics import Chains
+from quadcos.robot.description import RobotDescription
+
+
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    """Index arrays into qpos / qvel / sensordata and the robot's fixed values (all (J,) arrays in
+    `RobotDescription.joint_names` order; (4,) arrays in leg order LF, RF, LB, RB)."""
+
+    xp: ModuleType  # jax.numpy or numpy: what the arrays below are
+    position: Any  # (3,) qpos indices of the base position
+    quaternion: Any  # (4,) qpos indices of the base orientation (w, x, y, z)
+    linear_velocity: Any  # (3,) qvel indices
+    orientation_sensor: Any | None  # (4,) sensordata indices of a framequat on the base
+    joint_qpos: Any  # (J,)
+    joint_qvel: Any  # (J,)
+    home: Any  # (J,) rad
+    rhythm_map: Any  # (J, 8): Eq. 3's outputs onto the joints, with each joint's sign
+    actuator_joint: Any  # (nu,) index into the joints of each actuator's joint
+    motor: bool  # torque actuators: quadcos closes the PD loop
+    kp: Any  # (J,)
+    kd: Any  # (J,)
+    torque_limit: Any  # (J,)
+    chains: Chains
+    standing_height: float
+    torso_centre: Any  # (3,)
+    torso_half_size: Any  # (3,)
+
+    @classmethod
+    def of(cls, description: RobotDescription, model: mujoco.MjModel, xp=jnp) -> "Layout":
+        """The layout of `description`'s robot compiled as `model`, in `xp` arrays."""
+        root_qpos, root_qvel = description.root_qpos, description.root_qvel
+        sensor = None
+        if description.orientation_sensor is not None:
+            address = model.sensor(description.orientation_sensor).adr[0]
+            sensor = np.arange(address, address + 4)
+        rhythm_map = np.zeros((len(description.joint_names), 8))
+        for index, leg in enumerate(description.legs):
+            rhythm_map[description.hip_joint[index], 2 * index] = leg.hip_sign
+            rhythm_map[description.knee_joint[index], 2 * index + 1] = leg.knee_sign
+        real = xp.float32 if xp is jnp else xp.float64
+
+        def array(values, dtype=real):
+            return xp.asarray(np.asarray(values), dtype)
+
+        return cls(
+            xp=xp,
+            position=array(np.arange(root_qpos, root_qpos + 3), xp.int32),
+            quaternion=array(np.arange(root_qpos + 3, root_qpos + 7), xp.int32),
+            linear_velocity=array(np.arange(root_qvel, root_qvel + 3), xp.int32),
+            orientation_sensor=None if sensor is None else array(sensor, xp.int32),
+            joint_qpos=array(description.joint_qpos, xp.int32),
+            joint_qvel=array(description.joint_qvel, xp.int32),
+            home=array(description.home),
+            rhythm_map=array(rhythm_map),
+            actuator_joint=array(description.actuator_joint, xp.int32),
+            motor=description.actuator_kind == "motor",
+            kp=array(description.gains.kp),
+            kd=array(description.gains.kd),
+            torque_limit=array(description.gains.torque_limit),
+            chains=Chains(
+                *(
+                    array(field, xp.int32 if name == "joint" else real)
+                    for name, field in zip(Chains._fields, description.chains)
+                )
+            ),
+            standing_height=description.standing_height,
+            torso_centre=array(description.torso_centre),
+            torso_half_size=array(description.torso_half_size),
+        )
+
+    def rhythm_targets(self, rhythm):
+        """(J,) joint targets, rad: the home pose moved by Eq. 3's (8,) oscillator outputs (LF hip,
+        LF knee, ..., RB knee), each along its joint's forward / lift sign; abduction stays home."""
+        # Elementwise, not a matrix product: exact in float32 (no TF32 on a GPU).
+        return self.home + (self.rhythm_map * rhythm).sum(-1)
+
+    def controls(self, targets, data):
+        """(nu,) actuator controls for (J,) joint targets: the targets for position servos, PD
+        torques (clipped to the torque limits) for motors."""
+        if self.motor:
+            error = targets - data.qpos[self.joint_qpos]
+            torque = self.kp * error - self.kd * data.qvel[self.joint_qvel]
+            targets = self.xp.clip(torque, -self.torque_limit, self.torque_limit)
+        return targets[self.actuator_joint]
+
+    def foot_positions(self, data):
+        """(4, 3) foot centres in the torso frame (forward kinematics of the joint encoders)."""
+        return kinematics.foot_positions(self.chains, data.qpos[self.joint_qpos], self.xp)
+
+    def orientation(self, data):
+        """(4,) the base's orientation quaternion (w, x, y, z): the IMU's where the robot has a
+        framequat sensor on its base, else the base pose."""
+        if self.orientation_sensor is not None:
+            return data.sensordata[self.orientation_sensor]
+        return data.qpos[self.quaternion]

@@ -1,0 +1,73 @@
+"""What the MJCF does not say about a robot, per robot: its home pose, PD gains for torque motors,
+which geoms may touch the ground, the fall height, and the physics it is stable with.
+
+The physics of each preset was chosen by measurement (experiments/robots/physics/: each robot
+holding its home pose and walking the fixed trot on flat and slope5, MJX-JAX and MJX-Warp).
+"""
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+
+# The paper's robot falls below 0.35 m of its 0.67 m standing height: others, at the same fraction.
+FALL_HEIGHT_FRACTION = 0.35 / 0.67
+COLLISION_PROFILES = ("feet", "all", "asis")
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotPreset:
+    """A robot's settings beyond its MJCF; every field has a default that derives or keeps.
+
+    home: the standing pose: a keyframe name, joint values by name, or values in qpos order;
+      None: the keyframe "home" if the MJCF has one, else joint zero.
+    kp, kd: PD gains (N m/rad, N m s/rad; one value or per joint name) for torque motors.
+    collision: "feet" (only the feet touch the ground, margins 0: what MJX can collide fast),
+      "all" (margins 0) or "asis" (the MJCF unchanged).
+    fall_min_height: m, the base above the ground under it below which the robot has fallen;
+      None: FALL_HEIGHT_FRACTION of the standing height.
+    physics_dt: s, the physics step. solver_iterations, ls_iterations: 0 keeps the MJCF's.
+    cone: "pyramidal" or "elliptic" friction cones; "" keeps the MJCF's.
+    """
+
+    home: str | Mapping[str, float] | Sequence[float] | None = None
+    kp: float | Mapping[str, float] | None = None
+    kd: float | Mapping[str, float] | None = None
+    collision: str = "feet"
+    fall_min_height: float | None = None
+    physics_dt: float = 0.002
+    solver_iterations: int = 0
+    ls_iterations: int = 0
+    cone: str = ""
+
+    def __post_init__(self):
+        if self.collision not in COLLISION_PROFILES:
+            raise ValueError(
+                f"unknown collision profile {self.collision!r}; known: {', '.join(COLLISION_PROFILES)}"
+            )
+        if not self.physics_dt > 0:
+            raise ValueError(f"physics_dt must be > 0 s; got {self.physics_dt}")
+        if self.cone not in ("", "pyramidal", "elliptic"):
+            raise ValueError(f"unknown cone {self.cone!r}; known: pyramidal, elliptic")
+
+
+_ANYMAL_STANDING = {  # anymal_c_mjx.xml's "standing" keyframe: knees bent inwards (X)
+    **{f"{leg}_HAA": 0.0 for leg in ("LF", "RF", "LH", "RH")},
+    **{f"{leg}_HFE": 0.5236 for leg in ("LF", "RF")},
+    **{f"{leg}_KFE": -0.7854 for leg in ("LF", "RF")},
+    **{f"{leg}_HFE": -0.5236 for leg in ("LH", "RH")},
+    **{f"{leg}_KFE": 0.7854 for leg in ("LH", "RH")},
+}
+
+PRESETS: dict[str, RobotPreset] = {
+    # The paper's robot as its results were made: its MJCF's collisions, solver and step.
+    "quadcos": RobotPreset(collision="asis", fall_min_height=0.35, physics_dt=0.005),
+    "quad12": RobotPreset(home="home", physics_dt=0.002),
+    "unitree_go1": RobotPreset(home="home", physics_dt=0.002),
+    # go2.xml drives torque motors; go2_mjx.xml's PD gains.
+    "unitree_go2": RobotPreset(home="home", kp=50.0, kd=0.5, physics_dt=0.002),
+    "anybotics_anymal_c": RobotPreset(home=_ANYMAL_STANDING, physics_dt=0.002),
+}
+
+
+def preset_for(name: str) -> RobotPreset:
+    """The preset the library ships for robot `name` (a source's short name), else the defaults."""
+    return PRESETS.get(name, RobotPreset())
