@@ -156,11 +156,12 @@ def _menagerie(spec: str) -> RobotSource:
     name, file = match["name"], match["file"]
     root = os.environ.get("MENAGERIE_ROOT")
     if root:
-        if not pathlib.Path(root).expanduser().is_dir():
+        root_folder = pathlib.Path(root).expanduser()
+        if not root_folder.is_dir():
             raise FileNotFoundError(f"MENAGERIE_ROOT is not a folder: {root}")
-        folder = pathlib.Path(root).expanduser() / name
+        folder = root_folder / name
         if not folder.is_dir():
-            present = sorted(path.name for path in folder.parent.iterdir() if path.is_dir())
+            present = sorted(path.name for path in root_folder.iterdir() if path.is_dir())
             if name not in MENAGERIE_DEFAULT_FILES:
                 raise _unknown(name, [*MENAGERIE_DEFAULT_FILES, *present])
             raise FileNotFoundError(
