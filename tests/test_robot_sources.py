@@ -142,7 +142,7 @@ def test_menagerie_commit_is_none_without_a_readme_row(menagerie_root):
     assert sources.resolve("menagerie:unitree_go1").menagerie_commit is None
 
 
-def test_menagerie_errors(menagerie_root):
+def test_menagerie_errors(menagerie_root, monkeypatch):
     with pytest.raises(ValueError) as error:
         sources.resolve("menagerie:unitree_go3")
     assert _one_line(error).startswith("unknown Menagerie robot 'unitree_go3'; close: unitree_go")
@@ -154,6 +154,9 @@ def test_menagerie_errors(menagerie_root):
     )
     with pytest.raises(FileNotFoundError, match="robot MJCF not found: .*go1_mjx.xml"):
         sources.resolve("menagerie:unitree_go1/go1_mjx.xml")
+    monkeypatch.setenv("MENAGERIE_ROOT", str(menagerie_root / "absent"))
+    with pytest.raises(FileNotFoundError, match="MENAGERIE_ROOT is not a folder: .*absent"):
+        sources.resolve("menagerie:unitree_go1")
     for spec in ("menagerie:", "menagerie:unitree_go1/go1", "menagerie:a/b/c.xml"):
         with pytest.raises(ValueError, match="bad Menagerie robot spec"):
             sources.resolve(spec)
