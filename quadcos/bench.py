@@ -98,6 +98,11 @@ def _parser() -> argparse.ArgumentParser:
         help="what the walk and slope5 sections train with (gpu bench preset: scratch)",
     )
     parser.add_argument("--terrain", default="flat", help="terrain of physics/env/train/stock")
+    parser.add_argument(
+        "--robot",
+        default="quadcos",
+        help="the quadruped of every section: quadcos, quad12, an MJCF path or menagerie:NAME",
+    )
     parser.add_argument("--impl", default="auto", choices=backends.IMPLS, help="MJX implementation")
     parser.add_argument(
         "--num_devices",
@@ -148,7 +153,9 @@ def run(
     save()
     sections = settings.sections
     if "physics" in sections or "env" in sections:
-        env = make_bench_env(settings.terrain, settings.training_preset, settings.impl)
+        env = make_bench_env(
+            settings.terrain, settings.training_preset, settings.impl, robot=settings.robot
+        )
         reset_batch = physics.make_batch_reset(env)
 
         def simulation(section: str, count: int) -> str:
@@ -179,6 +186,7 @@ def run(
             settings.terrain,
             settings.impl,
             settings.num_devices,
+            settings.robot,
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
@@ -196,7 +204,9 @@ def run(
     def stock(row: TrainRow) -> str:
         section_start = time.perf_counter()
         measured = trainers.measure_stock_brax(
-            make_bench_env(settings.terrain, settings.training_preset, settings.impl),
+            make_bench_env(
+                settings.terrain, settings.training_preset, settings.impl, robot=settings.robot
+            ),
             trainer_config(settings.training_preset, row),
             settings.train_seconds,
             settings.stock_epoch_steps,
@@ -223,7 +233,10 @@ def run(
         preset = settings.walk_training_preset
         if searches_gait(preset):  # part of the timed section
             found = gait_search.find_gait(
-                presets.build_config(TRAIN_PRESETS[preset], {"env.terrain": course.terrain})
+                presets.build_config(
+                    TRAIN_PRESETS[preset],
+                    {"env.terrain": course.terrain, "env.robot": settings.robot},
+                )
             )
             centre = found["action_centre"]
             details[f"{section}_gait_search"] = {
@@ -231,10 +244,14 @@ def run(
                 "seconds": found["setup"]["wall_time_s"],
                 "rounds": found["rounds"],
             }
-        env = make_bench_env(course.terrain, preset, action_centre=centre, **course.env)
+        env = make_bench_env(
+            course.terrain, preset, action_centre=centre, robot=settings.robot, **course.env
+        )
         eval_env = env  # evaluations start at x = 0: without the training spawns
         if course.env:
-            eval_env = make_bench_env(course.terrain, preset, action_centre=centre)
+            eval_env = make_bench_env(
+                course.terrain, preset, action_centre=centre, robot=settings.robot
+            )
         config = trainer_config(preset, num_devices=settings.num_devices, **course.sac)
         trainer = training.SACTrainer(env, config, eval_env=eval_env)
         goal = terrain_goal(eval_env)
@@ -290,7 +307,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         jax.devices()  # starts the backend: part of the start-up
         startup_s = since_start()
-        substeps = make_bench_env("flat", settings.training_preset).substeps
+        substeps = make_bench_env("flat", settings.training_preset, robot=settings.robot).substeps
         results = results_lib.empty_results(settings, argv, substeps)
         if previous is not None:
             # Fails for another device, before measuring.

@@ -62,6 +62,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--terrain", help="terrain name or spec (default: the policy's training terrain; flat)"
     )
+    parser.add_argument(
+        "--robot",
+        help="the quadruped of fixed:... parameters (quadcos, quad12, an MJCF path,"
+        " menagerie:NAME); a trained policy runs on its own",
+    )
     parser.add_argument("--num_envs", type=int, default=64, help="episodes, all run at once")
     parser.add_argument("--seconds", type=float, default=20.0, help="time limit of an episode, s")
     parser.add_argument("--seed", type=int, default=0, help="seed of the reset noise")
@@ -108,6 +113,8 @@ def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]
             overrides[key] = ast.literal_eval(text)
         except (ValueError, SyntaxError):
             overrides[key] = text
+    if args.robot is not None:
+        overrides["robot"] = args.robot
     modes = [args.policy is not None, args.search_fixed, args.render is not None]
     if sum(modes) != 1:
         raise cli.UsageError("give exactly one of --policy, --search_fixed and --render")

@@ -15,9 +15,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m quadcos.export", description=__doc__)
     parser.add_argument("--policy", required=True, help="run or policy directory")
     parser.add_argument("--out", required=True, help="the .npz to write")
+    parser.add_argument(
+        "--robot", help="check that the policy drives this robot (its env config names it)"
+    )
     args = parser.parse_args(argv)
     try:
-        out = export_policy(args.policy, args.out)
+        out = export_policy(args.policy, args.out, args.robot)
     except (FileNotFoundError, ValueError, OSError) as error:
         print(f"quadcos.export: error: {error}", file=sys.stderr)
         return 2

@@ -154,7 +154,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     display)."""
     try:
         args = pilot_parser("python -m quadcos.play", __doc__).parse_args(argv)
-        pilot = load_pilot(args.policy)
+        pilot = load_pilot(args.policy, args.robot)
         host = HostRobot(args.terrain or pilot.training_terrain, pilot.config)
         session = Session(pilot, host, args.seed)
     except (ValueError, FileNotFoundError) as error:

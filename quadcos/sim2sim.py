@@ -49,7 +49,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if out.suffix != ".json" or not out.absolute().parent.is_dir():
             raise ValueError(f"--out must be a .json file in an existing directory; got {out}")
         result = evaluate_mujoco(
-            args.policy,
+            load_pilot(args.policy, args.robot),
             args.terrain,
             episodes=args.episodes,
             seconds=args.seconds,

@@ -43,6 +43,7 @@ FLAGS = {
     "controller": "env.controller",
     "save_replay": "sac.save_replay",
     "num_devices": "sac.num_devices",
+    "robot": "env.robot",
 }
 
 
@@ -79,6 +80,13 @@ def _parser() -> argparse.ArgumentParser:
             f"terrain: {', '.join(terrain_lib.names())}, sections:ANGLE@LENGTH,...,"
             " heightfield:FILE.npy;x_range=MIN,MAX;y_range=MIN,MAX, or MODULE:NAME (a Terrain,"
             " factory or registered name from your module) (default: flat)"
+        ),
+    )
+    parser.add_argument(
+        "--robot",
+        help=(
+            "the quadruped: quadcos (the paper's, default), quad12, an MJCF path, menagerie:NAME"
+            " (MuJoCo Menagerie; MENAGERIE_ROOT=DIR reads DIR/NAME) or a registered name"
         ),
     )
     parser.add_argument("--num_envs", type=int, help="parallel training envs")
@@ -231,6 +239,7 @@ def _main(argv: list[str]) -> int:
                 "env": config.env.to_dict(),
                 "argv": argv,
                 "impl": env.impl,
+                "robot": env.robot.provenance(),
                 "caches": cache_dirs,
                 **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
             },

@@ -49,6 +49,7 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "xla_flags": os.environ.get("XLA_FLAGS", ""),
         "compilation_cache_dir": jax.config.jax_compilation_cache_dir,
         "terrain": settings.terrain,
+        "robot": settings.robot,
         "impl": backends.resolve_impl(settings.impl),
         "cache": caches.state(jax.config.jax_compilation_cache_dir),
         "settings": {
@@ -92,8 +93,14 @@ def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
 
 
 def _row_key(row: dict[str, Any]) -> tuple[Any, ...]:
-    # Rows measured before terrain, impl and cache were recorded: flat, JAX, no cache.
-    context = (row.get("terrain", "flat"), row.get("impl", "jax"), row.get("cache", "cold"))
+    # Rows measured before robot, terrain, impl and cache were recorded: the paper's robot on
+    # flat, JAX, no cache.
+    context = (
+        row.get("robot", "quadcos"),
+        row.get("terrain", "flat"),
+        row.get("impl", "jax"),
+        row.get("cache", "cold"),
+    )
     return row["num_envs"], row["batch_size"], row["updates_per_step"], *context
 
 
@@ -106,13 +113,16 @@ def _as_list(value: Any) -> list[Any]:
 def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
     """The results' entry for `row`, created (with every field None) if missing."""
     for entry in results["train"]:
-        context = (results["terrain"], results["impl"], results["cache"])
+        context = (
+            results.get("robot", "quadcos"), results["terrain"], results["impl"], results["cache"]
+        )
         if _row_key(entry) == (row.num_envs, row.batch_size, row.updates_per_step, *context):
             return entry
     entry = {
         "num_envs": row.num_envs,
         "batch_size": row.batch_size,
         "updates_per_step": row.updates_per_step,
+        "robot": results.get("robot", "quadcos"),
         "terrain": results["terrain"],
         "impl": results["impl"],
         "cache": results["cache"],
@@ -166,15 +176,15 @@ def markdown_table(results: dict[str, Any]) -> str:
         lines.append(f"| {int(count):,} | {physics} | {env} |")
     lines += [
         "",
-        "| terrain | impl | envs | batch | updates/step | quadcos env-steps/s | stock Brax"
+        "| robot | terrain | impl | envs | batch | updates/step | quadcos env-steps/s | stock Brax"
         " env-steps/s | ours / stock | quadcos start → first step |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in sorted(results["train"], key=lambda row: (_row_key(row)[3:], _row_key(row))):
         ours, stock = row["quadcos_env_steps_per_s"], row["stock_brax_env_steps_per_s"]
         ratio = f"{ours / stock:.2f}" if ours and stock else "—"
-        terrain, impl, cache = _row_key(row)[3:]
-        context = f"{terrain} | {impl}"
+        robot, terrain, impl, cache = _row_key(row)[3:]
+        context = f"{robot} | {terrain} | {impl}"
         sizes = f"{row['num_envs']:,} | {row['batch_size']:,} | {row['updates_per_step']}"
         start = row.get("quadcos_start_to_first_step_s")
         start = f"{format_seconds(start)} ({cache} cache)" if start is not None else "—"

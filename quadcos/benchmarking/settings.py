@@ -95,6 +95,7 @@ class Settings:
       sections: the sections to run, in order.
       terrain: the terrain of the physics, env, train and stock sections.
       impl: the MJX implementation ("auto", "jax" or "warp"; see quadcos.backends).
+      robot: the quadruped of every section (a `quadcos.robot.load` spec).
       num_devices: devices the train, walk and slope5 sections' trainers spread over
         (data-parallel; rows stay global: per-device envs = num_envs / num_devices).
     """
@@ -115,6 +116,7 @@ class Settings:
     terrain: str = "flat"
     impl: str = "auto"
     num_devices: int = 1
+    robot: str = "quadcos"
 
 
 _GPU_ROWS = "4096x8192x1,4096x8192x8,16384x16384x4"
@@ -166,12 +168,13 @@ def make_bench_env(
     preset: str,
     impl: str = "auto",
     action_centre: str | None = None,
+    robot: str = "quadcos",
     **env_overrides: Any,
 ) -> env_lib.QuadrupedEnv:
     """The env as `python -m quadcos.train --preset=PRESET --terrain=TERRAIN` builds it, then
     `env_overrides`; a from-scratch preset's (action centre "search") needs the `action_centre`
     its search found."""
-    overrides = {**_preset_overrides(preset, "env."), "impl": impl, **env_overrides}
+    overrides = {**_preset_overrides(preset, "env."), "impl": impl, "robot": robot, **env_overrides}
     if action_centre is not None:
         overrides["action_centre"] = action_centre
     return env_lib.make_env(terrain, **overrides)
@@ -260,4 +263,5 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         terrain=args.terrain,
         impl=args.impl,
         num_devices=args.num_devices,
+        robot=args.robot,
     )

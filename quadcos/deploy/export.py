@@ -68,16 +68,23 @@ def numpy_policy(path: str | os.PathLike[str]) -> NumpyPolicy:
     return NumpyPolicy.from_arrays(policy_arrays(path), source=str(path))
 
 
-def export_policy(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> pathlib.Path:
-    """Writes the policy (run or policy directory) at `path` to the .npz `out`, atomically.
+def export_policy(
+    path: str | os.PathLike[str], out: str | os.PathLike[str], robot: str | None = None
+) -> pathlib.Path:
+    """Writes the policy (run or policy directory) at `path` to the .npz `out`, atomically;
+    `robot`, when given, must be the robot the policy was trained on (its env config names it).
 
     Raises:
-      FileNotFoundError, ValueError: no loadable policy at `path`, or `out` is not a .npz path.
+      FileNotFoundError, ValueError: no loadable policy at `path`, `out` is not a .npz path, or
+        the policy drives another robot.
     """
     out = pathlib.Path(out)
     if out.suffix != ".npz":
         raise ValueError(f"--out must end in .npz; got {out}")
     arrays = policy_arrays(path)
+    trained_on = json.loads(str(arrays["env_config"]))["robot"]
+    if robot is not None and robot != trained_on:
+        raise ValueError(f"the policy {path} was trained on robot {trained_on!r}, not {robot!r}")
     temporary = out.with_name(f".{out.name}.tmp-{os.getpid()}.npz")
     np.savez(temporary, **arrays)
     os.replace(temporary, out)

@@ -67,21 +67,26 @@ class Pilot:
         return lambda obs: action
 
 
-def load_pilot(spec: str) -> Pilot:
+def load_pilot(spec: str, robot: str | None = None) -> Pilot:
     """The pilot for a --policy value: `fixed:trot`, `fixed:A_k,A_h,T,phi1,phi3`, a run or policy
-    directory, or an exported .npz.
+    directory, or an exported .npz; `robot`: the quadruped fixed parameters drive (a trained
+    policy drives its own: another is refused).
 
     Raises:
       FileNotFoundError, ValueError: no policy there, or an env config this quadcos cannot build.
     """
     if spec.startswith(sources.FIXED_PREFIX):
         source = evaluation.resolve_source(spec)
-        config = evaluation.build_env(source, "flat").config  # checks the §3.3 ranges
+        overrides = {} if robot is None else {"robot": robot}
+        config = evaluation.build_env(source, "flat", overrides).config  # checks the ranges
         return Pilot(spec, "fixed", config, "flat", fixed_parameters=source.fixed_parameters)
     policy = export.numpy_policy(spec)
     saved = dict(policy.env_config)
     terrain = str(saved.pop("terrain", "flat"))
-    return Pilot(spec, "sac", env_config(config_lib.flatten(saved)), terrain, policy=policy)
+    config = env_config(config_lib.flatten(saved))
+    if robot is not None and robot != config.robot:
+        raise ValueError(f"the policy {spec} was trained on robot {config.robot!r}, not {robot!r}")
+    return Pilot(spec, "sac", config, terrain, policy=policy)
 
 
 def env_config(overrides: dict[str, Any] | None = None) -> ml_collections.ConfigDict:
@@ -375,5 +380,10 @@ def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
         "--policy", required=True, help="run or policy directory, exported .npz, or fixed:trot"
     )
     parser.add_argument("--terrain", help="terrain name or spec (default: the training terrain)")
+    parser.add_argument(
+        "--robot",
+        help="the quadruped of fixed:... parameters (quadcos, quad12, an MJCF path,"
+        " menagerie:NAME); a trained policy drives its own",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
     return cli.raising(parser)

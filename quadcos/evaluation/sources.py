@@ -195,6 +195,11 @@ def build_env(
     # An evaluation episode starts at the spawn point, wherever training spawned.
     overrides = {**source.env_overrides, "spawn_x_max": 0.0, **(env_overrides or {})}
     overrides.pop("terrain", None)
+    trained_on = source.env_overrides.get("robot", "quadcos")
+    if source.kind != "fixed" and overrides.get("robot", trained_on) != trained_on:
+        raise ValueError(
+            f"the policy was trained on robot {trained_on!r}, not {overrides['robot']!r}"
+        )
     env = env_lib.make_env(
         terrain if terrain is not None else source.training_terrain, **overrides
     )

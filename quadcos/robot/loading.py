@@ -40,6 +40,15 @@ class Robot:
             spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{self.preset.cone.upper()}")
         return spec
 
+    def provenance(self) -> dict:
+        """Where the robot came from, for a run's config.json."""
+        return {
+            "spec": self.source.spec,
+            "name": self.source.name,
+            "path": str(self.source.path),
+            "menagerie_commit": self.source.menagerie_commit,
+        }
+
     def summary(self) -> dict:
         """The description with where it came from: `python -m quadcos.robot describe`."""
         return {

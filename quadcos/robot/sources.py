@@ -171,6 +171,8 @@ def _menagerie(spec: str) -> RobotSource:
         commit = None
         file = file or _default_file(name)
     else:
+        if name not in MENAGERIE_DEFAULT_FILES and file is None:  # before any download
+            raise _unknown(name, list(MENAGERIE_DEFAULT_FILES))
         folder, commit, file = _from_package(name, file)
     path = _existing(folder / file)
     return RobotSource(spec, name, path, commit or _readme_commit(folder.parent, name, file))

@@ -156,7 +156,7 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
         if non_finite:  # in range, as far as the checks above know
             key, value = next(iter(non_finite.items()))
             raise ValueError(f"bad value {value} for config key {key!r}: it must be finite")
-    except (ValueError, TypeError) as error:
+    except (ValueError, TypeError, FileNotFoundError) as error:
         raise UsageError(str(error)) from None
     return config
 
