@@ -2,7 +2,8 @@
 # Runs one experiment on a GPU machine, from the repository root:
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
-#   fixed_params | warp | scaling | bench_slope5 (scaling needs 2 GPUs).
+#   fixed_params | warp | scaling | bench_slope5 | robots (scaling needs 2 GPUs; robots needs
+#   MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
 # and traces, status (one line per step). Copy the summaries into experiments/EXPERIMENT.
@@ -128,6 +129,29 @@ bench_slope5)  # BENCHMARKS.md's slope5 section: time until >= 99 % of 1024 epis
     --out="$OUT/bench_warp_slope5_scratch.json" > "$OUT/bench_warp_slope5_scratch.log" 2>&1
   python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_training_preset=gpu --walk_timeout_s=240 \
     --out="$OUT/bench_warp_slope5_trot.json" > "$OUT/bench_warp_slope5_trot.log" 2>&1 ;;
+robots)  # any quadruped from nothing: --preset=scratch with only --robot changed, capped at 300 s
+  : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
+  export MENAGERIE_ROOT
+  for robot in ${ROBOTS:-unitree_go1 anybotics_anymal_c unitree_go2}; do
+    train 300 ${robot}_s0 --preset=scratch --robot=menagerie:$robot --seed=0
+  done
+  for s in ${GO1_SEEDS:-1 2}; do  # more Go1 seeds, sharing the GPU
+    XLA_PYTHON_CLIENT_MEM_FRACTION=0.4 train 300 unitree_go1_s$s --preset=scratch \
+      --robot=menagerie:unitree_go1 --seed=$s &
+  done
+  wait
+  for run in "$OUT"/runs/*; do  # C MuJoCo on the host's CPUs while the GPU evaluates
+    name=$(basename "$run")
+    python3 -m quadcos.sim2sim --no_progress --policy="$run/policy_best" --terrain=flat \
+      --episodes=64 --out="$OUT/sim2sim_${name}_flat.json" > "$OUT/sim2sim_${name}_flat.log" 2>&1 &
+  done
+  for run in "$OUT"/runs/*_s0; do
+    name=$(basename "$run")
+    evaluate "$run/policy_best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json"
+    evaluate "$run/policy_best" ${name}_slope5 slope5 1024 40
+    evaluate "$run/policy_best" ${name}_s4 s4 1024 30
+  done
+  wait ;;
 *) echo "unknown experiment '$experiment'" >&2; exit 2 ;;
 esac
 note "$experiment done"

@@ -10,6 +10,7 @@ from typing import Any
 
 import jax
 
+from quadcos import robot as robot_lib
 from quadcos._util import caches, provenance
 from quadcos.benchmarking.settings import Settings, TrainRow
 from quadcos.env import backends
@@ -50,7 +51,9 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "compilation_cache_dir": jax.config.jax_compilation_cache_dir,
         "terrain": settings.terrain,
         "robot": settings.robot,
-        "impl": backends.resolve_impl(settings.impl),
+        "impl": backends.resolve_impl(
+            settings.impl, robot_lib.load(settings.robot).preset.gpu_physics
+        ),
         "cache": caches.state(jax.config.jax_compilation_cache_dir),
         "settings": {
             **dataclasses.asdict(settings),

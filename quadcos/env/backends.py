@@ -39,14 +39,16 @@ def cuda_available() -> bool:
         return False
 
 
-def resolve_impl(impl: str) -> str:
-    """"jax" or "warp" for a configured `impl` ("auto" = Warp where a CUDA GPU and warp-lang
-    are present, else JAX; an explicit "warp" also runs on the CPU, slowly, as MJX allows).
-    Raises ValueError for an unknown name or "warp" without warp-lang."""
+def resolve_impl(impl: str, gpu_physics: str = "warp") -> str:
+    """"jax" or "warp" for a configured `impl`: "auto" = `gpu_physics` (the robot's faster
+    physics on a GPU, measured: quadcos.robot.presets) where a CUDA GPU is present (and
+    warp-lang, for Warp), else JAX; an explicit "warp" also runs on the CPU, slowly, as MJX
+    allows. Raises ValueError for an unknown name or "warp" without warp-lang."""
     if impl not in IMPLS:
         raise ValueError(f"unknown impl {impl!r}; known: {', '.join(IMPLS)}")
     if impl == "auto":
-        impl = "warp" if warp_installed() and cuda_available() else "jax"
+        on_gpu = cuda_available() and (gpu_physics == "jax" or warp_installed())
+        impl = gpu_physics if on_gpu else "jax"
     if impl == "warp":
         if not warp_installed():
             raise ValueError(f"impl 'warp' needs warp-lang, which is not installed: {INSTALL_HINT}")

@@ -81,7 +81,7 @@ class QuadrupedEnv(base.Env):
             solver_iterations=config.solver_iterations,
             ls_iterations=config.ls_iterations,
         )
-        self.impl = backends.resolve_impl(config.impl)
+        self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)
         if self.randomized and self.impl == "warp":
             raise ValueError(
