@@ -26,6 +26,8 @@ class RobotPreset:
       None: FALL_HEIGHT_FRACTION of the standing height.
     physics_dt: s, the physics step. solver_iterations, ls_iterations: 0 keeps the MJCF's.
     cone: "pyramidal" or "elliptic" friction cones; "" keeps the MJCF's.
+    gpu_physics: what `impl="auto"` runs on a GPU: "warp" or "jax", whichever steps the robot
+      faster (measured with `python -m quadcos.bench --only=physics --robot=...`).
     """
 
     home: str | Mapping[str, float] | Sequence[float] | None = None
@@ -37,6 +39,7 @@ class RobotPreset:
     solver_iterations: int = 0
     ls_iterations: int = 0
     cone: str = ""
+    gpu_physics: str = "warp"
 
     def __post_init__(self):
         if self.collision not in COLLISION_PROFILES:
@@ -45,6 +48,8 @@ class RobotPreset:
             )
         if not self.physics_dt > 0:
             raise ValueError(f"physics_dt must be > 0 s; got {self.physics_dt}")
+        if self.gpu_physics not in ("warp", "jax"):
+            raise ValueError(f"unknown gpu_physics {self.gpu_physics!r}; known: warp, jax")
         if self.cone not in ("", "pyramidal", "elliptic"):
             raise ValueError(f"unknown cone {self.cone!r}; known: pyramidal, elliptic")
 
