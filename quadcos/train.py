@@ -44,6 +44,7 @@ FLAGS = {
     "save_replay": "sac.save_replay",
     "num_devices": "sac.num_devices",
     "robot": "env.robot",
+    "max_seconds": "sac.max_seconds",
 }
 
 
@@ -94,6 +95,12 @@ def _parser() -> argparse.ArgumentParser:
         "--num_timesteps", type=int, help="total env steps (raise it with --resume to extend a run)"
     )
     parser.add_argument("--seed", type=int, help="seed of everything random")
+    parser.add_argument(
+        "--max_seconds",
+        type=float,
+        help="time budget from the process's start, s: the run then ends as at --num_timesteps"
+        " (evaluation, checkpoint, policy/, policy_best/)",
+    )
     parser.add_argument("--output_dir", help="run directory (config, metrics, checkpoints, policy)")
     parser.add_argument(
         "--numbered",
@@ -125,7 +132,10 @@ def _parser() -> argparse.ArgumentParser:
         "--preset",
         choices=tuple(PRESETS),
         default="cpu",
-        help="sizes for: smoke (tiny test run), cpu (default), gpu",
+        help=(
+            "smoke (a tiny test run), cpu (default), gpu (thousands of robots from the fixed"
+            " trot), scratch (gpu, from no gait), any_slope (one policy for any slope)"
+        ),
     )
     parser.add_argument(
         "--num_devices",

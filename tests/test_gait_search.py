@@ -53,6 +53,17 @@ def test_the_scratch_preset_trains_20m_steps_and_keeps_its_best_policy():
     assert scratch.sac.keep_best_policy and not gpu.sac.keep_best_policy
 
 
+def test_the_any_slope_preset_is_the_generalists_recipe_with_a_time_budget():
+    config = train.build_config(train.PRESETS["any_slope"], {})
+    assert config.env.terrain.startswith("random:max_deg=12")
+    assert config.env.observe_slope and config.env.observe_phase
+    assert config.env.posture_bound == 0.6 and config.env.forward_speed_cap == 0.8
+    assert config.env.action_centre == "search" and config.sac.keep_best_policy
+    assert config.sac.max_seconds == 870.0
+    flagged = train.build_config(train.PRESETS["any_slope"], {"sac.max_seconds": 300.0})
+    assert flagged.sac.max_seconds == 300.0
+
+
 def test_bad_search_settings_are_refused_before_anything_runs(tmp_path):
     result = run_cli(
         "--preset=smoke",

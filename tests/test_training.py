@@ -5,6 +5,7 @@ import logging
 import os
 import shutil
 import signal
+import time
 import types
 from pathlib import Path
 
@@ -266,6 +267,24 @@ def test_signal_stops_after_chunk_with_checkpoint(tmp_path, monkeypatch):
     with checkpoint.CheckpointStore(tmp_path / "checkpoints", 3) as store:
         assert store.steps() == [3 * CHUNK]
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_spent_time_budget_ends_the_run_as_its_last_step_would(tmp_path):
+    """max_seconds counts from `started_at` (the process's start for quadcos.train): a budget
+    already spent ends the run after its first chunk, evaluated, checkpointed, its policy saved."""
+    result = training.train(
+        PointEnv(),
+        toy_config(max_seconds=1.0, checkpoint_interval=100 * CHUNK),
+        tmp_path,
+        progress=False,
+        started_at=time.monotonic() - 10.0,
+    )
+    assert result.stopped_by_signal is None
+    assert result.env_steps < toy_config().num_timesteps
+    assert metrics_rows(tmp_path)[-1]["step"] == result.env_steps
+    with checkpoint.CheckpointStore(tmp_path / "checkpoints", 3) as store:
+        assert store.steps() == [result.env_steps]
+    assert (tmp_path / "policy" / "policy.json").is_file()
 
 
 # --- Failures ---------------------------------------------------------------

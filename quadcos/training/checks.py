@@ -136,6 +136,8 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
     for name in positive:
         if config[name] < 1:
             raise ValueError(f"config.{name} must be >= 1, got {config[name]}")
+    if not 0 <= config.max_seconds < math.inf:
+        raise ValueError(f"config.max_seconds must be finite and >= 0, got {config.max_seconds}")
     if config.actor_warmup_steps < 0:
         raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")
     if config.num_devices is not None and config.num_devices < 1:

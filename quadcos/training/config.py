@@ -18,6 +18,10 @@ def default_config() -> ml_collections.ConfigDict:
     # Env steps to train for, prefill included. Training stops at the first
     # chunk boundary at or past it, so it may overshoot by less than a chunk.
     config.num_timesteps = 5_000_000
+    # s from the process's start (0: no limit): the run ends at the first chunk boundary after it
+    # as it ends at num_timesteps (evaluation, checkpoint, policy/, policy_best/). Not carried
+    # across --resume: each process gets its own budget.
+    config.max_seconds = 0.0
     # Env steps after which a training episode is truncated (not a fall:
     # the critic does not treat truncation as a terminal state).
     config.episode_length = 1000

@@ -188,6 +188,7 @@ def train(
                 host.Clock(_run_age(wall_time_offset, started_at)),
                 host.Progress(config.num_timesteps, enabled=progress and writer, bar=progress_bar),
                 best,
+                _deadline(config.max_seconds, started_at),
             )
     finally:
         if log is not None:
@@ -208,6 +209,14 @@ def train(
         stopped_by_signal=stop.signal_name,
         chunk_traces=trainer.chunk_traces,
     )
+
+
+def _deadline(max_seconds: float, started_at: float | None) -> float | None:
+    """The `time.monotonic()` at which a run with a time budget of `max_seconds` (0: none) from
+    `started_at` (default: now) ends."""
+    if not max_seconds:
+        return None
+    return (time.monotonic() if started_at is None else started_at) + max_seconds
 
 
 @dataclasses.dataclass(frozen=True)
@@ -329,8 +338,10 @@ def _train_loop(
     clock: host.Clock,
     progress: host.Progress,
     best: BestPolicy | None = None,
+    deadline: float | None = None,
 ) -> tuple[sac.TrainingState, list[dict[str, Any]]]:
-    """Prefills if needed, then runs chunks until num_timesteps or a signal."""
+    """Prefills if needed, then runs chunks until num_timesteps, the `deadline`
+    (`time.monotonic()`) or a signal."""
     config = trainer.config
     history = list(log.rows) if log is not None else []
     window = host.Window()
@@ -358,7 +369,10 @@ def _train_loop(
 
         # Read once: a signal arriving later is served after the next chunk.
         stopping = stop.signal_name is not None
-        finished = step >= config.num_timesteps
+        out_of_time = deadline is not None and time.monotonic() >= deadline
+        finished = step >= config.num_timesteps or out_of_time
+        if out_of_time:
+            logger.info("time budget of %g s spent at env step %d", config.max_seconds, step)
         if finished or _crossed(previous_step, step, config.eval_interval):
             record(
                 {
@@ -383,7 +397,7 @@ def _train_loop(
             logger.warning(
                 "stopped by %s at env step %d after writing a checkpoint", stop.signal_name, step
             )
-        return stopping
+        return stopping or out_of_time
 
     try:
         state = run_chunks(

@@ -110,6 +110,25 @@ PRESETS["scratch"] = {
     "sac.eval_interval": 1_000_000,
     "sac.keep_best_policy": True,
 }
+# One policy for any slope (experiments/any_slope): from scratch on a family of random courses of
+# up to 12°, lane by lane (the course curriculum), robots spawned along them; the slope estimate and
+# the oscillator's phase observed; front and hind hip offsets up to 0.6 rad; r_y paid up to
+# 0.8 m/s; the best evaluation's policy kept. Its budget is time (870 s on one H100 with Warp).
+PRESETS["any_slope"] = {
+    **PRESETS["scratch"],
+    "env.terrain": "random:max_deg=12,sections=3-5,len=1-3,seed=0",
+    "env.spawn_x_max": 20.0,
+    "env.observe_slope": True,
+    "env.observe_phase": True,
+    "env.posture_bound": 0.6,
+    "env.forward_speed_cap": 0.8,
+    "sac.episode_length": 400,
+    "sac.gait_search.num_candidates": 1_024,
+    "sac.gait_search.robots_per_candidate": 4,
+    "sac.eval_interval": 10_000_000,
+    "sac.num_timesteps": 400_000_000,
+    "sac.max_seconds": 870.0,
+}
 
 def default_config() -> ml_collections.ConfigDict:
     """The whole run's config: {"env": env config, "sac": trainer config}."""
