@@ -1,7 +1,8 @@
 """The notebooks run top to bottom at tiny sizes (QUADCOS_NOTEBOOK_TINY=1) and draw their figures.
 
 Their kernels share the tests' JAX compilation cache: notebook (a)'s rollouts have the shapes of
-tests/test_evaluate.py's, so only notebook (b)'s course compiles anew.
+tests/test_evaluate.py's, so only notebook (b)'s course and the own-robot notebook's quad12
+rollouts compile anew.
 """
 
 import json
@@ -69,3 +70,13 @@ def test_custom_course_notebook(tmp_path, monkeypatch):
     for name in ("course", "cog_my_course", "attitude_my_course", "controller_my_course"):
         assert (tmp_path / f"{name}.png").stat().st_size > 1000, name
     assert (tmp_path / "my_course.mp4").exists() or "lib" in _text(notebook)
+
+
+@pytest.mark.slow
+def test_own_robot_notebook(tmp_path, monkeypatch):
+    notebook = run_notebook("own_robot.ipynb", tmp_path, monkeypatch)
+    text = _text(notebook)
+    assert "robot: quad12" in text and "success_rate" in text
+    assert "FL_thigh_joint" in text  # the legs' table
+    for name in ("cog_quad12", "attitude_quad12"):
+        assert (tmp_path / f"{name}.png").stat().st_size > 1000, name
