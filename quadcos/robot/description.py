@@ -383,7 +383,9 @@ def _actuators(model, joint_ids, joint_names, kp, kd, name):
         limits.append(float(max(abs(bounds[0]), abs(bounds[1]))))
     if kind == "position":
         kps = [float(model.actuator_gainprm[by_joint[i]][0]) for i in range(len(joint_ids))]
-        kds = [max(0.0, -float(model.actuator_biasprm[by_joint[i]][2])) for i in range(len(joint_ids))]
+        kds = [
+            max(0.0, -float(model.actuator_biasprm[by_joint[i]][2])) for i in range(len(joint_ids))
+        ]
     else:
         if kp is None or kd is None:
             raise ValueError(
