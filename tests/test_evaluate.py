@@ -91,6 +91,7 @@ def test_evaluation_json_has_the_aggregates_and_episodes(fixed_trot_result):
         assert key in result, key
     assert result["num_episodes"] == NUM_ENVS == len(result["episodes"])
     assert result["setup"]["terrain"] == "flat" and result["setup"]["course_end_x"] is None
+    assert result["setup"]["robot"]["name"] == "quadcos"
     assert result["setup"]["num_steps"] == 40 and result["setup"]["seconds"] == pytest.approx(2.0)
     for key in ("success_rate", "fall_rate"):
         assert 0.0 <= result[key] <= 1.0

@@ -150,6 +150,7 @@ def test_cli_writes_an_evaluation_json(tmp_path, capsys):
     assert sim2sim.main([*args, "--no_progress"]) == 0
     result = json.loads(out.read_text())
     assert result["num_episodes"] == 2 and result["setup"]["engine"] == "mujoco"
+    assert result["setup"]["robot"]["name"] == "quadcos"
     assert result["success_rate"] == 1.0 and result["mean_forward_speed"] > 0.3
     assert result["episodes"][0]["reset_seed"] == [0, 0]
     assert "2 episodes on flat in C MuJoCo: success 1.000" in capsys.readouterr().out

@@ -355,6 +355,7 @@ def evaluate_mujoco(
         "engine": ENGINE,
         "policy": pilot.name,
         "policy_kind": pilot.kind,
+        "robot": host.robot.provenance(),
         "terrain": host.terrain.spec,
         "course_end_x": host.terrain.course_end_x,
         "num_envs": episodes,

@@ -128,6 +128,7 @@ def evaluate(
         "fixed_parameters": None
         if source.fixed_parameters is None
         else dict(zip(PARAMETER_NAMES, map(float, source.fixed_parameters))),
+        "robot": env.robot.provenance(),
         "terrain": env.terrain.spec,
         "course_end_x": env.terrain.course_end_x,
         "num_envs": num_envs,
