@@ -129,15 +129,25 @@ bench_slope5)  # BENCHMARKS.md's slope5 section: time until >= 99 % of 1024 epis
     --out="$OUT/bench_warp_slope5_scratch.json" > "$OUT/bench_warp_slope5_scratch.log" 2>&1
   python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_training_preset=gpu --walk_timeout_s=240 \
     --out="$OUT/bench_warp_slope5_trot.json" > "$OUT/bench_warp_slope5_trot.log" 2>&1 ;;
-robots)  # any quadruped from nothing: --preset=scratch with only --robot changed, capped at 300 s
+robots)  # any quadruped from nothing: --preset=scratch with only --robot changed
   : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
   export MENAGERIE_ROOT
-  for robot in ${ROBOTS:-unitree_go1 anybotics_anymal_c unitree_go2}; do
-    train 300 ${robot}_s0 --preset=scratch --robot=menagerie:$robot --seed=0
+  # Raw physics of 4096 robots standing, both physics (this also fills Warp's kernel cache).
+  for robot in unitree_go1 anybotics_anymal_c; do
+    for impl in warp jax; do
+      python3 -m quadcos.bench --robot=menagerie:$robot --impl=$impl --only=physics \
+        --env_counts=4096 --steps=20 --out="$OUT/bench_${robot}_$impl.json" \
+        > "$OUT/bench_${robot}_$impl.log" 2>&1
+      note "bench $robot $impl: exit $? $(grep -o '4096 envs: .*' "$OUT/bench_${robot}_$impl.log")"
+    done
   done
-  for s in ${GO1_SEEDS:-1 2}; do  # more Go1 seeds, sharing the GPU
-    XLA_PYTHON_CLIENT_MEM_FRACTION=0.4 train 300 unitree_go1_s$s --preset=scratch \
-      --robot=menagerie:unitree_go1 --seed=$s &
+  # Go1's first seed alone on the GPU; then the other robots and Go1's other seeds, four runs
+  # sharing it (their times to walk are upper bounds on a run alone).
+  train ${ALONE_S:-240} unitree_go1_s0 --preset=scratch --robot=menagerie:unitree_go1 --seed=0
+  for run in anybotics_anymal_c:0 unitree_go2:0 unitree_go1:1 unitree_go1:2; do
+    robot=${run%:*} seed=${run#*:}
+    XLA_PYTHON_CLIENT_MEM_FRACTION=0.22 train ${SHARED_S:-360} ${robot}_s$seed --preset=scratch \
+      --robot=menagerie:$robot --seed=$seed &
   done
   wait
   for run in "$OUT"/runs/*; do  # C MuJoCo on the host's CPUs while the GPU evaluates
@@ -147,9 +157,13 @@ robots)  # any quadruped from nothing: --preset=scratch with only --robot change
   done
   for run in "$OUT"/runs/*_s0; do
     name=$(basename "$run")
-    evaluate "$run/policy_best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json"
-    evaluate "$run/policy_best" ${name}_slope5 slope5 1024 40
-    evaluate "$run/policy_best" ${name}_s4 s4 1024 30
+    evals=()
+    XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 evaluate "$run/policy_best" ${name}_flat flat 1024 20 \
+      --trace="$OUT/trace_${name}_flat.json" & evals+=($!)
+    XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 evaluate "$run/policy_best" ${name}_slope5 slope5 1024 40 &
+    evals+=($!)
+    XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 evaluate "$run/policy_best" ${name}_s4 s4 1024 30 & evals+=($!)
+    wait "${evals[@]}"
   done
   wait ;;
 *) echo "unknown experiment '$experiment'" >&2; exit 2 ;;

@@ -1,0 +1,125 @@
+"""The robots experiment's table and figure, from what `bash experiments/run_gpu.sh robots` wrote.
+
+    python experiments/robots/table.py experiments/robots    # prints the Markdown table, draws
+                                                              # walking.png from the flat traces
+
+Per run folder `runs/NAME` (config.json, metrics.jsonl) and evaluation files `eval_NAME_{flat,
+slope5,s4}.json`, `sim2sim_NAME_flat.json`: time to walk (process start to the first training
+evaluation in which >= 99 % of its 1024 deterministic 20-s episodes survive at >= 0.5 m/s: the
+run's `wall_time_s` counts from the process's start), and the evaluations of its `policy_best`.
+"""
+
+import argparse
+import json
+import math
+import pathlib
+
+WALK_SURVIVAL = 0.99
+WALK_SPEED = 0.5  # m/s
+
+
+def _read(path: pathlib.Path) -> dict | None:
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def time_to_walk(run: pathlib.Path) -> float | None:
+    """s from process start to the first evaluation that walks (None: none did)."""
+    for line in (run / "metrics.jsonl").read_text().splitlines():
+        row = json.loads(line)
+        if "eval/fall_rate" not in row:
+            continue
+        if 1 - row["eval/fall_rate"] >= WALK_SURVIVAL and row["eval/forward_speed"] >= WALK_SPEED:
+            return row["wall_time_s"]
+    return None
+
+
+def _percent(result: dict | None, key: str = "success_rate") -> str:
+    return "—" if result is None else f"{100 * result[key]:.1f} %"
+
+
+def rows(folder: pathlib.Path) -> list[dict]:
+    found = []
+    for run in sorted((folder / "runs").iterdir()):
+        name = run.name
+        config = json.loads((run / "config.json").read_text())
+        flat, slope5, s4 = (_read(folder / f"eval_{name}_{t}.json") for t in ("flat", "slope5", "s4"))
+        mujoco = _read(folder / f"sim2sim_{name}_flat.json")
+        found.append(
+            {
+                "run": name,
+                "robot": config["run_info"]["robot"]["name"],
+                "walk_s": time_to_walk(run),
+                "flat": flat,
+                "slope5": slope5,
+                "s4": s4,
+                "mujoco": mujoco,
+            }
+        )
+    return found
+
+
+def table(found: list[dict], masses: dict[str, float]) -> str:
+    lines = [
+        "| run | mass kg | time to walk | flat success | speed m/s | pitch err / roll / yaw rad"
+        " | slope5 | S-4 | slope RMS on slope5 | C MuJoCo flat |",
+        "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|",
+    ]
+    for row in found:
+        flat = row["flat"]
+        walk = "—" if row["walk_s"] is None else f"{row['walk_s']:.0f} s"
+        attitude = "—"
+        speed = "—"
+        if flat is not None:
+            speed = f"{flat['mean_forward_speed']:.2f}"
+            attitude = (
+                f"{flat['mean_max_abs_pitch_error']:.3f} / {flat['mean_max_abs_roll']:.3f} /"
+                f" {flat['mean_max_abs_yaw']:.3f}"
+            )
+        rms = "—"
+        if row["slope5"] is not None:
+            rms = f"{math.degrees(row['slope5']['slope_error_rms']):.2f}°"
+        lines.append(
+            f"| {row['run']} | {masses.get(row['robot'], math.nan):.1f} | {walk} |"
+            f" {_percent(flat)} | {speed} | {attitude} | {_percent(row['slope5'])} |"
+            f" {_percent(row['s4'])} | {rms} | {_percent(row['mujoco'])} |"
+        )
+    return "\n".join(lines)
+
+
+def figure(found: list[dict], folder: pathlib.Path, out: pathlib.Path) -> None:
+    """Forward position against time of each robot's traced flat episode."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 4))
+    ax = fig.subplots()
+    for row in found:
+        trace = _read(folder / f"trace_{row['run']}_flat.json")
+        if trace is None:
+            continue
+        series = trace["series"]
+        ax.plot(series["time"], series["cog_x"], label=row["run"])
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("forward position of the torso (m)")
+    ax.set_title("policy_best on flat ground, one deterministic episode each")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folder", type=pathlib.Path)
+    args = parser.parse_args()
+    from quadcos import robot
+
+    found = rows(args.folder)
+    masses = {}
+    for row in found:
+        spec = json.loads((args.folder / "runs" / row["run"] / "config.json").read_text())
+        masses[row["robot"]] = robot.load(spec["run_info"]["env"]["robot"]).description.mass
+    print(table(found, masses))
+    figure(found, args.folder, args.folder / "walking.png")
+
+
+if __name__ == "__main__":
+    main()
