@@ -65,11 +65,18 @@ _ANYMAL_STANDING = {  # anymal_c_mjx.xml's "standing" keyframe: knees bent inwar
 PRESETS: dict[str, RobotPreset] = {
     # The paper's robot as its results were made: its MJCF's collisions, solver and step.
     "quadcos": RobotPreset(collision="asis", fall_min_height=0.35, physics_dt=0.005),
-    "quad12": RobotPreset(home="home", physics_dt=0.002),
-    "unitree_go1": RobotPreset(home="home", physics_dt=0.002),
-    # go2.xml drives torque motors; go2_mjx.xml's PD gains.
-    "unitree_go2": RobotPreset(home="home", kp=50.0, kd=0.5, physics_dt=0.002),
-    "anybotics_anymal_c": RobotPreset(home=_ANYMAL_STANDING, physics_dt=0.002),
+    # MJX-JAX on a CPU, 32 robots for 10 s holding the home pose and walking the fixed trot, flat
+    # and slope5 (experiments/robots/physics): the cheapest setting without NaN or falls.
+    "quad12": RobotPreset(home="home", physics_dt=0.0025, cone="elliptic", solver_iterations=4,
+                          ls_iterations=8),
+    "unitree_go1": RobotPreset(home="home", physics_dt=0.005, cone="pyramidal",
+                               solver_iterations=4, ls_iterations=8),
+    # go2.xml drives torque motors: go2_mjx.xml's kp 50 lets it sag 12 % and barely trot; kp 100.
+    "unitree_go2": RobotPreset(home="home", kp=100.0, kd=1.0, physics_dt=0.005, cone="pyramidal",
+                               solver_iterations=4, ls_iterations=8),
+    # No setting held the fixed trot on slope5 without NaN; this one holds on flat.
+    "anybotics_anymal_c": RobotPreset(home=_ANYMAL_STANDING, physics_dt=0.0025, cone="pyramidal",
+                                      solver_iterations=4, ls_iterations=8),
 }
 
 
