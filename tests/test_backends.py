@@ -24,10 +24,20 @@ def test_warp_without_warp_lang_says_how_to_install(monkeypatch):
     assert backends.resolve_impl("auto") == "jax"
 
 
-def test_warp_buffers_scale_with_the_batch():
+def test_warp_buffers_scale_with_the_batch_and_the_robots_contacts():
     config = env_lib.default_config()
     config.warp.max_envs = 4096
-    assert backends.warp_sizes(config) == {"naconmax": 4096 * 8, "njmax": 64}
+    paper = env_lib.make_env("flat", impl="jax").mj_model
+    assert backends.warp_sizes(config, paper) == {"naconmax": 4096 * 8, "njmax": 64}
+    # Condim-6 feet under a pyramidal cone: 10 rows a contact, beyond the paper robot's 64.
+    model = env_lib.make_env("flat", robot="quad12", impl="jax").mj_model
+    model.geom_condim[:] = 6
+    model.opt.cone = 0
+    rows = backends.constraint_rows(model, 8)
+    assert rows == 8 * 10 + int(model.jnt_limited.sum()) and rows > 64
+    assert backends.warp_sizes(config, model)["njmax"] == rows
+    config.warp.constraints_per_env = 40
+    assert backends.warp_sizes(config, model)["njmax"] == 40
 
 
 @pytest.mark.parametrize("key, value", [("max_envs", 0), ("contacts_per_env", -1)])

@@ -58,13 +58,30 @@ def resolve_impl(impl: str, gpu_physics: str = "warp") -> str:
     return impl
 
 
-def warp_sizes(config: ml_collections.ConfigDict) -> dict[str, int]:
+def warp_sizes(config: ml_collections.ConfigDict, mj_model=None) -> dict[str, int]:
     """Warp's buffer sizes for an env config: `naconmax` (contacts, all worlds of the largest
-    batch together) and `njmax` (constraint rows per world)."""
-    return {
-        "naconmax": config.warp.max_envs * config.warp.contacts_per_env,
-        "njmax": config.warp.constraints_per_env,
-    }
+    batch together) and `njmax` (constraint rows per world: `constraints_per_env`, or with 0 as
+    many as the robot can need, `constraint_rows(mj_model, contacts_per_env)`, and at least the
+    64 the paper's robot's results were measured with)."""
+    rows = config.warp.constraints_per_env or max(
+        _PAPER_ROWS, constraint_rows(mj_model, config.warp.contacts_per_env)
+    )
+    return {"naconmax": config.warp.max_envs * config.warp.contacts_per_env, "njmax": rows}
+
+
+_PAPER_ROWS = 64
+
+
+def constraint_rows(mj_model, contacts: int) -> int:
+    """Constraint rows a world of `mj_model` can need: `contacts` contacts of its largest condim
+    (a pyramidal cone takes 2 (condim − 1) rows a contact, an elliptic one condim), a row per
+    limited joint, and its equality constraints (6 rows each, at most). Menagerie's Go1 has
+    condim-6 feet: 10 rows a contact."""
+    colliding = mj_model.geom_contype | mj_model.geom_conaffinity
+    condim = int(mj_model.geom_condim[colliding > 0].max(initial=3))
+    pyramidal = mj_model.opt.cone == 0  # mjCONE_PYRAMIDAL
+    per_contact = 2 * (condim - 1) if pyramidal and condim > 1 else condim
+    return contacts * per_contact + int(mj_model.jnt_limited.sum()) + 6 * mj_model.neq
 
 
 def default_warp_config() -> ml_collections.ConfigDict:
@@ -74,7 +91,7 @@ def default_warp_config() -> ml_collections.ConfigDict:
     config = ml_collections.ConfigDict()
     config.max_envs = 16384  # the largest batch stepped at once; the trainer raises it as needed
     config.contacts_per_env = 8
-    config.constraints_per_env = 64
+    config.constraints_per_env = 0  # 0: what the robot can need (constraint_rows)
     return config
 
 
@@ -95,5 +112,5 @@ def put_model(mj_model, impl: str) -> mjx.Model:
 def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Data:
     """A fresh `mjx.Data` for one robot (batch with `jax.vmap`)."""
     if impl == "warp":
-        return mjx.make_data(mj_model, impl="warp", **warp_sizes(config))
+        return mjx.make_data(mj_model, impl="warp", **warp_sizes(config, mj_model))
     return mjx.make_data(mj_model, impl="jax")

@@ -126,10 +126,10 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
     config = resolve(config)
     if config.impl not in backends.IMPLS:
         raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
-    for key in ("max_envs", "contacts_per_env", "constraints_per_env"):
+    for key, least in (("max_envs", 1), ("contacts_per_env", 1), ("constraints_per_env", 0)):
         value = config.warp[key]
-        if not (isinstance(value, int) and value >= 1):
-            raise ValueError(f"warp.{key} must be a whole number >= 1; got {value!r}")
+        if not (isinstance(value, int) and value >= least):
+            raise ValueError(f"warp.{key} must be a whole number >= {least}; got {value!r}")
     if config.warp.max_envs * config.warp.contacts_per_env >= 2**31:  # Warp indexes with int32
         raise ValueError(
             "warp.max_envs × warp.contacts_per_env must be < 2**31; got"

@@ -41,12 +41,14 @@ class Robot:
         return spec
 
     def provenance(self) -> dict:
-        """Where the robot came from, for a run's config.json."""
+        """Where the robot came from and the preset it ran with, for a run's config.json and an
+        evaluation's setup."""
         return {
             "spec": self.source.spec,
             "name": self.source.name,
             "path": str(self.source.path),
             "menagerie_commit": self.source.menagerie_commit,
+            "preset": dataclasses.asdict(self.preset),
         }
 
     def summary(self) -> dict:
