@@ -210,7 +210,7 @@ def quad12_env():
 
 
 def test_the_test_robot_holds_its_home_pose_on_flat_and_slope5(quad12_env):
-    """Zero rhythm amplitude for 5 s: the trunk stays within 5 % of its standing height, on flat
+    """Zero rhythm amplitude for 5 s: the trunk stays within 5 % of its home height, on flat
     ground before the ramp and on the 5° ramp itself (the same compiled env: slope5 starts flat)."""
     env = quad12_env
     stand = env.action_for(oscillator.RhythmParameters(0.0, 0.0, 1.0, 0.0, 0.0))
@@ -228,12 +228,14 @@ def test_the_test_robot_holds_its_home_pose_on_flat_and_slope5(quad12_env):
         final, heights = jax.lax.scan(hold, start, None, length=steps)
         return heights, final.done
 
-    standing = env.robot.description.standing_height
+    # Its height: the keyframe's (feet 18 mm into the ground, as Go1's); the kinematic standing
+    # height, feet just touching, is 0.288 m.
+    home_height = robot_variants.HOME_HEIGHT
     for x in (0.0, 3.0):  # flat, then on the ramp (its height measured along the vertical)
         heights, done = run(jnp.asarray(x))
         assert not bool(done)
         slope = float(env.terrain.slope_at(x, 0.0))
-        expected = standing / np.cos(slope)
+        expected = home_height / np.cos(slope)
         assert np.abs(np.asarray(heights[-20:]) / expected - 1).max() < 0.05, x
 
 
@@ -273,3 +275,11 @@ def test_a_bad_robot_stops_train_before_anything_is_written(tmp_path, capsys):
         assert train.main(["--preset=smoke", f"--robot={spec}", f"--output_dir={run_dir}"]) == 2
         assert len(capsys.readouterr().err.strip().splitlines()) == 1
         assert not run_dir.exists()
+
+
+@needs_menagerie
+def test_the_committed_go1_policy_walks_go1(menagerie_root):
+    policy = pathlib.Path(__file__).resolve().parents[1] / "experiments" / "policies" / "go1_flat"
+    result = quadcos.evaluate_policy(str(policy), "flat", episodes=2, seconds=2.0)
+    assert result.falls == 0.0 and result.speed > 0.5
+    assert result.to_json()["setup"]["robot"]["name"] == "unitree_go1"
