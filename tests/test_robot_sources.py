@@ -241,8 +241,8 @@ def test_the_real_package_from_a_warm_cache(tmp_path, monkeypatch):
     (folder / ".complete").write_text("{}")  # the package's mark of a finished download
     source = sources.resolve("menagerie:unitree_go1")
     assert source.path == folder / "go1.xml" and source.menagerie_commit == package.commit()
-    with pytest.raises(ValueError, match="not a quadruped"):
-        sources.resolve("menagerie:franka_emika_panda")
+    with pytest.raises(ValueError, match="unknown Menagerie robot 'franka_emika_panda'; quadrupeds"):
+        sources.resolve("menagerie:franka_emika_panda")  # refused before any download
 
 
 @needs_menagerie
