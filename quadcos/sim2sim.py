@@ -4,13 +4,20 @@ the loop.
     python -m quadcos.sim2sim --policy=experiments/policies/slope5 --terrain=s4 --episodes=64 \\
         --seconds=30 --out=s4_mujoco.json
     python -m quadcos.sim2sim --policy=fixed:trot --terrain=flat --out=trot_mujoco.json
+    python -m quadcos.export --policy=experiments/policies/flat --out=flat.onnx
+    python -m quadcos.sim2sim --policy=flat.onnx --obs_noise=0.01 --latency_ms=20 --out=onnx.json
 
-`--policy` takes a run or policy directory, an exported .npz or `fixed:...`. `--out` is an
+`--policy` takes a run or policy directory, an exported .npz, an exported .onnx (run with ONNX
+Runtime) or `fixed:...`. `--obs_noise` adds N(0, std²) to each observation value the policy
+sees; `--latency_ms` delays each action by that many ms, rounded to whole physics steps (below a
+control step: the previous action for the first round(latency / physics_dt) substeps of each
+control step, as the MJX env's randomised latency). Both are recorded in the setup. `--out` is an
 evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
 per-episode values), so the two compare key by key. The robot loop: `quadcos.deploy.host_robot`.
 """
 
 import argparse
+import math
 import pathlib
 import sys
 from collections.abc import Sequence
@@ -32,6 +39,12 @@ def _parser() -> argparse.ArgumentParser:
     parser = pilot_parser("python -m quadcos.sim2sim", __doc__)
     parser.add_argument("--episodes", type=int, default=64, help="episodes, one after another")
     parser.add_argument("--seconds", type=float, default=20.0, help="time limit of an episode, s")
+    parser.add_argument(
+        "--obs_noise", type=float, default=0.0, help="std of noise on each observation value"
+    )
+    parser.add_argument(
+        "--latency_ms", type=float, default=0.0, help="control latency, ms (whole physics steps)"
+    )
     parser.add_argument("--out", required=True, help="evaluation JSON to write")
     parser.add_argument("--no_progress", action="store_true", help="no progress on stderr")
     return parser
@@ -48,12 +61,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         out = pathlib.Path(args.out)
         if out.suffix != ".json" or not out.absolute().parent.is_dir():
             raise ValueError(f"--out must be a .json file in an existing directory; got {out}")
+        for flag, value in (("--obs_noise", args.obs_noise), ("--latency_ms", args.latency_ms)):
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{flag} must be >= 0 and finite; got {value}")
         result = evaluate_mujoco(
             load_pilot(args.policy, args.robot),
             args.terrain,
             episodes=args.episodes,
             seconds=args.seconds,
             seed=args.seed,
+            obs_noise=args.obs_noise,
+            latency_s=args.latency_ms / 1000.0,
             progress=None if args.no_progress else _print_progress,
         )
     except (ValueError, FileNotFoundError) as error:

@@ -1,4 +1,5 @@
-"""`quadcos.export` / `quadcos.numpy_policy`: the exported .npz gives the JAX policy's actions."""
+"""`quadcos.export` / `quadcos.numpy_policy` / `quadcos.deploy.onnx_policy`: the exported .npz and
+.onnx give the JAX policy's actions."""
 
 import json
 import pathlib
@@ -6,10 +7,15 @@ import subprocess
 import sys
 
 import numpy as np
+import onnx
 import pytest
+from onnx import TensorProto, helper
 
 from quadcos import export, sim2sim
+from quadcos.deploy import export as export_lib
+from quadcos.deploy import onnx_policy
 from quadcos.deploy.numpy_policy import NumpyPolicy
+from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.training import load_policy
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -76,6 +82,95 @@ def test_cli_exports_and_refuses_bad_input(tmp_path, capsys):
     assert NumpyPolicy.load(out).action_size == 5
     capsys.readouterr()
     assert export.main(["--policy", str(tmp_path / "nowhere"), "--out", str(out)]) == 2
-    assert export.main(["--policy", str(POLICIES / "flat"), "--out", str(tmp_path / "a.onnx")]) == 2
+    assert export.main(["--policy", str(POLICIES / "flat"), "--out", str(tmp_path / "a.pt")]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 2 and "nowhere" in lines[0] and ".npz" in lines[1]
+    assert len(lines) == 2 and "nowhere" in lines[0] and ".npz or .onnx" in lines[1]
+    assert export.main(["--policy", str(POLICIES / "flat"), "--out", str(tmp_path / "a.onnx")]) == 0
+    assert OnnxPolicy.load(tmp_path / "a.onnx").action_size == 5
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["a.onnx", "flat.npz"]  # no temp
+
+
+# --- ONNX ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name, action_size", [("flat", 5), ("any_slope", 7)])
+def test_onnx_runtime_gives_the_jax_policys_actions(tmp_path, name, action_size):
+    out = export.export_policy(POLICIES / name, tmp_path / f"{name}.onnx")
+    exported = OnnxPolicy.load(out)
+    jax_policy = load_policy(POLICIES / name)
+    noise = np.random.default_rng(1).normal(size=(1000, exported.observation_size))
+    mean = np.asarray(jax_policy.params["normalizer"]["mean"])
+    std = np.asarray(jax_policy.params["normalizer"]["std"])
+    observations = (mean + 3.0 * std * noise).astype(np.float32)
+    jax_actions = np.asarray(jax_policy.act(observations))
+    actions = exported(observations)
+    assert actions.shape == (1000, action_size) and actions.dtype == np.float32
+    assert np.abs(actions - jax_actions).max() <= 1e-5
+    assert np.abs(exported(observations[7]) - jax_actions[7]).max() <= 1e-5  # a batch of one
+
+    model = onnx.load(out)
+    metadata = {prop.key: prop.value for prop in model.metadata_props}
+    arrays = export_lib.policy_arrays(POLICIES / name)
+    assert metadata["format"] == onnx_policy.FORMAT
+    assert json.loads(metadata["env_config"]) == json.loads(str(arrays["env_config"]))
+    assert exported.env_config == NumpyPolicy.from_arrays(arrays).env_config
+    assert int(metadata["observation_size"]) == exported.observation_size == mean.size
+    assert int(metadata["action_size"]) == action_size
+    saved = json.loads((POLICIES / name / "policy.json").read_text())["config"]["run_info"]["env"]
+    for key in ("observe_slope", "observe_phase", "action_filter_tau", "control_dt", "terrain"):
+        assert exported.env_config[key] == saved[key]
+    assert [value.name for value in model.graph.input] == ["observation"]
+    assert model.graph.input[0].type.tensor_type.shape.dim[0].dim_param == "batch"
+    assert {node.op_type for node in model.graph.node} == {
+        "Sub",
+        "Div",
+        "MatMul",
+        "Add",
+        "Relu",
+        "Tanh",
+    }
+
+
+def _tiny_onnx(path: pathlib.Path) -> pathlib.Path:
+    """A valid ONNX model (observation -> action, Identity) without quadcos's metadata."""
+    shape = ["batch", 19]
+    graph = helper.make_graph(
+        [helper.make_node("Identity", ["observation"], ["action"])],
+        "tiny",
+        [helper.make_tensor_value_info("observation", TensorProto.FLOAT, shape)],
+        [helper.make_tensor_value_info("action", TensorProto.FLOAT, shape)],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)], ir_version=8)
+    onnx.save(model, path)
+    return path
+
+
+def test_onnx_that_is_not_a_quadcos_policy_is_named(tmp_path, capsys):
+    tiny = _tiny_onnx(tmp_path / "tiny.onnx")
+    with pytest.raises(ValueError, match="tiny.onnx is not a quadcos.onnx_policy file"):
+        OnnxPolicy.load(tiny)
+    (tmp_path / "text.onnx").write_text("not a protobuf")
+    with pytest.raises(ValueError, match="text.onnx is not an ONNX model"):
+        OnnxPolicy.load(tmp_path / "text.onnx")
+    with pytest.raises(FileNotFoundError, match="missing.onnx"):
+        OnnxPolicy.load(tmp_path / "missing.onnx")
+    for policy in (tiny, tmp_path / "text.onnx"):
+        out = tmp_path / "x.json"
+        assert sim2sim.main([f"--policy={policy}", f"--out={out}", "--no_progress"]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and policy.name in lines[0] and not out.exists()
+
+
+def test_onnx_for_another_observation_size_is_refused(tmp_path, capsys):
+    out = export.export_policy(POLICIES / "flat", tmp_path / "flat.onnx")
+    model = onnx.load(out)
+    for prop in model.metadata_props:
+        if prop.key == "env_config":  # the env then adds the slope estimate: 20 values, not 19
+            prop.value = json.dumps(json.loads(prop.value) | {"observe_slope": True})
+    onnx.save(model, tmp_path / "other.onnx")
+    with pytest.raises(ValueError, match="other.onnx expects observations of size 19"):
+        sim2sim.evaluate_mujoco(str(tmp_path / "other.onnx"), "flat", episodes=1, seconds=0.1)
+    argv = [f"--policy={tmp_path / 'other.onnx'}", f"--out={tmp_path / 'x.json'}", "--no_progress"]
+    assert sim2sim.main(argv) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "other.onnx" in lines[0] and "20" in lines[0]

@@ -8,8 +8,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from quadcos import play, sim2sim, terrain
-from quadcos.deploy import twins
+from quadcos import export, play, sim2sim, terrain
+from quadcos.deploy import host_robot, twins
 from quadcos.equations import oscillator, reward, slope
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -50,7 +50,9 @@ def test_slope_twins():
     for _ in range(50):
         quaternion = RNG.normal(size=4)
         quaternion /= np.linalg.norm(quaternion)
-        feet = RNG.uniform(-0.4, 0.4, (4, 3)) + np.array([[0.3, 0, -0.6]] * 2 + [[-0.3, 0, -0.6]] * 2)
+        feet = RNG.uniform(-0.4, 0.4, (4, 3)) + np.array(
+            [[0.3, 0, -0.6]] * 2 + [[-0.3, 0, -0.6]] * 2
+        )
         expected = slope.attitude(quaternion)
         np.testing.assert_allclose(twins.attitude(quaternion), expected, atol=1e-5)
         assert twins.estimate_slope(feet, quaternion) == pytest.approx(
@@ -79,14 +81,24 @@ def test_reward_twin(variant, fell, max_progress):
     body = slope.Attitude(roll=angles[0], pitch=angles[1], yaw=angles[2])
     weights = reward.RewardWeights()
     common = dict(
-        x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=fell, moving=False,
+        x_now=x[0],
+        x_last=x[1],
+        y_now=y[0],
+        y_last=y[1],
+        fell=fell,
+        moving=False,
         max_progress=max_progress,
     )
     host = twins.reward_terms(
         **common, body=body, slope_estimate=angles[3], weights=weights, variant=variant
     )
     original = reward.reward_terms(
-        **common, pitch=body.pitch, yaw=body.yaw, roll=body.roll, slope=angles[3], weights=weights,
+        **common,
+        pitch=body.pitch,
+        yaw=body.yaw,
+        roll=body.roll,
+        slope=angles[3],
+        weights=weights,
         variant=variant,
     )
     assert set(host) == set(reward.TERM_NAMES)
@@ -172,6 +184,9 @@ def test_policy_walks_and_a_course_ends_at_its_end():
         (["--policy=/nowhere/policy"], "/nowhere/policy"),
         (["--policy=fixed:9,0,0.6,0,0"], "amplitude_knee=9"),
         (["--policy=fixed:trot", "--episodes=0"], "episodes"),
+        (["--policy=fixed:trot", "--obs_noise=-0.1"], "--obs_noise"),
+        (["--policy=fixed:trot", "--latency_ms=nan"], "--latency_ms"),
+        (["--policy=fixed:trot", "--latency_ms=ten"], "--latency_ms"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):
@@ -179,6 +194,95 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and named in lines[0]
     assert not (tmp_path / "x.json").exists()
+
+
+# --- the exported .onnx in C MuJoCo, observation noise and latency -----------------------------
+
+
+def test_an_onnx_pilot_acts_as_the_npz_pilot(tmp_path):
+    npz = sim2sim.load_pilot(str(export.export_policy(FLAT_POLICY, tmp_path / "flat.npz")))
+    onnx = sim2sim.load_pilot(str(export.export_policy(FLAT_POLICY, tmp_path / "flat.onnx")))
+    assert onnx.config.to_dict() == npz.config.to_dict()
+    assert (onnx.kind, onnx.training_terrain) == ("sac", npz.training_terrain)
+    host = sim2sim.HostRobot("flat", npz.config)
+    observations = [host.reset(0)]
+    for _ in range(20):
+        observations.append(host.step(npz.actor()(observations[-1])).obs)
+    for obs in observations:
+        np.testing.assert_allclose(onnx.actor()(obs), npz.actor()(obs), atol=1e-5)
+    result = sim2sim.evaluate_mujoco(onnx, episodes=1, seconds=2.0)
+    assert result["success_rate"] == 1.0 and result["mean_forward_speed"] > 0.5
+    assert (
+        result["setup"]["policy"].endswith("flat.onnx")
+        and "onnxruntime" in (result["setup"]["versions"])
+    )
+
+
+def _episode(**faults):
+    result = sim2sim.evaluate_mujoco(FLAT_POLICY, "flat", episodes=1, seconds=1.0, **faults)
+    return result["episodes"], result["setup"]
+
+
+def test_no_noise_and_no_latency_change_nothing_and_are_recorded():
+    plain, setup = _episode()
+    assert (setup["obs_noise"], setup["latency_s"], setup["latency_physics_steps"]) == (0, 0, 0)
+    assert _episode(obs_noise=0.0, latency_s=0.0)[0] == plain
+    noisy, setup = _episode(obs_noise=0.05, latency_s=0.02)
+    assert noisy != plain
+    assert (setup["obs_noise"], setup["latency_s"], setup["latency_physics_steps"]) == (
+        0.05,
+        0.02,
+        4,
+    )
+    assert _episode(obs_noise=0.05, latency_s=0.02)[0] == noisy  # seeded
+
+
+def _commands(monkeypatch, latency_s, actions):
+    """The command at each physics substep of `actions` (one per control step), without the
+    action filter (the command is the action acting)."""
+    host = sim2sim.HostRobot("flat", sim2sim.env_config({"action_filter_tau": 0.0}), latency_s)
+    host.reset(0)
+    commands, mj_step = [], host_robot.mujoco.mj_step
+
+    def recording_step(model, data):
+        commands.append(host.command.copy())
+        mj_step(model, data)
+
+    monkeypatch.setattr(host_robot.mujoco, "mj_step", recording_step)
+    for action in actions:
+        host.step(action)
+    return np.asarray(commands)
+
+
+@pytest.mark.parametrize(
+    "latency_s, first, second",
+    [
+        (0.0, [1] * 10, [2] * 10),
+        (0.02, [0] * 4 + [1] * 6, [1] * 4 + [2] * 6),
+        (0.05, [0] * 10, [1] * 10),
+    ],
+)
+def test_latency_delays_the_action(monkeypatch, latency_s, first, second):
+    """20 ms (4 physics steps): the previous action for the first 4 substeps of each control
+    step, as the MJX env's randomised latency; one control step (50 ms): one step late."""
+    action_a, action_b = np.full(5, 0.3), np.full(5, -0.6)
+    commands = _commands(monkeypatch, latency_s, [action_a, action_b, np.zeros(5)])
+    table = {0: np.zeros(5), 1: action_a, 2: action_b}
+    expected = np.array([table[which] for which in first + second])
+    np.testing.assert_allclose(commands[:20], expected, atol=1e-12)
+    if latency_s == 0.05:
+        np.testing.assert_allclose(commands[20:], np.tile(action_b, (10, 1)), atol=1e-12)
+
+
+def test_a_latency_of_one_control_step_walks_one_step_behind():
+    delayed = sim2sim.HostRobot("flat", sim2sim.env_config({}), latency_s=0.05)
+    plain = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    delayed.reset(3)
+    plain.reset(3)
+    actions = np.random.default_rng(5).uniform(-1, 1, (6, 5))
+    late = [delayed.step(action).obs for action in actions]
+    on_time = [plain.step(action).obs for action in [np.zeros(5), *actions[:-1]]]
+    np.testing.assert_array_equal(late, on_time)
 
 
 # --- play ----------------------------------------------------------------------------------------
@@ -218,7 +322,9 @@ def test_survival_for_movement_waits_for_the_low_passed_speed():
     host = sim2sim.HostRobot("flat", config)
     host.reset(0)
     trot = np.asarray(
-        oscillator.parameters_to_action(oscillator.FIXED_TROT, config.period_min, host.action_centre)
+        oscillator.parameters_to_action(
+            oscillator.FIXED_TROT, config.period_min, host.action_centre
+        )
     )
     paid = [host.step(trot).reward_terms["survival"] for _ in range(40)]
     first = paid.index(10.0)

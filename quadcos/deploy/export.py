@@ -1,4 +1,5 @@
-"""A trained policy as a JAX-free file (`python -m quadcos.export --policy DIR --out policy.npz`).
+"""A trained policy as a JAX-free file: `python -m quadcos.export --policy DIR --out policy.npz`
+(NumPy) or `--out policy.onnx` (ONNX, for ONNX Runtime); the format follows the extension.
 
 The .npz holds everything `quadcos.deploy.numpy_policy.NumpyPolicy` (NumPy only, one file to copy into a
 robot stack) needs to give the same deterministic actions as `quadcos.load_policy(DIR).act`:
@@ -13,8 +14,12 @@ robot stack) needs to give the same deterministic actions as `quadcos.load_polic
   action map `action_centre` / `period_min`; its training terrain as `terrain`);
 - `format`, `observation_size`.
 
-ONNX is not offered: no maintained JAX-to-ONNX converter is among quadcos's dependencies, and
-the forward pass above is a handful of matrix products.
+The .onnx (opset 17, built with `onnx.helper`; run by `quadcos.deploy.onnx_policy.OnnxPolicy`)
+is the same forward pass as a graph: input "observation" float32 (batch, observation_size), Sub
+mean, Div std, MatMul + Add with Relu between the layers, the last layer's loc columns only (the
+scale half does not touch the deterministic action), Tanh; output "action" float32 (batch,
+action_size). `metadata_props` hold `format` ("quadcos.onnx_policy"), `env_config` (the JSON
+above), `observation_size` and `action_size`.
 """
 
 import json
@@ -26,10 +31,14 @@ import numpy as np
 from quadcos import env as env_lib
 from quadcos import evaluation
 from quadcos._util import overrides as config_lib
+from quadcos.deploy import onnx_policy
 from quadcos.deploy.numpy_policy import FORMAT, NumpyPolicy
 from quadcos.training import policy as policy_lib
 
 ACTIVATION = "relu"  # quadcos.training.sac.make_networks: Brax's default, linen.relu
+ONNX_OPSET = 17
+ONNX_IR_VERSION = 8  # the IR of opset 17, so that older ONNX Runtimes load the file too
+SUFFIXES = (".npz", ".onnx")
 
 
 def policy_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
@@ -68,24 +77,88 @@ def numpy_policy(path: str | os.PathLike[str]) -> NumpyPolicy:
     return NumpyPolicy.from_arrays(policy_arrays(path), source=str(path))
 
 
+def onnx_model(arrays: dict[str, np.ndarray]):
+    """The `onnx.ModelProto` of the .npz contents `arrays` (see the module docstring)."""
+    import onnx  # the export extra: only needed for .onnx files
+    from onnx import TensorProto, helper, numpy_helper
+
+    count, action_size = int(arrays["num_layers"]), int(arrays["action_size"])
+    observation_size = int(arrays["observation_size"])
+    weights = {"mean": arrays["normalizer_mean"], "std": arrays["normalizer_std"]}
+    nodes = [
+        helper.make_node("Sub", [onnx_policy.INPUT, "mean"], ["centred"]),
+        helper.make_node("Div", ["centred", "std"], ["hidden_in_0"]),
+    ]
+    for index in range(count):
+        kernel, bias = arrays[f"kernel_{index}"], arrays[f"bias_{index}"]
+        if index == count - 1:  # (loc, scale): the action is tanh(loc)
+            kernel, bias = kernel[:, :action_size], bias[:action_size]
+        weights[f"kernel_{index}"], weights[f"bias_{index}"] = kernel, bias
+        source, product = f"hidden_in_{index}", f"product_{index}"
+        out = f"hidden_in_{index + 1}" if index < count - 1 else "loc"
+        affine = f"affine_{index}" if index < count - 1 else out
+        nodes.append(helper.make_node("MatMul", [source, f"kernel_{index}"], [product]))
+        nodes.append(helper.make_node("Add", [product, f"bias_{index}"], [affine]))
+        if index < count - 1:
+            nodes.append(helper.make_node("Relu", [affine], [out]))
+    nodes.append(helper.make_node("Tanh", ["loc"], [onnx_policy.OUTPUT]))
+    graph = helper.make_graph(
+        nodes,
+        "quadcos_policy",
+        [
+            helper.make_tensor_value_info(
+                onnx_policy.INPUT, TensorProto.FLOAT, ["batch", observation_size]
+            )
+        ],
+        [
+            helper.make_tensor_value_info(
+                onnx_policy.OUTPUT, TensorProto.FLOAT, ["batch", action_size]
+            )
+        ],
+        initializer=[
+            numpy_helper.from_array(np.asarray(value, np.float32), name)
+            for name, value in weights.items()
+        ],
+    )
+    model = helper.make_model(
+        graph,
+        opset_imports=[helper.make_opsetid("", ONNX_OPSET)],
+        producer_name="quadcos",
+        ir_version=ONNX_IR_VERSION,
+    )
+    metadata = {
+        "format": onnx_policy.FORMAT,
+        "env_config": str(arrays["env_config"]),
+        "observation_size": str(observation_size),
+        "action_size": str(action_size),
+    }
+    helper.set_model_props(model, metadata)
+    onnx.checker.check_model(model, full_check=True)
+    return model
+
+
 def export_policy(
     path: str | os.PathLike[str], out: str | os.PathLike[str], robot: str | None = None
 ) -> pathlib.Path:
-    """Writes the policy (run or policy directory) at `path` to the .npz `out`, atomically;
-    `robot`, when given, must be the robot the policy was trained on (its env config names it).
+    """Writes the policy (run or policy directory) at `path` to `out`, atomically: a .npz, or an
+    .onnx (needs the `onnx` package); `robot`, when given, must be the robot the policy was
+    trained on (its env config names it).
 
     Raises:
-      FileNotFoundError, ValueError: no loadable policy at `path`, `out` is not a .npz path, or
-        the policy drives another robot.
+      FileNotFoundError, ValueError: no loadable policy at `path`, `out` ends in neither .npz nor
+        .onnx, or the policy drives another robot.
     """
     out = pathlib.Path(out)
-    if out.suffix != ".npz":
-        raise ValueError(f"--out must end in .npz; got {out}")
+    if out.suffix not in SUFFIXES:
+        raise ValueError(f"--out must end in {' or '.join(SUFFIXES)}; got {out}")
     arrays = policy_arrays(path)
     trained_on = json.loads(str(arrays["env_config"]))["robot"]
     if robot is not None and robot != trained_on:
         raise ValueError(f"the policy {path} was trained on robot {trained_on!r}, not {robot!r}")
-    temporary = out.with_name(f".{out.name}.tmp-{os.getpid()}.npz")
-    np.savez(temporary, **arrays)
+    temporary = out.with_name(f".{out.name}.tmp-{os.getpid()}{out.suffix}")
+    if out.suffix == ".onnx":
+        temporary.write_bytes(onnx_model(arrays).SerializeToString())
+    else:
+        np.savez(temporary, **arrays)
     os.replace(temporary, out)
     return out

@@ -4,15 +4,23 @@ controller path for sim-to-sim (`evaluate_mujoco`) and `python -m quadcos.play`.
 `HostRobot` steps one robot as `QuadrupedEnv.step` does (command filter, rhythm parameters, phase
 and joint targets at every physics step; observation, slope estimate, reward, fall check) with the
 NumPy twins of `quadcos.deploy.twins`. The policy is its exported NumPy forward pass
-(`quadcos.deploy.export`; a pilot also takes an exported .npz or `fixed:...`) in the env config it
-was trained with. Reset: the env's spawn pose at x = y = 0; episodes differ by their noise seed.
+(`quadcos.deploy.export`; a pilot also takes an exported .npz, an exported .onnx run with ONNX
+Runtime, or `fixed:...`) in the env config it was trained with. Reset: the env's spawn pose at
+x = y = 0; episodes differ by their noise seed.
+
+Two deployment faults, both off by default: observation noise (Gaussian, std `obs_noise`, on each
+value the policy sees; the episode's own stream, seeded by its reset seed) and control latency
+(`latency_s`, rounded to whole physics steps L: the command filter at physics step t of the
+episode moves towards the action computed at the control step that began L physics steps
+earlier, zero before the first. For L below a control step this is the MJX env's randomised
+`latency_steps`: the previous action for the first L substeps of each control step, then the
+new one; a latency of one control step acts each action one step late).
 
 Episodes end and succeed as in `quadcos.evaluation` (no fall within the time limit; on a course,
 the torso past `course_end_x` first). `evaluate_mujoco` returns an evaluation JSON in
 `quadcos.evaluation`'s format (aggregates, "setup" with `"engine": "mujoco"`, per-episode values),
 so the two compare key by key.
 """
-
 
 import argparse
 import dataclasses
@@ -32,6 +40,7 @@ from quadcos._util import cli
 from quadcos._util import overrides as config_lib
 from quadcos.deploy import export, twins
 from quadcos.deploy.numpy_policy import NumpyPolicy
+from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.env.layout import Layout
 from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import report, rollout, sources
@@ -44,14 +53,14 @@ _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for s
 
 @dataclasses.dataclass(frozen=True)
 class Pilot:
-    """What chooses actions: a NumPy policy or fixed rhythm parameters, and the env config
-    (`quadcos.env.default_config()` with the policy's saved options) it runs in."""
+    """What chooses actions: a NumPy or ONNX Runtime policy or fixed rhythm parameters, and the
+    env config (`quadcos.env.default_config()` with the policy's saved options) it runs in."""
 
     name: str
     kind: str  # "sac" or "fixed"
     config: ml_collections.ConfigDict
     training_terrain: str
-    policy: NumpyPolicy | None = None
+    policy: NumpyPolicy | OnnxPolicy | None = None
     fixed_parameters: oscillator.RhythmParameters | None = None
 
     def actor(self) -> Callable[[np.ndarray], np.ndarray]:
@@ -69,21 +78,25 @@ class Pilot:
 
 def load_pilot(spec: str, robot: str | None = None) -> Pilot:
     """The pilot for a --policy value: `fixed:trot`, `fixed:A_k,A_h,T,phi1,phi3`, a run or policy
-    directory, or an exported .npz; `robot`: the quadruped fixed parameters drive (a trained
-    policy drives its own: another is refused).
+    directory, an exported .npz, or an exported .onnx (run with ONNX Runtime); `robot`: the
+    quadruped fixed parameters drive (a trained policy drives its own: another is refused).
 
     Raises:
-      FileNotFoundError, ValueError: no policy there, or an env config this quadcos cannot build.
+      FileNotFoundError, ValueError: no policy there, a file that is not a quadcos policy, or an
+        env config this quadcos cannot build.
     """
     if spec.startswith(sources.FIXED_PREFIX):
         source = evaluation.resolve_source(spec)
         overrides = {} if robot is None else {"robot": robot}
         config = evaluation.build_env(source, "flat", overrides).config  # checks the ranges
         return Pilot(spec, "fixed", config, "flat", fixed_parameters=source.fixed_parameters)
-    policy = export.numpy_policy(spec)
+    policy = OnnxPolicy.load(spec) if spec.endswith(".onnx") else export.numpy_policy(spec)
     saved = dict(policy.env_config)
     terrain = str(saved.pop("terrain", "flat"))
-    config = env_config(config_lib.flatten(saved))
+    try:
+        config = env_config(config_lib.flatten(saved))
+    except ValueError as error:
+        raise ValueError(f"{spec}: its env config does not build: {error}") from None
     if robot is not None and robot != config.robot:
         raise ValueError(f"the policy {spec} was trained on robot {config.robot!r}, not {robot!r}")
     return Pilot(spec, "sac", config, terrain, policy=policy)
@@ -114,9 +127,21 @@ class StepResult(NamedTuple):
 
 
 class HostRobot:
-    """One robot on a terrain in C MuJoCo under the env's controller path (`QuadrupedEnv.step`)."""
+    """One robot on a terrain in C MuJoCo under the env's controller path (`QuadrupedEnv.step`);
+    `latency_s`: the control latency (module docstring), s.
 
-    def __init__(self, terrain: terrain_lib.Terrain | str, config: ml_collections.ConfigDict):
+    Raises:
+      ValueError: a latency that is negative or not finite.
+    """
+
+    def __init__(
+        self,
+        terrain: terrain_lib.Terrain | str,
+        config: ml_collections.ConfigDict,
+        latency_s: float = 0.0,
+    ):
+        if not (math.isfinite(latency_s) and latency_s >= 0):
+            raise ValueError(f"the latency must be >= 0 s and finite; got {latency_s}")
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.robot = robot.load(config.robot)
         config = env_lib.resolve(config)
@@ -132,6 +157,8 @@ class HostRobot:
         self.data = mujoco.MjData(self.model)
         self.substeps = round(config.control_dt / config.physics_dt)
         self.dt = self.substeps * config.physics_dt
+        self.latency_steps = round(latency_s / config.physics_dt)  # physics steps
+        self._queue_length = -(-self.latency_steps // self.substeps)  # earlier actions still due
         tau = config.action_filter_tau
         self._blend = 1.0 - math.exp(-config.physics_dt / tau) if tau > 0 else 1.0
         speed_tau = config.survival_speed_tau
@@ -141,6 +168,7 @@ class HostRobot:
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         self._torso = self.model.body(self.robot.description.root_body).id
         self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
+        self._pending = [np.zeros(self.action_size)] * self._queue_length
 
     def reset(self, seed: int | Sequence[int], x: float = 0.0, y: float = 0.0) -> np.ndarray:
         """`QuadrupedEnv.reset_at`: standing at (x, y), pitched with the ground, joints perturbed
@@ -160,6 +188,7 @@ class HostRobot:
         self.data.ctrl[:] = layout.controls(joints, self.data)
         mujoco.mj_forward(self.model, self.data)
         self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
+        self._pending = [np.zeros(self.action_size)] * self._queue_length
         return self._observe()[0]
 
     def rhythm_parameters(self) -> oscillator.RhythmParameters | None:
@@ -171,18 +200,21 @@ class HostRobot:
         )
 
     def step(self, action: np.ndarray) -> StepResult:
-        """One control period: `substeps` mj_steps under the controller, then observe, reward and
-        check for a fall."""
+        """One control period: `substeps` mj_steps under the controller (the command filter
+        moving towards the action due after the latency), then observe, reward and check for a
+        fall."""
         x_last, y_last, _ = self.data.qpos[self.layout.position]
-        action = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
+        actions = [*self._pending, np.clip(np.asarray(action, np.float64), -1.0, 1.0)]
         period = oscillator.FIXED_TROT.period
-        for _ in range(self.substeps):
-            self.command = self.command + self._blend * (action - self.command)
+        for index in range(self.substeps):
+            target = actions[self._queue_length + (index - self.latency_steps) // self.substeps]
+            self.command = self.command + self._blend * (target - self.command)
             params = self.rhythm_parameters()
             self.data.ctrl[:] = self.layout.controls(self._joint_targets(params), self.data)
             mujoco.mj_step(self.model, self.data)
             period = period if params is None else params.period
             self.phase = twins.advance_phase(self.phase, period, self.config.physics_dt)
+        self._pending = actions[len(actions) - self._queue_length :]
         if self.config.oscillator_form == "literal":
             self.phase = math.fmod(oscillator.TWO_PI * self.data.time / period, oscillator.TWO_PI)
         obs, body, slope_estimate = self._observe()
@@ -269,10 +301,15 @@ def run_episode(
     act: Callable[[np.ndarray], np.ndarray],
     seed: int | Sequence[int],
     num_steps: int,
+    obs_noise: float = 0.0,
 ) -> dict[str, Any]:
-    """One episode of at most `num_steps` control steps from `host.reset(seed)`; returns the
-    fields of `evaluation.EpisodeStats` for it (scalars), accumulated as `evaluate` does."""
+    """One episode of at most `num_steps` control steps from `host.reset(seed)`, the policy
+    seeing each observation value plus N(0, obs_noise²) noise (a stream spawned from `seed`);
+    returns the fields of `evaluation.EpisodeStats` for it (scalars), accumulated as `evaluate`
+    does."""
     obs = host.reset(seed)
+    key_noise = np.random.SeedSequence(seed).spawn(1)[0]
+    noise = np.random.default_rng(key_noise)
     position = host.layout.position
     x, y, _ = (float(value) for value in host.data.qpos[position])
     record = dict(fell=False, finished=False, steps=0, start_x=x, start_y=y, x=x, y=y)
@@ -280,7 +317,8 @@ def run_episode(
     slope_sq_error, reward_terms = 0.0, dict.fromkeys(reward.TERM_NAMES, 0.0)
     course_end_x = host.terrain.course_end_x
     for _ in range(num_steps):
-        result = host.step(act(obs))
+        seen = obs + noise.normal(0.0, obs_noise, obs.shape) if obs_noise > 0 else obs
+        result = host.step(act(seen))
         obs, qpos = result.obs, host.data.qpos
         body = twins.attitude(qpos[host.layout.quaternion])  # as evaluate: from qpos
         x, y, _ = (float(value) for value in qpos[position])
@@ -312,31 +350,38 @@ def evaluate_mujoco(
     episodes: int = 64,
     seconds: float = 20.0,
     seed: int = 0,
+    obs_noise: float = 0.0,
+    latency_s: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Any]:
     """`episodes` deterministic episodes in C MuJoCo, one after another; episode i resets with
-    joint noise from the seed (seed, i). Returns the content of an evaluation JSON (aggregates,
+    joint noise from the seed (seed, i). `obs_noise` (std) and `latency_s` (s): the deployment
+    faults of the module docstring. Returns the content of an evaluation JSON (aggregates,
     "setup", "episodes"), as `quadcos.evaluate` writes it.
 
     Raises:
-      ValueError, FileNotFoundError: bad policy, terrain, sizes or counts.
+      ValueError, FileNotFoundError: bad policy, terrain, sizes, counts, noise or latency.
     """
     pilot = load_pilot(pilot) if isinstance(pilot, str) else pilot
     if episodes < 1 or not (math.isfinite(seconds) and seconds > 0):
         raise ValueError(f"episodes must be >= 1 and seconds > 0; got {episodes}, {seconds}")
-    host = HostRobot(terrain if terrain is not None else pilot.training_terrain, pilot.config)
+    if not (math.isfinite(obs_noise) and obs_noise >= 0):
+        raise ValueError(f"the observation noise must be >= 0 and finite; got {obs_noise}")
+    ground = terrain if terrain is not None else pilot.training_terrain
+    host = HostRobot(ground, pilot.config, latency_s)
     act = pilot.actor()
     size = host.reset(0).shape[0]
     if pilot.policy is not None and size != pilot.policy.observation_size:
         raise ValueError(
-            f"the policy expects observations of size {pilot.policy.observation_size}, the env"
-            f" gives {size}: its env config does not match the one it was trained with"
+            f"the policy {pilot.name} expects observations of size"
+            f" {pilot.policy.observation_size}, the env gives {size}: its env config does not"
+            " match the one it was trained with"
         )
     num_steps = math.ceil(seconds / host.dt - 1e-9)
     started = time.monotonic()
     records = []
     for index in range(episodes):
-        records.append(run_episode(host, act, (seed, index), num_steps))
+        records.append(run_episode(host, act, (seed, index), num_steps, obs_noise))
         if progress is not None:
             progress(index + 1, episodes)
     fields = {
@@ -363,12 +408,25 @@ def evaluate_mujoco(
         "num_steps": num_steps,
         "control_dt": host.dt,
         "seed": seed,
+        "obs_noise": obs_noise,
+        "latency_s": latency_s,
+        "latency_physics_steps": host.latency_steps,
         "env": pilot.config.to_dict() | {"terrain": host.terrain.spec},
         "wall_time_s": time.monotonic() - started,
-        "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
+        "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__}
+        | _onnxruntime_version(pilot),
     }
     head = {"format": report.FORMAT, "format_version": rollout.FORMAT_VERSION}
     return head | evaluation.aggregate(values, stats) | {"setup": setup, "episodes": values}
+
+
+def _onnxruntime_version(pilot: Pilot) -> dict[str, str]:
+    """{"onnxruntime": version} for a pilot that runs ONNX Runtime, else {}."""
+    if not isinstance(pilot.policy, OnnxPolicy):
+        return {}
+    import onnxruntime
+
+    return {"onnxruntime": onnxruntime.__version__}
 
 
 def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
@@ -378,7 +436,9 @@ def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
         prog=prog, description=description, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument(
-        "--policy", required=True, help="run or policy directory, exported .npz, or fixed:trot"
+        "--policy",
+        required=True,
+        help="run or policy directory, exported .npz or .onnx, or fixed:trot",
     )
     parser.add_argument("--terrain", help="terrain name or spec (default: the training terrain)")
     parser.add_argument(
