@@ -1,6 +1,6 @@
-"""The package's layers (quadcos/__init__.py's docstring, docs/architecture.md): every module imports
-only modules of lower layers or of its own package, with no circle, lazy imports inside functions
-included; read from the source (AST), nothing is imported."""
+"""The package's layers (quadcos/__init__.py's docstring, docs/architecture.md): every module
+imports only modules of lower layers or of its own package, with no circle, lazy imports inside
+functions included; read from the source (AST), nothing is imported."""
 
 import ast
 import re
@@ -33,7 +33,9 @@ def _module_name(path: pathlib.Path) -> str:
 
 def _is_module(name: str) -> bool:
     relative = pathlib.Path(*name.split(".")[1:])
-    return (PACKAGE / relative).with_suffix(".py").is_file() or (PACKAGE / relative / "__init__.py").is_file()
+    return (PACKAGE / relative).with_suffix(".py").is_file() or (
+        PACKAGE / relative / "__init__.py"
+    ).is_file()
 
 
 def _imports(path: pathlib.Path) -> set[str]:

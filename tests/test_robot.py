@@ -101,8 +101,11 @@ def test_without_a_keyframe_the_home_pose_must_be_given(tmp_path):
     with pytest.raises(ValueError, match="outside its range.*give a home pose"):
         robot_lib.load(str(path))  # joint zero: the calves cannot reach 0
     model = prepare.load_spec(path).compile()
-    home = {f"{leg}_{kind}_joint": value for leg in ("FR", "FL", "RR", "RL")
-            for kind, value in (("hip", 0.0), ("thigh", 0.9), ("calf", -1.8))}
+    home = {
+        f"{leg}_{kind}_joint": value
+        for leg in ("FR", "FL", "RR", "RL")
+        for kind, value in (("hip", 0.0), ("thigh", 0.9), ("calf", -1.8))
+    }
     description = robot_lib.describe(model, name="no_keyframe", home=home)
     assert description.standing_height == pytest.approx(0.288, abs=0.005)
 
@@ -162,7 +165,11 @@ def test_menagerie_robots_are_described(name, menagerie_root):
     assert [leg.label for leg in description.legs] == ["LF", "RF", "LB", "RB"]
     assert all(leg.abduction is not None for leg in description.legs)
     assert _foot_error(robot) < 1e-3
-    expected = {"unitree_go1": (0.27, 12.7), "unitree_go2": (0.27, 15.2), "anybotics_anymal_c": (0.56, 45.0)}
+    expected = {
+        "unitree_go1": (0.27, 12.7),
+        "unitree_go2": (0.27, 15.2),
+        "anybotics_anymal_c": (0.56, 45.0),
+    }
     height, mass = expected[name]
     assert description.standing_height == pytest.approx(height, rel=0.1)
     assert description.mass == pytest.approx(mass, rel=0.02)
@@ -249,7 +256,9 @@ def test_the_env_drives_the_test_robot(quad12_env):
     legs = env.robot.description
     rhythm = env.rhythm(jnp.zeros(5), jnp.zeros(()), jnp.zeros(()))
     hip = legs.hip_joint[0]
-    assert float(targets[hip]) == pytest.approx(legs.home[hip] + legs.legs[0].hip_sign * float(rhythm[0]))
+    assert float(targets[hip]) == pytest.approx(
+        legs.home[hip] + legs.legs[0].hip_sign * float(rhythm[0])
+    )
     abduction = legs.joint_names.index(legs.legs[0].abduction)
     assert float(targets[abduction]) == legs.home[abduction]  # abduction held at home
 

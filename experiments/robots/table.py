@@ -57,7 +57,9 @@ def rows(folder: pathlib.Path) -> list[dict]:
     for run in sorted((folder / "runs").iterdir()):
         name = run.name
         config = json.loads((run / "config.json").read_text())
-        flat, slope5, s4 = (_read(folder / f"eval_{name}_{t}.json") for t in ("flat", "slope5", "s4"))
+        flat, slope5, s4 = (
+            _read(folder / f"eval_{name}_{t}.json") for t in ("flat", "slope5", "s4")
+        )
         mujoco = _read(folder / f"sim2sim_{name}_flat.json")
         found.append(
             {

@@ -154,7 +154,15 @@ def describe(
     qpos = _home_qpos(model, home, name)
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
-    data.qpos[model.jnt_qposadr[root_joint] : model.jnt_qposadr[root_joint] + 7] = [0, 0, 0, 1, 0, 0, 0]
+    data.qpos[model.jnt_qposadr[root_joint] : model.jnt_qposadr[root_joint] + 7] = [
+        0,
+        0,
+        0,
+        1,
+        0,
+        0,
+        0,
+    ]
     mujoco.mj_kinematics(model, data)
 
     legs, joint_ids = [], []
@@ -301,7 +309,9 @@ def _label_legs(model, data, chains, name: str) -> dict[str, tuple[list[int], in
 def _hinges(model: mujoco.MjModel, bodies: list[int], label: str, name: str) -> list[int]:
     joints = []
     for body in bodies:
-        for joint in range(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]):
+        for joint in range(
+            model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]
+        ):
             if model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
                 raise ValueError(f"robot {name}: leg {label} has a joint that is not a hinge")
             joints.append(joint)
@@ -332,13 +342,20 @@ def _describe_leg(model, data, label, bodies, foot, name) -> tuple[Leg, list[int
             raise ValueError(f"robot {name}: leg {label} has 3 hinges but none turns about x")
     hip, knee = [j for j in joints if j != abduction]
     effect = {
-        j: (_foot_after(model, data, foot, j, _FINITE_STEP) - _foot_after(model, data, foot, j, -_FINITE_STEP))
+        j: (
+            _foot_after(model, data, foot, j, _FINITE_STEP)
+            - _foot_after(model, data, foot, j, -_FINITE_STEP)
+        )
         / (2 * _FINITE_STEP)
         for j in (hip, knee)
     }
     hip_sign = 1.0 if effect[hip][0] > 0 else -1.0
     lift = effect[knee][2]
-    knee_sign = (1.0 if lift > 0 else -1.0) if abs(lift) > _LIFT_SLOPE else (-1.0 if effect[knee][0] > 0 else 1.0)
+    knee_sign = (
+        (1.0 if lift > 0 else -1.0)
+        if abs(lift) > _LIFT_SLOPE
+        else (-1.0 if effect[knee][0] > 0 else 1.0)
+    )
     hip_anchor, knee_anchor = data.xanchor[hip], data.xanchor[knee]
     ordered = [j for j in (abduction, hip, knee) if j is not None]
     leg = Leg(
@@ -377,8 +394,10 @@ def _actuators(model, joint_ids, joint_names, kp, kd, name):
     limits = []
     for index in range(len(joint_ids)):
         actuator = by_joint[index]
-        bounds = model.actuator_forcerange[actuator] if model.actuator_forcelimited[actuator] else (
-            model.actuator_ctrlrange[actuator] if kind == "motor" else (-np.inf, np.inf)
+        bounds = (
+            model.actuator_forcerange[actuator]
+            if model.actuator_forcelimited[actuator]
+            else (model.actuator_ctrlrange[actuator] if kind == "motor" else (-np.inf, np.inf))
         )
         limits.append(float(max(abs(bounds[0]), abs(bounds[1]))))
     if kind == "position":
@@ -438,7 +457,9 @@ def _chains(model, chains, labelled, joint_ids) -> Chains:
     length = max(len(bodies) for bodies, _ in labelled.values())
     arrays = {field: [] for field in Chains._fields}
     for bodies, foot in labelled.values():
-        links = {field: [] for field in ("offset", "rotation", "axis", "anchor", "joint", "reference")}
+        links = {
+            field: [] for field in ("offset", "rotation", "axis", "anchor", "joint", "reference")
+        }
         for index in range(length):
             if index < len(bodies):
                 body = bodies[index]

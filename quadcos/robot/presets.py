@@ -70,17 +70,31 @@ PRESETS: dict[str, RobotPreset] = {
     # MJX-JAX on a CPU, 32 robots for 10 s holding the home pose and walking the fixed trot, flat
     # and slope5 (experiments/robots/physics): the cheapest setting without NaN or falls.
     # Pyramidal cones blow up at every step and iteration count tried (impratio 100).
-    "quad12": RobotPreset(home="home", physics_dt=0.005, cone="elliptic", solver_iterations=4,
-                          ls_iterations=8),
-    "unitree_go1": RobotPreset(home="home", physics_dt=0.005, cone="pyramidal",
-                               solver_iterations=4, ls_iterations=8),
+    "quad12": RobotPreset(
+        home="home", physics_dt=0.005, cone="elliptic", solver_iterations=4, ls_iterations=8
+    ),
+    "unitree_go1": RobotPreset(
+        home="home", physics_dt=0.005, cone="pyramidal", solver_iterations=4, ls_iterations=8
+    ),
     # go2.xml drives torque motors: go2_mjx.xml's kp 50 lets it sag 12 % and barely trot; kp 100.
-    "unitree_go2": RobotPreset(home="home", kp=100.0, kd=1.0, physics_dt=0.005, cone="pyramidal",
-                               solver_iterations=4, ls_iterations=8),
+    "unitree_go2": RobotPreset(
+        home="home",
+        kp=100.0,
+        kd=1.0,
+        physics_dt=0.005,
+        cone="pyramidal",
+        solver_iterations=4,
+        ls_iterations=8,
+    ),
     # The only setting tried without NaN; none holds the home pose: with its joints' frictionloss
     # and no armature, MJX-JAX lets it sink to ~75 % of its standing height (C MuJoCo: 93 %).
-    "anybotics_anymal_c": RobotPreset(home=_ANYMAL_STANDING, physics_dt=0.0025, cone="elliptic",
-                                      solver_iterations=4, ls_iterations=8),
+    "anybotics_anymal_c": RobotPreset(
+        home=_ANYMAL_STANDING,
+        physics_dt=0.0025,
+        cone="elliptic",
+        solver_iterations=4,
+        ls_iterations=8,
+    ),
 }
 
 
