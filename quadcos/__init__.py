@@ -4,7 +4,7 @@ Zhang et al. 2023, "Adaptive Locomotion Learning for Quadruped Robots by Combini
 Cosine Oscillator Based Rhythm Controller" (Appl. Sci. 13, 11045), as a JAX library.
 
 Layers, lowest first (each imports only those below it; tests/test_layers.py checks):
-`_util`, `robot`, `equations`, `terrain`, `viz`, `env`, `training`, `evaluation`, `deploy`,
+`_util`, `equations`, `robot`, `terrain`, `viz`, `env`, `training`, `evaluation`, `deploy`,
 `benchmarking`, then the command lines `train`, `evaluate`, `bench`, `play`, `sim2sim`,
 `export`. Modules that moved into the layers keep their old names (`quadcos.oscillator` is
 `quadcos.equations.oscillator`).
