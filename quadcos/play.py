@@ -155,7 +155,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = pilot_parser("python -m quadcos.play", __doc__).parse_args(argv)
         pilot = load_pilot(args.policy, args.robot)
-        host = HostRobot(args.terrain or pilot.training_terrain, pilot.config)
+        host = HostRobot(args.terrain or pilot.training_terrain, pilot.config, physics=args.physics)
         session = Session(pilot, host, args.seed)
     except (ValueError, FileNotFoundError) as error:
         print(f"quadcos.play: error: {error}", file=sys.stderr)

@@ -11,7 +11,9 @@ the loop.
 Runtime) or `fixed:...`. `--obs_noise` adds N(0, std²) to each observation value the policy
 sees; `--latency_ms` delays each action by that many ms, rounded to whole physics steps (below a
 control step: the previous action for the first round(latency / physics_dt) substeps of each
-control step, as the MJX env's randomised latency). Both are recorded in the setup. `--out` is an
+control step, as the MJX env's randomised latency). Both are recorded in the setup.
+`--physics=reference` (default) solves contacts with the MJCF's own solver iterations (converged:
+the physics a policy must transfer to); `--physics=training` with the iterations it trained with. `--out` is an
 evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
 per-episode values), so the two compare key by key. The robot loop: `quadcos.deploy.host_robot`.
 """
@@ -72,6 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             obs_noise=args.obs_noise,
             latency_s=args.latency_ms / 1000.0,
+            physics=args.physics,
             progress=None if args.no_progress else _print_progress,
         )
     except (ValueError, FileNotFoundError) as error:

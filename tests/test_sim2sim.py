@@ -168,6 +168,28 @@ def test_cli_writes_an_evaluation_json(tmp_path, capsys):
     assert "2 episodes on flat in C MuJoCo: success 1.000" in capsys.readouterr().out
 
 
+def test_reference_physics_converges_where_training_takes_the_presets_shortcut(tmp_path):
+    # quad12's preset trains with 4 / 8 solver iterations; the reference keeps the MJCF's (100 / 50).
+    config = sim2sim.env_config({"robot": "quad12"})
+    training = sim2sim.HostRobot("flat", config, physics="training")
+    reference = sim2sim.HostRobot("flat", config)
+    assert (training.model.opt.iterations, training.model.opt.ls_iterations) == (4, 8)
+    assert (reference.model.opt.iterations, reference.model.opt.ls_iterations) == (100, 50)
+    assert reference.physics == {
+        "solver": "reference",
+        "timestep": training.physics["timestep"],
+        "iterations": 100,
+        "ls_iterations": 50,
+        "cone": "elliptic",
+    }
+    with pytest.raises(ValueError, match="unknown physics 'fast'"):
+        sim2sim.HostRobot("flat", config, physics="fast")
+    out = tmp_path / "q.json"
+    args = ["--policy=fixed:trot", "--robot=quad12", "--episodes=1", "--seconds=0.5"]
+    assert sim2sim.main([*args, "--physics=training", f"--out={out}", "--no_progress"]) == 0
+    assert json.loads(out.read_text())["setup"]["physics"] == training.physics
+
+
 def test_policy_walks_and_a_course_ends_at_its_end():
     result = sim2sim.evaluate_mujoco(FLAT_POLICY, "flat", episodes=1, seconds=2.0)
     assert result["mean_forward_speed"] > 0.5 and result["success_rate"] == 1.0
@@ -187,6 +209,7 @@ def test_policy_walks_and_a_course_ends_at_its_end():
         (["--policy=fixed:trot", "--obs_noise=-0.1"], "--obs_noise"),
         (["--policy=fixed:trot", "--latency_ms=nan"], "--latency_ms"),
         (["--policy=fixed:trot", "--latency_ms=ten"], "--latency_ms"),
+        (["--policy=fixed:trot", "--physics=fast"], "--physics"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):

@@ -16,6 +16,13 @@ earlier, zero before the first. For L below a control step this is the MJX env's
 `latency_steps`: the previous action for the first L substeps of each control step, then the
 new one; a latency of one control step acts each action one step late).
 
+The constraint solver: `physics="reference"` (the default) runs the MJCF's own solver iterations
+(MuJoCo's default: 100 Newton iterations, 50 line-search) at the training step, cone and
+contacts: the converged physics a policy has to transfer to. `physics="training"` runs the
+iterations the env trained with (the robot preset's shortcut, e.g. Go1's 4 / 8): C MuJoCo's solver
+stopped that early is not MJX-Warp's and can blow up under a fast gait (experiments/robots). For
+the paper's robot, whose preset keeps the MJCF's iterations, the two are the same.
+
 Episodes end and succeed as in `quadcos.evaluation` (no fall within the time limit; on a course,
 the torso past `course_end_x` first). `evaluate_mujoco` returns an evaluation JSON in
 `quadcos.evaluation`'s format (aggregates, "setup" with `"engine": "mujoco"`, per-episode values),
@@ -46,6 +53,7 @@ from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import report, rollout, sources
 
 ENGINE = "mujoco"
+PHYSICS = ("reference", "training")  # HostRobot's solver choices (module docstring)
 # Per-episode maxima of evaluation.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
 _MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
@@ -128,10 +136,11 @@ class StepResult(NamedTuple):
 
 class HostRobot:
     """One robot on a terrain in C MuJoCo under the env's controller path (`QuadrupedEnv.step`);
-    `latency_s`: the control latency (module docstring), s.
+    `latency_s`: the control latency, s; `physics`: "reference" or "training" solver iterations
+    (module docstring).
 
     Raises:
-      ValueError: a latency that is negative or not finite.
+      ValueError: a latency that is negative or not finite, or an unknown `physics`.
     """
 
     def __init__(
@@ -139,20 +148,33 @@ class HostRobot:
         terrain: terrain_lib.Terrain | str,
         config: ml_collections.ConfigDict,
         latency_s: float = 0.0,
+        physics: str = "reference",
     ):
         if not (math.isfinite(latency_s) and latency_s >= 0):
             raise ValueError(f"the latency must be >= 0 s and finite; got {latency_s}")
+        if physics not in PHYSICS:
+            raise ValueError(f"unknown physics {physics!r}; known: {', '.join(PHYSICS)}")
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.robot = robot.load(config.robot)
         config = env_lib.resolve(config)
         self.config = config
+        training = physics == "training"
         self.model = robot.build_model(
             self.terrain,
             self.robot,
             timestep=config.physics_dt,
-            solver_iterations=config.solver_iterations,
-            ls_iterations=config.ls_iterations,
+            solver_iterations=config.solver_iterations if training else 0,
+            ls_iterations=config.ls_iterations if training else 0,
         )
+        self.physics = {
+            "solver": physics,
+            "timestep": float(self.model.opt.timestep),
+            "iterations": int(self.model.opt.iterations),
+            "ls_iterations": int(self.model.opt.ls_iterations),
+            "cone": "elliptic"
+            if self.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+            else "pyramidal",
+        }
         self.layout = Layout.of(self.robot.description, self.model, xp=np)
         self.data = mujoco.MjData(self.model)
         self.substeps = round(config.control_dt / config.physics_dt)
@@ -352,11 +374,12 @@ def evaluate_mujoco(
     seed: int = 0,
     obs_noise: float = 0.0,
     latency_s: float = 0.0,
+    physics: str = "reference",
     progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Any]:
     """`episodes` deterministic episodes in C MuJoCo, one after another; episode i resets with
     joint noise from the seed (seed, i). `obs_noise` (std) and `latency_s` (s): the deployment
-    faults of the module docstring. Returns the content of an evaluation JSON (aggregates,
+    faults of the module docstring; `physics`: its solver choice. Returns the content of an evaluation JSON (aggregates,
     "setup", "episodes"), as `quadcos.evaluate` writes it.
 
     Raises:
@@ -368,7 +391,7 @@ def evaluate_mujoco(
     if not (math.isfinite(obs_noise) and obs_noise >= 0):
         raise ValueError(f"the observation noise must be >= 0 and finite; got {obs_noise}")
     ground = terrain if terrain is not None else pilot.training_terrain
-    host = HostRobot(ground, pilot.config, latency_s)
+    host = HostRobot(ground, pilot.config, latency_s, physics)
     act = pilot.actor()
     size = host.reset(0).shape[0]
     if pilot.policy is not None and size != pilot.policy.observation_size:
@@ -411,6 +434,7 @@ def evaluate_mujoco(
         "obs_noise": obs_noise,
         "latency_s": latency_s,
         "latency_physics_steps": host.latency_steps,
+        "physics": host.physics,
         "env": pilot.config.to_dict() | {"terrain": host.terrain.spec},
         "wall_time_s": time.monotonic() - started,
         "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__}
@@ -447,4 +471,11 @@ def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
         " menagerie:NAME); a trained policy drives its own",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
+    parser.add_argument(
+        "--physics",
+        choices=PHYSICS,
+        default="reference",
+        help="C MuJoCo's solver: the MJCF's iterations (reference, converged) or the training"
+        " shortcut's",
+    )
     return cli.raising(parser)
