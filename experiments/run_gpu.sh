@@ -2,8 +2,8 @@
 # Runs one experiment on a GPU machine, from the repository root:
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
-#   fixed_params | warp | scaling | bench_slope5 | robots (scaling needs 2 GPUs; robots needs
-#   MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
+#   fixed_params | warp | scaling | bench_slope5 | robots | robots_alone (scaling needs 2 GPUs;
+#   robots* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
 # and traces, status (one line per step). Copy the summaries into experiments/EXPERIMENT.
@@ -160,6 +160,41 @@ robots)  # any quadruped from nothing: --preset=scratch with only --robot change
     XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 evaluate "$run/policy_best" ${name}_s4 s4 1024 30 & evals+=($!)
     wait "${evals[@]}"
   done
+  wait ;;
+robots_alone)  # each run alone on the GPU: ANYmal C and Go1 / Go2 from nothing, Go1 on any slope
+  : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
+  export MENAGERIE_ROOT
+  train $((${ANYMAL_S:-300} + 60)) anybotics_anymal_c_s0 --preset=scratch --robot=menagerie:anybotics_anymal_c \
+    --seed=0 --max_seconds=${ANYMAL_S:-300}
+  for run in unitree_go1:1 unitree_go1:2 unitree_go2:0; do
+    robot=${run%:*} seed=${run#*:}
+    train $((${SHORT_S:-90} + 60)) ${robot}_s$seed --preset=scratch --robot=menagerie:$robot --seed=$seed \
+      --max_seconds=${SHORT_S:-90}
+  done
+  # Go1 on any slope trains while the GPU evaluates the runs above and the host's CPUs run them
+  # in C MuJoCo (its time is not a target).
+  XLA_PYTHON_CLIENT_MEM_FRACTION=0.6 train $((${ANY_S:-300} + 60)) unitree_go1_any_slope_s0 --preset=any_slope --robot=menagerie:unitree_go1 \
+    --seed=0 --max_seconds=${ANY_S:-300} &
+  trainer=$!
+  for name in anybotics_anymal_c_s0 unitree_go1_s1 unitree_go1_s2 unitree_go2_s0; do
+    run=$OUT/runs/$name
+    JAX_PLATFORMS=cpu python3 -m quadcos.sim2sim --no_progress --policy="$run/policy_best" --terrain=flat \
+      --episodes=64 --out="$OUT/sim2sim_${name}_flat.json" > "$OUT/sim2sim_${name}_flat.log" 2>&1 &
+  done
+  export XLA_PYTHON_CLIENT_MEM_FRACTION=0.15
+  evaluate "$OUT/runs/anybotics_anymal_c_s0/policy_best" anybotics_anymal_c_s0_flat flat 1024 20 \
+    --trace="$OUT/trace_anybotics_anymal_c_s0_flat.json"
+  evaluate "$OUT/runs/anybotics_anymal_c_s0/policy_best" anybotics_anymal_c_s0_slope5 slope5 1024 40
+  evaluate "$OUT/runs/anybotics_anymal_c_s0/policy_best" anybotics_anymal_c_s0_s4 s4 1024 30
+  wait $trainer
+  best=$OUT/runs/unitree_go1_any_slope_s0/policy_best
+  evaluate "$best" unitree_go1_any_slope_s0_slope5 slope5 1024 40
+  evaluate "$best" unitree_go1_any_slope_s0_s4 s4 1024 30
+  evaluate "$best" unitree_go1_any_slope_s0_flat flat 1024 20
+  evaluate "$best" unitree_go1_any_slope_s0_testset testset:2026 4288 40
+  JAX_PLATFORMS=cpu python3 -m quadcos.sim2sim --no_progress --policy="$best" --terrain=slope5 --episodes=64 \
+    --seconds=40 --out="$OUT/sim2sim_unitree_go1_any_slope_s0_slope5.json" \
+    > "$OUT/sim2sim_unitree_go1_any_slope_s0_slope5.log" 2>&1
   wait ;;
 *) echo "unknown experiment '$experiment'" >&2; exit 2 ;;
 esac
