@@ -40,6 +40,19 @@ def test_warp_buffers_scale_with_the_batch_and_the_robots_contacts():
     assert backends.warp_sizes(config, model)["njmax"] == 40
 
 
+def test_a_heightfield_gets_rows_for_the_contacts_it_makes():
+    plane = env_lib.make_env("flat", robot="quad12", impl="jax").mj_model
+    ramp = env_lib.make_env("slope5", robot="quad12", impl="jax").mj_model
+    limited = int(ramp.jnt_limited.sum())
+    per_contact = 6  # quad12: condim-6 feet, elliptic cones
+    assert backends.constraint_rows(plane, 8) == 8 * per_contact + limited
+    assert backends.constraint_rows(ramp, 8) == backends.HFIELD_CONTACTS * per_contact + limited
+    assert backends.constraint_rows(ramp, 20) == 20 * per_contact + limited
+    # The paper's robot keeps the 64 rows its results were measured with.
+    paper = env_lib.make_env("slope5", impl="jax").mj_model
+    assert backends.warp_sizes(env_lib.default_config(), paper)["njmax"] == 64
+
+
 @pytest.mark.parametrize("key, value", [("max_envs", 0), ("contacts_per_env", -1)])
 def test_bad_warp_sizes_are_refused(key, value):
     config = env_lib.default_config()
