@@ -196,6 +196,14 @@ robots_alone)  # each run alone on the GPU: ANYmal C and Go1 / Go2 from nothing,
     --seconds=40 --out="$OUT/sim2sim_unitree_go1_any_slope_s0_slope5.json" \
     > "$OUT/sim2sim_unitree_go1_any_slope_s0_slope5.log" 2>&1
   wait ;;
+anymal_search10)  # ANYmal C with a gait search of 10-s episodes, 4 robots a candidate
+  : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
+  export MENAGERIE_ROOT
+  name=anybotics_anymal_c_search10_s0
+  train $((${ANYMAL_S:-300} + 60)) $name --preset=scratch --robot=menagerie:anybotics_anymal_c \
+    --seed=0 --max_seconds=${ANYMAL_S:-300} --config.sac.gait_search.seconds=10 \
+    --config.sac.gait_search.num_candidates=1024 --config.sac.gait_search.robots_per_candidate=4
+  evaluate "$OUT/runs/$name/policy_best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json" ;;
 *) echo "unknown experiment '$experiment'" >&2; exit 2 ;;
 esac
 note "$experiment done"
