@@ -5,6 +5,7 @@ The Menagerie files are the XML-only copies beside the checkout (../shared/menag
 the tests that read them are skipped where that folder is absent.
 """
 
+import dataclasses
 import pathlib
 import sys
 import types
@@ -241,7 +242,9 @@ def test_the_real_package_from_a_warm_cache(tmp_path, monkeypatch):
     (folder / ".complete").write_text("{}")  # the package's mark of a finished download
     source = sources.resolve("menagerie:unitree_go1")
     assert source.path == folder / "go1.xml" and source.menagerie_commit == package.commit()
-    with pytest.raises(ValueError, match="unknown Menagerie robot 'franka_emika_panda'; quadrupeds"):
+    with pytest.raises(
+        ValueError, match="unknown Menagerie robot 'franka_emika_panda'; quadrupeds"
+    ):
         sources.resolve("menagerie:franka_emika_panda")  # refused before any download
 
 
@@ -542,3 +545,25 @@ def test_the_variants_are_what_they_say(tmp_path):
     assert model(robot_variants.five_legs).nu == 15
     one_joint = model(robot_variants.one_joint_leg)
     assert one_joint.nu == 10 and one_joint.joint("RL_calf_joint").id == one_joint.njnt - 1
+
+
+def test_a_presets_joint_frictionloss_replaces_the_mjcfs(monkeypatch):
+    from quadcos.robot import loading, presets
+
+    with pytest.raises(ValueError, match="joint_frictionloss must be >= 0"):
+        presets.RobotPreset(joint_frictionloss=-0.1)
+    monkeypatch.setitem(
+        presets.PRESETS,
+        "quad12",
+        dataclasses.replace(presets.PRESETS["quad12"], joint_frictionloss=0.2),
+    )
+    loading.load.cache_clear()
+    try:
+        robot = loading.load("quad12")
+        frictions = {
+            j.frictionloss for j in robot.spec().joints if j.type == mujoco.mjtJoint.mjJNT_HINGE
+        }
+        assert frictions == {0.2}
+        assert robot.summary()["physics"]["joint_frictionloss"] == 0.2
+    finally:
+        loading.load.cache_clear()

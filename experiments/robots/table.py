@@ -1,12 +1,15 @@
-"""The robots experiment's table and figure, from what `bash experiments/run_gpu.sh robots` wrote.
+"""The robots experiments' table and figure, from what `bash experiments/run_gpu.sh robots` and
+`robots_alone` wrote (summaries copied into experiments/robots).
 
-    python experiments/robots/table.py experiments/robots    # prints the Markdown table, draws
-                                                              # walking.png from the flat traces
+    python experiments/robots/table.py experiments/robots --traces DIR   # prints the Markdown
+                                            # table, draws walking.png from DIR's flat traces
 
 Per run folder `runs/NAME` (config.json, metrics.jsonl) and evaluation files `eval_NAME_{flat,
-slope5,s4}.json`, `sim2sim_NAME_flat.json`: time to walk (process start to the first training
-evaluation in which >= 99 % of its 1024 deterministic 20-s episodes survive at >= 0.5 m/s: the
-run's `wall_time_s` counts from the process's start), and the evaluations of its `policy_best`.
+slope5,s4}.json`, `sim2sim_NAME_{flat,slope5}.json`: time to walk for runs trained on flat (process
+start to the first training evaluation in which >= 99 % of its 1024 deterministic 20-s episodes
+survive at >= 0.5 m/s: the run's `wall_time_s` counts from the process's start), and the
+evaluations of its `policy_best`. Traces (`trace_NAME_flat.json`, `quadcos.evaluate --trace`)
+are large and stay out of git.
 """
 
 import argparse
@@ -61,20 +64,19 @@ def rows(folder: pathlib.Path) -> list[dict]:
             _read(folder / f"eval_{name}_{t}.json") for t in ("flat", "slope5", "s4")
         )
         mujoco = _read(folder / f"sim2sim_{name}_flat.json")
+        mujoco_slope5 = _read(folder / f"sim2sim_{name}_slope5.json")
+        on_flat = config["run_info"]["env"]["terrain"] == "flat"
         found.append(
             {
                 "run": name,
                 "robot": config["run_info"]["robot"]["name"],
-                "walk_s": time_to_walk(run),
+                "walk_s": time_to_walk(run) if on_flat else None,
                 "flat": flat,
-                "flat_training": (
-                    best_training_eval(run)
-                    if flat is None and config["run_info"]["env"]["terrain"] == "flat"
-                    else None
-                ),
+                "flat_training": (best_training_eval(run) if flat is None and on_flat else None),
                 "slope5": slope5,
                 "s4": s4,
                 "mujoco": mujoco,
+                "mujoco_slope5": mujoco_slope5,
             }
         )
     return found
@@ -83,7 +85,7 @@ def rows(folder: pathlib.Path) -> list[dict]:
 def table(found: list[dict], masses: dict[str, float]) -> str:
     lines = [
         "| run | mass kg | time to walk | flat success | speed m/s | pitch err / roll / yaw rad"
-        " | slope5 | S-4 | slope RMS on slope5 | C MuJoCo flat |",
+        " | slope5 | S-4 | slope RMS on slope5 | C MuJoCo flat / slope5 |",
         "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|",
     ]
     for row in found:
@@ -107,7 +109,8 @@ def table(found: list[dict], masses: dict[str, float]) -> str:
         lines.append(
             f"| {row['run']} | {masses.get(row['robot'], math.nan):.1f} | {walk} |"
             f" {_percent(flat)} | {speed} | {attitude} | {_percent(row['slope5'])} |"
-            f" {_percent(row['s4'])} | {rms} | {_percent(row['mujoco'])} |"
+            f" {_percent(row['s4'])} | {rms} |"
+            f" {_percent(row['mujoco'])} / {_percent(row['mujoco_slope5'])} |"
         )
     lines.append(
         "\n\\* no separate evaluation: the training evaluation (1024 deterministic 20-s episodes)"
@@ -139,6 +142,9 @@ def figure(found: list[dict], folder: pathlib.Path, out: pathlib.Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("folder", type=pathlib.Path)
+    parser.add_argument(
+        "--traces", type=pathlib.Path, help="folder of trace_NAME_flat.json (default: folder)"
+    )
     args = parser.parse_args()
     from quadcos import robot
 
@@ -148,7 +154,7 @@ def main() -> None:
         spec = json.loads((args.folder / "runs" / row["run"] / "config.json").read_text())
         masses[row["robot"]] = robot.load(spec["run_info"]["env"]["robot"]).description.mass
     print(table(found, masses))
-    figure(found, args.folder, args.folder / "walking.png")
+    figure(found, args.traces or args.folder, args.folder / "walking.png")
 
 
 if __name__ == "__main__":

@@ -38,6 +38,10 @@ class Robot:
             prepare.apply_collision_profile(spec, feet, self.preset.collision)
         if self.preset.cone:
             spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{self.preset.cone.upper()}")
+        if self.preset.joint_frictionloss is not None:
+            for joint in spec.joints:
+                if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+                    joint.frictionloss = self.preset.joint_frictionloss
         return spec
 
     def provenance(self) -> dict:
@@ -64,6 +68,11 @@ class Robot:
                 "solver_iterations": self.preset.solver_iterations or "the MJCF's",
                 "ls_iterations": self.preset.ls_iterations or "the MJCF's",
                 "cone": self.preset.cone or "the MJCF's",
+                "joint_frictionloss": (
+                    "the MJCF's"
+                    if self.preset.joint_frictionloss is None
+                    else self.preset.joint_frictionloss
+                ),
                 "collision": self.preset.collision,
             },
         }

@@ -28,6 +28,7 @@ class RobotPreset:
       None: FALL_HEIGHT_FRACTION of the standing height.
     physics_dt: s, the physics step. solver_iterations, ls_iterations: 0 keeps the MJCF's.
     cone: "pyramidal" or "elliptic" friction cones; "" keeps the MJCF's.
+    joint_frictionloss: N m, every hinge's dry friction; None keeps the MJCF's.
     gpu_physics: what `impl="auto"` runs on a GPU: "warp" or "jax", whichever steps the robot
       faster (measured with `python -m quadcos.bench --only=physics --robot=...`).
     """
@@ -41,6 +42,7 @@ class RobotPreset:
     solver_iterations: int = 0
     ls_iterations: int = 0
     cone: str = ""
+    joint_frictionloss: float | None = None
     gpu_physics: str = "warp"
 
     def __post_init__(self):
@@ -54,6 +56,8 @@ class RobotPreset:
             raise ValueError(f"unknown gpu_physics {self.gpu_physics!r}; known: warp, jax")
         if self.cone not in ("", "pyramidal", "elliptic"):
             raise ValueError(f"unknown cone {self.cone!r}; known: pyramidal, elliptic")
+        if self.joint_frictionloss is not None and not self.joint_frictionloss >= 0:
+            raise ValueError(f"joint_frictionloss must be >= 0 N m; got {self.joint_frictionloss}")
 
 
 _ANYMAL_STANDING = {  # anymal_c_mjx.xml's "standing" keyframe: knees bent inwards (X)
@@ -86,14 +90,16 @@ PRESETS: dict[str, RobotPreset] = {
         solver_iterations=4,
         ls_iterations=8,
     ),
-    # The only setting tried without NaN; none holds the home pose: with its joints' frictionloss
-    # and no armature, MJX-JAX lets it sink to ~75 % of its standing height (C MuJoCo: 93 %).
+    # The only setting tried without NaN. Its joints' 0.1 N m friction loss makes MJX sink it to
+    # 0.84 of its standing height where C MuJoCo holds 0.93 with or without it; MJX without it
+    # holds 0.93 too (experiments/robots/physics/anymal_probe.json), so the preset drops it.
     "anybotics_anymal_c": RobotPreset(
         home=_ANYMAL_STANDING,
         physics_dt=0.0025,
         cone="elliptic",
         solver_iterations=4,
         ls_iterations=8,
+        joint_frictionloss=0.0,
     ),
 }
 
