@@ -105,6 +105,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--impl", default="auto", choices=backends.IMPLS, help="MJX implementation")
     parser.add_argument(
+        "--randomize",
+        action="store_true",
+        help="env, train and stock sections with domain randomisation (its default ranges; physics stays nominal)",
+    )
+    parser.add_argument(
         "--num_devices",
         type=int,
         default=1,
@@ -154,7 +159,11 @@ def run(
     sections = settings.sections
     if "physics" in sections or "env" in sections:
         env = make_bench_env(
-            settings.terrain, settings.training_preset, settings.impl, robot=settings.robot
+            settings.terrain,
+            settings.training_preset,
+            settings.impl,
+            robot=settings.robot,
+            randomize=settings.randomize,
         )
         reset_batch = physics.make_batch_reset(env)
 
@@ -167,7 +176,9 @@ def run(
             rate = count * unit_steps * timing.calls / timing.seconds
             results[table][str(count)] = rate
             details.setdefault(f"{section}_first_call_s", {})[str(count)] = timing.first_call_s
-            return f"{results_lib.format_rate(rate)} steps/s (first call {timing.first_call_s:.1f} s)"
+            return (
+                f"{results_lib.format_rate(rate)} steps/s (first call {timing.first_call_s:.1f} s)"
+            )
 
         for count in settings.env_counts:
             for section in ("physics", "env"):
@@ -187,6 +198,7 @@ def run(
             settings.impl,
             settings.num_devices,
             settings.robot,
+            settings.randomize,
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
@@ -205,7 +217,11 @@ def run(
         section_start = time.perf_counter()
         measured = trainers.measure_stock_brax(
             make_bench_env(
-                settings.terrain, settings.training_preset, settings.impl, robot=settings.robot
+                settings.terrain,
+                settings.training_preset,
+                settings.impl,
+                robot=settings.robot,
+                randomize=settings.randomize,
             ),
             trainer_config(settings.training_preset, row),
             settings.train_seconds,

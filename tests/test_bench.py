@@ -156,17 +156,23 @@ def test_episode_success_walking_and_crossing():
         start_x=[0.0, 0.0, 0.0, 1.0],
         x=[6.0, 5.9, 9.0, 8.0],
     )
-    np.testing.assert_array_equal(time_to_walk.episode_success(stats, walk), [True, False, False, False])
+    np.testing.assert_array_equal(
+        time_to_walk.episode_success(stats, walk), [True, False, False, False]
+    )
     cross = time_to_walk.Goal(num_steps=734, duration_s=36.7, finish_x=11.0)
     stats = _stats(finished=[True, False, False, True], fell=[False, True, False, False])
-    np.testing.assert_array_equal(time_to_walk.episode_success(stats, cross), [True, False, False, True])
+    np.testing.assert_array_equal(
+        time_to_walk.episode_success(stats, cross), [True, False, False, True]
+    )
 
 
 def test_goals_of_the_paper_terrains():
     flat = time_to_walk.terrain_goal(settings.make_bench_env("flat", "gpu"))
     assert flat == time_to_walk.Goal(400, 20.0)
     slope5 = time_to_walk.terrain_goal(settings.make_bench_env("slope5", "gpu"))
-    assert slope5 == time_to_walk.Goal(734, pytest.approx(36.7), finish_x=11.0)  # 2 m lead-in + 3 x 3 m
+    assert slope5 == time_to_walk.Goal(
+        734, pytest.approx(36.7), finish_x=11.0
+    )  # 2 m lead-in + 3 x 3 m
 
 
 @pytest.mark.slow
@@ -176,7 +182,9 @@ def test_rollout_evaluator_the_untrained_policy_trots_on_flat():
     env = settings.make_bench_env("flat", "cpu")
     config = settings.trainer_config("cpu", settings.TrainRow(2, 8, 1))
     trainer = training.SACTrainer(env, config)
-    evaluation = time_to_walk.rollout_evaluator(trainer, time_to_walk.terrain_goal(env), num_episodes=2)
+    evaluation = time_to_walk.rollout_evaluator(
+        trainer, time_to_walk.terrain_goal(env), num_episodes=2
+    )
     result = evaluation(trainer.init())
     assert result == {
         "success_rate": 1.0,
@@ -280,6 +288,41 @@ def test_merged_results_keep_the_earlier_numbers():
         results_lib.merge_results(earlier, {**later, "device": "NVIDIA H100 80GB HBM3"})
 
 
+def test_randomised_rows_are_rows_of_their_own():
+    args = bench._parser().parse_args(["--preset=cpu", "--randomize"])
+    assert settings.settings_from_args(args).randomize
+    assert settings.make_bench_env("flat", "smoke", "jax", randomize=True).randomized
+    assert not settings.make_bench_env("flat", "smoke", "jax").randomized
+    row = {
+        "num_envs": 4,
+        "batch_size": 8,
+        "updates_per_step": 1,
+        "stock_brax_env_steps_per_s": None,
+    }
+    nominal = {"device": "cpu", "train": [{**row, "quadcos_env_steps_per_s": 3.0}]}
+    randomised = {
+        "device": "cpu",
+        "randomized": True,
+        "train": [{**row, "randomized": True, "quadcos_env_steps_per_s": 2.5}],
+    }
+    merged = results_lib.merge_results(nominal, randomised)
+    assert [r["quadcos_env_steps_per_s"] for r in merged["train"]] == [3.0, 2.5]
+    table = results_lib.markdown_table(
+        {
+            **merged,
+            "platform": "cpu",
+            "substeps_per_env_step": 10,
+            "physics_steps_per_s": {},
+            "env_steps_per_s": {},
+            "compile_s": {},
+            "time_to_walk_flat_s": None,
+            "time_to_cross_slope5_s": None,
+            "details": {},
+        }
+    )
+    assert "| quadcos | flat | jax, randomised | 4 | 8 | 1 |" in table
+
+
 def test_a_failed_measurement_is_recorded_and_the_others_still_run(tmp_path, monkeypatch):
     monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
 
@@ -303,7 +346,9 @@ def test_a_failed_measurement_is_recorded_and_the_others_still_run(tmp_path, mon
 def test_slope5_section_trains_with_spawns_along_the_course_and_evaluates_from_the_start():
     course = settings.SECTION_COURSES["slope5"]
     centre = "0.3,0.15,0.5,1.8,-1.3"
-    train_env = settings.make_bench_env(course.terrain, "scratch", action_centre=centre, **course.env)
+    train_env = settings.make_bench_env(
+        course.terrain, "scratch", action_centre=centre, **course.env
+    )
     eval_env = settings.make_bench_env(course.terrain, "scratch", action_centre=centre)
     assert train_env.config.spawn_x_max == 10.0 and eval_env.config.spawn_x_max == 0.0
     assert train_env.config.action_centre == centre

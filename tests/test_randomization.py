@@ -53,11 +53,32 @@ def test_a_draw_changes_only_the_model_fields_it_names():
     np.testing.assert_allclose(model.body_mass[torso], 1.2 * env.model.body_mass[torso], rtol=1e-6)
     others = np.arange(env.mj_model.nbody) != torso
     np.testing.assert_array_equal(model.body_mass[others], env.model.body_mass[others])
-    np.testing.assert_allclose(model.body_ipos[torso], env.model.body_ipos[torso] + physics.com_offset)
+    np.testing.assert_allclose(
+        model.body_ipos[torso], env.model.body_ipos[torso] + physics.com_offset
+    )
     np.testing.assert_allclose(model.actuator_gainprm[:, 0], 0.9 * 400.0, rtol=1e-6)
     np.testing.assert_allclose(model.actuator_biasprm[:, 1], -0.9 * 400.0, rtol=1e-6)
     np.testing.assert_allclose(model.dof_damping, 1.1 * env.model.dof_damping, rtol=1e-6)
     np.testing.assert_allclose(model.actuator_forcerange, 0.8 * env.model.actuator_forcerange)
+
+
+def test_torque_motors_keep_their_gains():
+    env = quadcos.make_env("flat", robot="quad12")
+    # Motors (gain 1, no bias): the env closes their PD; the draw must not turn them into servos.
+    nu = env.mj_model.nu
+    motors = env.model.replace(
+        actuator_gainprm=env.model.actuator_gainprm.at[:, 0].set(1.0),
+        actuator_biasprm=env.model.actuator_biasprm.at[:, :3].set(0.0),
+    )
+    physics = randomization.sample(jax.random.PRNGKey(0), randomization.default_config(), 0.005)
+    physics = physics._replace(kp_scale=jnp.float32(0.8))
+    model = randomization.apply(motors, physics, 1)
+    np.testing.assert_array_equal(model.actuator_gainprm[:, 0], np.ones(nu))
+    np.testing.assert_array_equal(model.actuator_biasprm[:, :3], np.zeros((nu, 3)))
+    servos = randomization.apply(env.model, physics, 1)
+    np.testing.assert_allclose(
+        servos.actuator_biasprm[:, 1], -0.8 * env.model.actuator_gainprm[:, 0], rtol=1e-6
+    )
 
 
 def test_pushes_start_run_for_their_duration_and_stop():
@@ -85,9 +106,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
 )
 def test_bad_ranges_are_named(key, value, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
-        quadcos.env.validate_config(
-            apply_overrides(quadcos.env.default_config(), {key: value})
-        )
+        quadcos.env.validate_config(apply_overrides(quadcos.env.default_config(), {key: value}))
 
 
 @pytest.mark.slow
@@ -115,3 +134,30 @@ def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways():
     np.testing.assert_allclose(y[1:], y[1], atol=1e-6)  # same draw, same motion
     assert y[0] - y[1] > 0.02, y
     assert np.isfinite(np.asarray(state.obs)).all() and not np.asarray(state.done).any()
+
+
+@pytest.mark.slow
+def test_warp_steps_randomised_robots_as_jax_does():
+    """MJX-Warp takes the per-robot model fields: under the same draws (friction, mass, centre of
+    mass, gains, damping, strength, latency, pushes) its robots move as MJX-JAX's. Runs where
+    warp-lang is installed (the `warp` extra; its CPU kernels compile for minutes the first time)."""
+    pytest.importorskip("warp", reason="warp-lang (the warp extra) is not installed")
+    overrides = {"randomization.enabled": True, "randomization.push_interval_s": 0.5}
+    positions = {}
+    for impl in ("jax", "warp"):
+        env = quadcos.make_env("flat", impl=impl, **overrides)
+        state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(3), 4))
+        step = jax.jit(jax.vmap(env.step))
+        for _ in range(20):
+            state = step(state, jnp.zeros((4, env.action_size)))
+        positions[impl] = np.asarray(state.pipeline_state.qpos[:, :3])
+    nominal = quadcos.make_env("flat", impl="jax")
+    state = jax.jit(jax.vmap(nominal.reset))(jax.random.split(jax.random.PRNGKey(3), 4))
+    step = jax.jit(jax.vmap(nominal.step))
+    for _ in range(20):
+        state = step(state, jnp.zeros((4, nominal.action_size)))
+    np.testing.assert_allclose(positions["warp"], positions["jax"], atol=2e-3)
+    # ... and the draws matter: the randomised robots are not where the nominal ones are.
+    assert (
+        np.abs(positions["jax"][:, :2] - np.asarray(state.pipeline_state.qpos[:, :2])).max() > 0.05
+    )

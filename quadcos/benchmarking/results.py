@@ -51,6 +51,7 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "compilation_cache_dir": jax.config.jax_compilation_cache_dir,
         "terrain": settings.terrain,
         "robot": settings.robot,
+        "randomized": settings.randomize,
         "impl": backends.resolve_impl(
             settings.impl, robot_lib.load(settings.robot).preset.gpu_physics
         ),
@@ -96,13 +97,14 @@ def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
 
 
 def _row_key(row: dict[str, Any]) -> tuple[Any, ...]:
-    # Rows measured before robot, terrain, impl and cache were recorded: the paper's robot on
-    # flat, JAX, no cache.
+    # Rows measured before robot, terrain, impl, cache and randomisation were recorded: the
+    # paper's robot on flat, JAX, no cache, nominal physics.
     context = (
         row.get("robot", "quadcos"),
         row.get("terrain", "flat"),
         row.get("impl", "jax"),
         row.get("cache", "cold"),
+        row.get("randomized", False),
     )
     return row["num_envs"], row["batch_size"], row["updates_per_step"], *context
 
@@ -117,7 +119,11 @@ def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
     """The results' entry for `row`, created (with every field None) if missing."""
     for entry in results["train"]:
         context = (
-            results.get("robot", "quadcos"), results["terrain"], results["impl"], results["cache"]
+            results.get("robot", "quadcos"),
+            results["terrain"],
+            results["impl"],
+            results["cache"],
+            results.get("randomized", False),
         )
         if _row_key(entry) == (row.num_envs, row.batch_size, row.updates_per_step, *context):
             return entry
@@ -129,6 +135,7 @@ def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
         "terrain": results["terrain"],
         "impl": results["impl"],
         "cache": results["cache"],
+        "randomized": results.get("randomized", False),
         "quadcos_env_steps_per_s": None,
         "stock_brax_env_steps_per_s": None,
     }
@@ -186,8 +193,8 @@ def markdown_table(results: dict[str, Any]) -> str:
     for row in sorted(results["train"], key=lambda row: (_row_key(row)[3:], _row_key(row))):
         ours, stock = row["quadcos_env_steps_per_s"], row["stock_brax_env_steps_per_s"]
         ratio = f"{ours / stock:.2f}" if ours and stock else "—"
-        robot, terrain, impl, cache = _row_key(row)[3:]
-        context = f"{robot} | {terrain} | {impl}"
+        robot, terrain, impl, cache, randomized = _row_key(row)[3:]
+        context = f"{robot} | {terrain} | {impl}{', randomised' if randomized else ''}"
         sizes = f"{row['num_envs']:,} | {row['batch_size']:,} | {row['updates_per_step']}"
         start = row.get("quadcos_start_to_first_step_s")
         start = f"{format_seconds(start)} ({cache} cache)" if start is not None else "—"
@@ -195,7 +202,10 @@ def markdown_table(results: dict[str, Any]) -> str:
             f"| {context} | {sizes} | {format_rate(ours)} | {format_rate(stock)} | {ratio} | {start} |"
         )
     compile_s = results["compile_s"]
-    ours, stock = format_seconds(compile_s.get("quadcos")), format_seconds(compile_s.get("stock_brax"))
+    ours, stock = (
+        format_seconds(compile_s.get("quadcos")),
+        format_seconds(compile_s.get("stock_brax")),
+    )
     walk = _outcome(results, "time_to_walk_flat_s", "walk")
     cross = _outcome(results, "time_to_cross_slope5_s", "slope5")
     lines += [

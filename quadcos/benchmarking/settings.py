@@ -96,6 +96,8 @@ class Settings:
       terrain: the terrain of the physics, env, train and stock sections.
       impl: the MJX implementation ("auto", "jax" or "warp"; see quadcos.backends).
       robot: the quadruped of every section (a `quadcos.robot.load` spec).
+      randomize: the env, train and stock sections' robots draw their own physics
+        (`env.randomization`, its default ranges).
       num_devices: devices the train, walk and slope5 sections' trainers spread over
         (data-parallel; rows stay global: per-device envs = num_envs / num_devices).
     """
@@ -117,6 +119,7 @@ class Settings:
     impl: str = "auto"
     num_devices: int = 1
     robot: str = "quadcos"
+    randomize: bool = False
 
 
 _GPU_ROWS = "4096x8192x1,4096x8192x8,16384x16384x4"
@@ -169,12 +172,15 @@ def make_bench_env(
     impl: str = "auto",
     action_centre: str | None = None,
     robot: str = "quadcos",
+    randomize: bool = False,
     **env_overrides: Any,
 ) -> env_lib.QuadrupedEnv:
     """The env as `python -m quadcos.train --preset=PRESET --terrain=TERRAIN` builds it, then
     `env_overrides`; a from-scratch preset's (action centre "search") needs the `action_centre`
-    its search found."""
+    its search found. `randomize`: domain randomisation on (its default ranges)."""
     overrides = {**_preset_overrides(preset, "env."), "impl": impl, "robot": robot, **env_overrides}
+    if randomize:
+        overrides["randomization.enabled"] = True
     if action_centre is not None:
         overrides["action_centre"] = action_centre
     return env_lib.make_env(terrain, **overrides)
@@ -264,4 +270,5 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         impl=args.impl,
         num_devices=args.num_devices,
         robot=args.robot,
+        randomize=args.randomize,
     )

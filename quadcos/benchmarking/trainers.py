@@ -26,6 +26,7 @@ def measure_trainer(
     impl: str = "auto",
     num_devices: int = 1,
     robot: str = "quadcos",
+    randomize: bool = False,
 ) -> dict[str, float]:
     """Our trainer's training throughput for one row (over `num_devices`), and its time to the
     first training step.
@@ -40,7 +41,9 @@ def measure_trainer(
     """
     section_start = time.perf_counter()
     config = trainer_config(preset, row, num_devices)
-    trainer = training.SACTrainer(make_bench_env(terrain, preset, impl, robot=robot), config)
+    trainer = training.SACTrainer(
+        make_bench_env(terrain, preset, impl, robot=robot, randomize=randomize), config
+    )
     state = trainer.prefill(trainer.init())
     jax.block_until_ready(state)
     start = time.perf_counter()

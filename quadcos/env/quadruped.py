@@ -83,11 +83,6 @@ class QuadrupedEnv(base.Env):
         )
         self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)
-        if self.randomized and self.impl == "warp":
-            raise ValueError(
-                "domain randomisation gives each robot its own model fields, which the Warp"
-                " implementation does not take: use impl='jax' with randomization.enabled"
-            )
         self.model = backends.put_model(self.mj_model, self.impl)
         self.substeps = round(config.control_dt / config.physics_dt)
         tau = config.survival_speed_tau
@@ -156,7 +151,9 @@ class QuadrupedEnv(base.Env):
         info = {}
         if self.randomized:
             rng, draw_key = jax.random.split(rng)
-            physics = randomization.sample(draw_key, self.config.randomization, self.config.physics_dt)
+            physics = randomization.sample(
+                draw_key, self.config.randomization, self.config.physics_dt
+            )
             info = {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
         data = mjx.forward(self._model(info), data)
         phase = jnp.zeros(())

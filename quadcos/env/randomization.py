@@ -3,7 +3,10 @@
 A robot draws its `Physics` at every reset and keeps it for the episode, in the env state's
 `info`; its step applies the draw to the shared MJX model with `model.replace` inside
 `jax.vmap`, so the batch runs one compiled program whatever the draws (no recompilation, no
-per-env model copies on the host). Off by default (`env.randomization.enabled`).
+per-env model copies on the host). Both physics take it: MJX-JAX batches the replaced fields, and
+MJX-Warp (mujoco-mjx 3.17) passes each of them per world to its kernels (geom_friction, body_mass,
+body_ipos, actuator_gainprm / biasprm / forcerange, dof_damping; tests/test_randomization.py
+checks Warp against JAX under the same draws). Off by default (`env.randomization.enabled`).
 
 What is randomised, with default ranges after published locomotion work — legged_gym (Rudin et
 al. 2022, "Learning to walk in minutes using massively parallel deep RL": friction U(0.5, 1.25),
@@ -13,7 +16,8 @@ friction U(0.4, 1.0), body masses ×U(0.9, 1.1), base mass ±1 kg, joint frictio
 
 - sliding friction of every geom (MuJoCo takes the larger of the two geoms' at a contact);
 - torso mass (×) and the torso's centre of mass (± metres on each axis);
-- the position servos' gain kp (×) and the joints' damping (×);
+- the position servos' gain kp (×; torque motors, whose PD the env closes, keep their gains) and
+  the joints' damping (×);
 - motor strength: the servos' torque limit (×);
 - control latency: a new action reaches the command filter this many seconds late (whole physics
   steps; the previous action acts meanwhile);
@@ -32,7 +36,14 @@ import jax.numpy as jnp
 import ml_collections
 import numpy as np
 
-RANGES = ("friction", "torso_mass_scale", "kp_scale", "damping_scale", "strength_scale", "latency_s")
+RANGES = (
+    "friction",
+    "torso_mass_scale",
+    "kp_scale",
+    "damping_scale",
+    "strength_scale",
+    "latency_s",
+)
 
 
 def default_config() -> ml_collections.ConfigDict:
@@ -101,13 +112,16 @@ def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float)
 
 def apply(model, physics: Physics, torso_body: int):
     """The MJX model with one robot's draw (under `jax.vmap`, a per-robot model)."""
-    kp = model.actuator_gainprm[:, 0] * physics.kp_scale
+    gain = model.actuator_gainprm[:, 0]
+    servo = model.actuator_biasprm[:, 1] < 0  # a position servo's bias is −kp·q; a motor's 0
+    kp = jnp.where(servo, gain * physics.kp_scale, gain)
+    bias = jnp.where(servo, -kp, model.actuator_biasprm[:, 1])
     return model.replace(
         geom_friction=model.geom_friction.at[:, 0].set(physics.friction),
         body_mass=model.body_mass.at[torso_body].multiply(physics.torso_mass_scale),
         body_ipos=model.body_ipos.at[torso_body].add(physics.com_offset),
         actuator_gainprm=model.actuator_gainprm.at[:, 0].set(kp),
-        actuator_biasprm=model.actuator_biasprm.at[:, 1].set(-kp),  # position servo: −kp·q
+        actuator_biasprm=model.actuator_biasprm.at[:, 1].set(bias),
         dof_damping=model.dof_damping * physics.damping_scale,
         actuator_forcerange=model.actuator_forcerange * physics.strength_scale,
     )
