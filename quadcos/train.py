@@ -30,7 +30,7 @@ from quadcos import terrain as terrain_lib
 from quadcos._util import caches, cli, provenance
 from quadcos._util.cli import UsageError
 from quadcos.evaluation import gait_search
-from quadcos.training import parallel, run_dirs
+from quadcos.training import host, parallel, run_dirs
 from quadcos.training.presets import PRESETS, build_config, default_config  # noqa: F401 (re-exported)
 
 # Short flags -> the config key each one sets.
@@ -187,6 +187,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: list[str]) -> int:
+    startup = host.StartUp(provenance.process_start())
+    startup.mark("imports")
     cache_dirs = caches.enable()
     try:
         args, overrides = resolve(argv)
@@ -198,11 +200,15 @@ def _main(argv: list[str]) -> int:
         if args.print_config:
             print(json.dumps(config.to_dict(), indent=2))
             return 0
-        if args.resume and (message := run_dirs.finished_run_message(run_dir, config.sac.num_timesteps)):
+        if args.resume and (
+            message := run_dirs.finished_run_message(run_dir, config.sac.num_timesteps)
+        ):
             logger.info("%s", message)
             return 0
         if args.numbered and args.coordinator:
-            raise UsageError("--numbered with --coordinator: give every process the same --output_dir")
+            raise UsageError(
+                "--numbered with --coordinator: give every process the same --output_dir"
+            )
         parallel.initialize_distributed(args.coordinator, args.num_processes, args.process_id)
         _physics_for_devices(config)
         writer = parallel.is_writer()  # the other processes neither check nor number run_dir
@@ -218,6 +224,8 @@ def _main(argv: list[str]) -> int:
             gait_search.search_envs(config),
         )
         search = gait_search.resolve_centre(config, run_dir)  # None: a centre was given
+        if search is not None:
+            startup.mark("gait_search")
         env = env_lib.QuadrupedEnv(
             config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
         )
@@ -228,6 +236,7 @@ def _main(argv: list[str]) -> int:
                 config.env.terrain,
                 ml_collections.ConfigDict({**config.env.to_dict(), "spawn_x_max": 0.0}),
             )
+        startup.mark("envs_built")
     except (UsageError, ValueError, FileNotFoundError) as error:
         cli.print_error("quadcos.train", error)
         return 2
@@ -254,6 +263,7 @@ def _main(argv: list[str]) -> int:
                 **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
             },
             started_at=provenance.process_start(),
+            startup=startup,
         )
     except training.ConfigError as error:  # raised before anything is written
         cli.print_error("quadcos.train", error)

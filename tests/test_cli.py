@@ -33,6 +33,18 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
     assert "env_steps_per_s" in rows[-1]
     assert (smoke_run / "metrics.csv").is_file()
     assert any((smoke_run / "checkpoints").iterdir())
+    # Where the seconds to the first training step went, in the order it happened.
+    startup = json.loads((smoke_run / "startup.json").read_text())
+    assert list(startup) == [
+        "imports",
+        "envs_built",
+        "trainer_built",
+        "state_initialised",
+        "first_evaluation",
+        "prefilled",
+        "first_chunk",
+    ]
+    assert 0 < startup["imports"] and list(startup.values()) == sorted(startup.values())
     policy = quadcos.load_policy(smoke_run)
     # The paper's 14-d state and the filtered command (env.action_filter_tau > 0).
     assert policy.spec.observation_size == 14 + 5

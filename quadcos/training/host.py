@@ -1,5 +1,5 @@
 """What the host loop does between compiled chunks besides training: the metrics window, the
-run's wall clock, stopping on SIGINT/SIGTERM and the progress line."""
+run's wall clock and start-up times, stopping on SIGINT/SIGTERM and the progress line."""
 
 import logging
 import math
@@ -43,6 +43,24 @@ class Clock:
 
     def __call__(self) -> float:
         return time.monotonic() - self._start
+
+
+class StartUp:
+    """Seconds from a run's start (`started_at`, a `time.monotonic()`; None: now) to each event
+    of its start-up, in the order they happened: where the time to the first training step goes
+    (imports, gait search, env, compiled programs, prefill)."""
+
+    FILE = "startup.json"
+
+    def __init__(self, started_at: float | None = None):
+        self._start = time.monotonic() if started_at is None else started_at
+        self.seconds: dict[str, float] = {}
+
+    def mark(self, event: str) -> None:
+        self.seconds[event] = round(time.monotonic() - self._start, 3)
+
+    def summary(self) -> str:
+        return ", ".join(f"{event} {seconds:.1f}" for event, seconds in self.seconds.items())
 
 
 class SignalStop:

@@ -96,6 +96,7 @@ def train(
     progress_bar: bool = True,
     extra_run_info: dict[str, Any] | None = None,
     started_at: float | None = None,
+    startup: host.StartUp | None = None,
 ) -> TrainResult:
     """Trains a SAC policy on `env`.
 
@@ -116,6 +117,9 @@ def train(
         `run_info` (e.g. the env config).
       started_at: `time.monotonic()` at the run's start (quadcos.train: the process's start, so
         a from-scratch run's gait search and every compilation count); None: this call.
+      startup: the start-up times so far (quadcos.train: imports, gait search, env), counted
+        from `started_at`; this call adds the trainer, its initial state, the first evaluation,
+        the prefill and the first chunk, logs them and writes them to `run_dir/startup.json`.
 
     Returns:
       The final policy, state and metrics.
@@ -132,7 +136,9 @@ def train(
     check_config(config)
     if resume and run_dir is None:
         raise ValueError("resume=True needs a run_dir")
+    startup = host.StartUp(started_at) if startup is None else startup
     trainer = sac.SACTrainer(env, config, eval_env=eval_env)
+    startup.mark("trainer_built")
     check_memory(trainer)
     spec = policy_lib.PolicySpec(
         observation_size=trainer.observation_size,
@@ -141,7 +147,8 @@ def train(
         normalize_observations=bool(config.normalize_observations),
     )
     run_info = _run_info(config, extra_run_info)
-    state = trainer.init()
+    state = jax.block_until_ready(trainer.init())
+    startup.mark("state_initialised")
     wall_time_offset = None
     store = None
     log = None
@@ -189,6 +196,8 @@ def train(
                 host.Progress(config.num_timesteps, enabled=progress and writer, bar=progress_bar),
                 best,
                 _deadline(config.max_seconds, started_at),
+                startup,
+                run_dir if writer else None,
             )
     finally:
         if log is not None:
@@ -242,16 +251,20 @@ def run_chunks(
     on_start: Callable[[sac.TrainingState], None],
     on_chunk: Callable[[sac.TrainingState, Chunk], bool],
     num_timesteps: int | None,
+    startup: host.StartUp | None = None,
 ) -> sac.TrainingState:
     """The host loop of training (of `train`, and of the bench's time to walk).
 
     Calls `on_start` on a state that has not taken a step (the untrained policy), prefills the
     replay buffer if it holds less than `min_replay_size`, then runs compiled chunks until
-    `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True.
+    `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True. `startup`
+    (optional) is marked after the first evaluation, the prefill and the first chunk.
     """
+    startup = host.StartUp() if startup is None else startup
     step = int(state.env_steps)
     if step == 0:
         on_start(state)
+        startup.mark("first_evaluation")
     # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
     unfinished = num_timesteps is None or step < num_timesteps
     prefill = trainer.replay_size(state) < trainer.config.min_replay_size and unfinished
@@ -261,10 +274,13 @@ def run_chunks(
     if prefill:
         state = trainer.prefill(state)
         step = int(state.env_steps)
+        startup.mark("prefilled")
     while num_timesteps is None or step < num_timesteps:
         start = time.monotonic()
         state, chunk_metrics = trainer.train_chunk(state)
         chunk_metrics = jax.device_get(chunk_metrics)
+        if "first_chunk" not in startup.seconds:
+            startup.mark("first_chunk")
         chunk = Chunk(chunk_metrics, step, int(state.env_steps), time.monotonic() - start)
         step = chunk.step
         if on_chunk(state, chunk):
@@ -339,10 +355,15 @@ def _train_loop(
     progress: host.Progress,
     best: BestPolicy | None = None,
     deadline: float | None = None,
+    startup: host.StartUp | None = None,
+    run_dir: Path | None = None,
 ) -> tuple[sac.TrainingState, list[dict[str, Any]]]:
     """Prefills if needed, then runs chunks until num_timesteps, the `deadline`
-    (`time.monotonic()`) or a signal."""
+    (`time.monotonic()`) or a signal; after the first chunk, logs `startup` and writes it to
+    `run_dir/startup.json`."""
     config = trainer.config
+    startup = host.StartUp() if startup is None else startup
+    started = False
     history = list(log.rows) if log is not None else []
     window = host.Window()
 
@@ -362,7 +383,14 @@ def _train_loop(
         record({"step": 0, "wall_time_s": clock(), **evaluate(state)}, state)
 
     def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
-        nonlocal window
+        nonlocal window, started
+        if not started:
+            started = True
+            logger.info("start-up, s from the run's start: %s", startup.summary())
+            if run_dir is not None:
+                files.atomic_write_text(
+                    run_dir / host.StartUp.FILE, json.dumps(startup.seconds, indent=1) + "\n"
+                )
         previous_step, step = chunk.previous_step, chunk.step
         window.add(chunk.metrics, step - previous_step, chunk.seconds)
         _raise_if_non_finite(chunk.metrics, step, store)
@@ -406,6 +434,7 @@ def _train_loop(
             on_start=on_start,
             on_chunk=on_chunk,
             num_timesteps=config.num_timesteps,
+            startup=startup,
         )
     finally:
         progress.close()
