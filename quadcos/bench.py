@@ -202,6 +202,10 @@ def run(
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
+        # Raw physics at the row's envs, measured in this process (the physics section).
+        physics_rate = results["physics_steps_per_s"].get(str(row.num_envs))
+        if physics_rate is not None:
+            entry["physics_env_steps_per_s"] = physics_rate / results["substeps_per_env_step"]
         entry["quadcos_first_chunk_s"] = measured["first_chunk_s"]
         entry["quadcos_start_to_first_step_s"] = measured["start_to_first_step_s"]
         if results["compile_s"]["quadcos"] is None:

@@ -236,6 +236,7 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
     (row,) = results["train"]
     assert (row["num_envs"], row["batch_size"], row["updates_per_step"]) == (4, 32, 1)
     assert _finite_positive(row["quadcos_env_steps_per_s"])
+    assert row["physics_env_steps_per_s"] == results["physics_steps_per_s"]["4"] / 10
     assert row["stock_brax_env_steps_per_s"] is None  # skipped
     assert _finite_positive(results["compile_s"]["quadcos"])
     assert results["compile_s"]["stock_brax"] is None

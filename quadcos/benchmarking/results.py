@@ -187,19 +187,22 @@ def markdown_table(results: dict[str, Any]) -> str:
     lines += [
         "",
         "| robot | terrain | impl | envs | batch | updates/step | quadcos env-steps/s | stock Brax"
-        " env-steps/s | ours / stock | quadcos start → first step |",
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|",
+        " env-steps/s | ours / stock | ours / raw physics | quadcos start → first step |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in sorted(results["train"], key=lambda row: (_row_key(row)[3:], _row_key(row))):
         ours, stock = row["quadcos_env_steps_per_s"], row["stock_brax_env_steps_per_s"]
         ratio = f"{ours / stock:.2f}" if ours and stock else "—"
+        physics = row.get("physics_env_steps_per_s")
+        of_physics = f"{ours / physics:.2f}" if ours and physics else "—"
         robot, terrain, impl, cache, randomized = _row_key(row)[3:]
         context = f"{robot} | {terrain} | {impl}{', randomised' if randomized else ''}"
         sizes = f"{row['num_envs']:,} | {row['batch_size']:,} | {row['updates_per_step']}"
         start = row.get("quadcos_start_to_first_step_s")
         start = f"{format_seconds(start)} ({cache} cache)" if start is not None else "—"
         lines.append(
-            f"| {context} | {sizes} | {format_rate(ours)} | {format_rate(stock)} | {ratio} | {start} |"
+            f"| {context} | {sizes} | {format_rate(ours)} | {format_rate(stock)} | {ratio} |"
+            f" {of_physics} | {start} |"
         )
     compile_s = results["compile_s"]
     ours, stock = (
