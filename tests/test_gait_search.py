@@ -95,6 +95,8 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
 
     search = json.loads((run_dir / "gait_search.json").read_text())
     assert not search["setup"]["include_trot"] and search["setup"]["symmetric"]
+    # Candidates act from the first step, as the centre will (the run's own filter is on).
+    assert search["setup"]["env"]["action_filter_tau"] == 0.0
     assert [entry["round"] for entry in search["rounds"]] == [1, 2]
     assert search["num_evaluated"] == 12
     for candidate in search["ranking"]:
@@ -106,8 +108,13 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
 
     config = json.loads((run_dir / "config.json").read_text())
     centre = config["run_info"]["env"]["action_centre"]
-    assert centre == search["action_centre"] == search["ranking"][0]["policy"].removeprefix("fixed:")
-    oscillator.action_centre(centre, oscillator.PERIOD_MIN)  # a valid centre: evaluate/resume use it
+    assert config["run_info"]["env"]["action_filter_tau"] > 0
+    assert (
+        centre == search["action_centre"] == search["ranking"][0]["policy"].removeprefix("fixed:")
+    )
+    oscillator.action_centre(
+        centre, oscillator.PERIOD_MIN
+    )  # a valid centre: evaluate/resume use it
     rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     # The run's clock counts from process start: the search's seconds come before step 0.
     assert rows[0]["wall_time_s"] >= config["run_info"]["gait_search_s"] > 0

@@ -83,9 +83,11 @@ def search_fixed(
             parents = elites[rng.integers(len(elites), size=num_candidates)]
             candidates = np.clip(parents + rng.normal(size=parents.shape) * std, lower, upper)
             candidates[: len(elites)] = elites
-        if symmetric:
-            candidates[:, 4] = _wrap(candidates[:, 3] - np.pi, lower[4], upper[4])
         candidates = np.clip(candidates, lower + inner, upper - inner)
+        if symmetric:  # after the clip, so that φ3 = φ1 − π holds exactly (inside the inner box)
+            candidates[:, 4] = _wrap(
+                candidates[:, 3] - np.pi, lower[4] + inner[4], upper[4] - inner[4]
+            )
         per_robot = np.repeat(candidates, robots_per_candidate, axis=0).astype(np.float32)
 
         def round_progress(done: int, total: int, round_index: int = round_index) -> None:
@@ -174,4 +176,6 @@ def candidate_lanes(num_lanes: int, robots_per_candidate: int) -> np.ndarray:
 
 def _wrap(phase: np.ndarray, low: float, high: float) -> np.ndarray:
     """Shifts phases that left [low, high] by one cycle back in (the range spans two cycles)."""
-    return np.where(phase < low, phase + 2 * np.pi, np.where(phase > high, phase - 2 * np.pi, phase))
+    return np.where(
+        phase < low, phase + 2 * np.pi, np.where(phase > high, phase - 2 * np.pi, phase)
+    )
