@@ -47,7 +47,9 @@ def runs(tmp_path_factory):
     base = tmp_path_factory.mktemp("parallel")
     command = [sys.executable, str(SCRIPT)]
     pipes = dict(cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    devices = _result(subprocess.Popen([*command, "devices", str(base / "devices")], env=_env(2), **pipes))
+    devices = _result(
+        subprocess.Popen([*command, "devices", str(base / "devices")], env=_env(2), **pipes)
+    )
     coordinator = f"localhost:{_free_port()}"
     processes = [
         subprocess.Popen(
@@ -130,11 +132,23 @@ def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
     assert first["policy_checksum"] == second["policy_checksum"]
     run_dir: pathlib.Path = runs["process_dir"]
     names = sorted(path.name for path in run_dir.iterdir())
-    assert names == ["checkpoints", "config.json", "metrics.csv", "metrics.jsonl", "policy", "tensorboard"]
+    assert names == [
+        "checkpoints",
+        "config.json",
+        "metrics.csv",
+        "metrics.jsonl",
+        "policy",
+        "startup.json",
+        "tensorboard",
+    ]
     rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     assert [row["step"] for row in rows] == [0, 1600, 2400, 3200, 4000]  # written once
     assert len(list((run_dir / "tensorboard").iterdir())) == 1
-    assert sorted(path.name for path in (run_dir / "checkpoints").iterdir()) == ["1600", "3200", "4000"]
+    assert sorted(path.name for path in (run_dir / "checkpoints").iterdir()) == [
+        "1600",
+        "3200",
+        "4000",
+    ]
 
 
 # --- Command line and the committed two-GPU figures (no extra devices needed) ---------------
@@ -143,7 +157,10 @@ def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--coordinator=localhost:1234"], "--coordinator needs --num_processes=N and --process_id=I"),
+        (
+            ["--coordinator=localhost:1234"],
+            "--coordinator needs --num_processes=N and --process_id=I",
+        ),
         (["--num_processes=2"], "--num_processes and --process_id need --coordinator=HOST:PORT"),
         (
             ["--coordinator=localhost:1234", "--num_processes=2", "--process_id=2"],
@@ -174,8 +191,10 @@ def test_committed_two_gpu_table_is_what_its_runs_measured():
     from quadcos.benchmarking import scaling
 
     directory = ROOT / "benchmarks" / "h200x2"
-    runs = [json.loads((directory / f"{name}.json").read_text()) for name in
-            ("flat_1dev", "flat_2dev", "slope5_1dev", "slope5_2dev")]
+    runs = [
+        json.loads((directory / f"{name}.json").read_text())
+        for name in ("flat_1dev", "flat_2dev", "slope5_1dev", "slope5_2dev")
+    ]
     rows = scaling.scaling_rows(runs)
     assert rows == json.loads((ROOT / "benchmarks" / "h200x2.json").read_text())["rows"]
     by_key = {(row["terrain"], row["num_devices"]): row for row in rows}

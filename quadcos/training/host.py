@@ -59,9 +59,6 @@ class StartUp:
     def mark(self, event: str) -> None:
         self.seconds[event] = round(time.monotonic() - self._start, 3)
 
-    def summary(self) -> str:
-        return ", ".join(f"{event} {seconds:.1f}" for event, seconds in self.seconds.items())
-
 
 class SignalStop:
     """Turns SIGINT/SIGTERM into a request to stop after the current chunk.

@@ -119,7 +119,7 @@ def train(
         a from-scratch run's gait search and every compilation count); None: this call.
       startup: the start-up times so far (quadcos.train: imports, gait search, env), counted
         from `started_at`; this call adds the trainer, its initial state, the first evaluation,
-        the prefill and the first chunk, logs them and writes them to `run_dir/startup.json`.
+        the prefill and the first chunk, and writes them to `run_dir/startup.json`.
 
     Returns:
       The final policy, state and metrics.
@@ -359,7 +359,7 @@ def _train_loop(
     run_dir: Path | None = None,
 ) -> tuple[sac.TrainingState, list[dict[str, Any]]]:
     """Prefills if needed, then runs chunks until num_timesteps, the `deadline`
-    (`time.monotonic()`) or a signal; after the first chunk, logs `startup` and writes it to
+    (`time.monotonic()`) or a signal; after the first chunk, writes `startup` to
     `run_dir/startup.json`."""
     config = trainer.config
     startup = host.StartUp() if startup is None else startup
@@ -386,7 +386,6 @@ def _train_loop(
         nonlocal window, started
         if not started:
             started = True
-            logger.info("start-up, s from the run's start: %s", startup.summary())
             if run_dir is not None:
                 files.atomic_write_text(
                     run_dir / host.StartUp.FILE, json.dumps(startup.seconds, indent=1) + "\n"
