@@ -140,7 +140,7 @@ def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways():
 def test_warp_steps_randomised_robots_as_jax_does():
     """MJX-Warp takes the per-robot model fields: under the same draws (friction, mass, centre of
     mass, gains, damping, strength, latency, pushes) its robots move as MJX-JAX's. Runs where
-    warp-lang is installed (the `warp` extra; its CPU kernels compile for minutes the first time)."""
+    warp-lang is installed (the `warp` extra; on a CPU too)."""
     pytest.importorskip("warp", reason="warp-lang (the warp extra) is not installed")
     overrides = {"randomization.enabled": True, "randomization.push_interval_s": 0.5}
     positions = {}
