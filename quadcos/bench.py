@@ -107,7 +107,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--randomize",
         action="store_true",
-        help="env, train and stock sections with domain randomisation (its default ranges; physics stays nominal)",
+        help="env, train and stock sections with domain randomisation (its default ranges;"
+        " the physics section stays nominal)",
     )
     parser.add_argument(
         "--num_devices",

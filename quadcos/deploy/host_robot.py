@@ -379,8 +379,8 @@ def evaluate_mujoco(
 ) -> dict[str, Any]:
     """`episodes` deterministic episodes in C MuJoCo, one after another; episode i resets with
     joint noise from the seed (seed, i). `obs_noise` (std) and `latency_s` (s): the deployment
-    faults of the module docstring; `physics`: its solver choice. Returns the content of an evaluation JSON (aggregates,
-    "setup", "episodes"), as `quadcos.evaluate` writes it.
+    faults of the module docstring; `physics`: its solver choice. Returns the content of an
+    evaluation JSON (aggregates, "setup", "episodes"), as `quadcos.evaluate` writes it.
 
     Raises:
       ValueError, FileNotFoundError: bad policy, terrain, sizes, counts, noise or latency.

@@ -84,7 +84,7 @@ def search_fixed(
             candidates = np.clip(parents + rng.normal(size=parents.shape) * std, lower, upper)
             candidates[: len(elites)] = elites
         candidates = np.clip(candidates, lower + inner, upper - inner)
-        if symmetric:  # after the clip, so that φ3 = φ1 − π holds exactly (inside the inner box)
+        if symmetric:  # after the clip: φ3 = φ1 − π holds exactly, inside the inner box
             candidates[:, 4] = _wrap(
                 candidates[:, 3] - np.pi, lower[4] + inner[4], upper[4] - inner[4]
             )
