@@ -2,8 +2,9 @@
 # Runs one experiment on a GPU machine, from the repository root:
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
-#   fixed_params | warp | scaling | bench_slope5 | robots | robots_alone (scaling needs 2 GPUs;
-#   robots* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
+#   fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal |
+#   startup_and_randomized (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of
+#   MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
 # and traces, status (one line per step). Copy the summaries into experiments/EXPERIMENT.
@@ -204,6 +205,36 @@ anymal_search10)  # ANYmal C with a gait search of 10-s episodes, 4 robots a can
     --seed=0 --max_seconds=${ANYMAL_S:-300} --config.sac.gait_search.seconds=10 \
     --config.sac.gait_search.num_candidates=1024 --config.sac.gait_search.robots_per_candidate=4
   evaluate "$OUT/runs/$name/policy_best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json" ;;
+anymal)  # ANYmal C from nothing alone, with the current preset and gait search
+  : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
+  export MENAGERIE_ROOT
+  name=anybotics_anymal_c_s0
+  train $((${ANYMAL_S:-300} + 60)) $name --preset=scratch --robot=menagerie:anybotics_anymal_c \
+    --seed=0 --max_seconds=${ANYMAL_S:-300}
+  JAX_PLATFORMS=cpu python3 -m quadcos.sim2sim --no_progress --policy="$OUT/runs/$name/policy_best" \
+    --terrain=flat --episodes=64 --out="$OUT/sim2sim_${name}_flat.json" \
+    > "$OUT/sim2sim_${name}_flat.log" 2>&1 &
+  evaluate "$OUT/runs/$name/policy_best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json"
+  evaluate "$OUT/runs/$name/policy_best" ${name}_slope5 slope5 1024 40
+  evaluate "$OUT/runs/$name/policy_best" ${name}_s4 s4 1024 30
+  wait ;;
+startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
+  # with and without domain randomisation, flat, 4096 envs, 1 update per env step
+  for cache in cold warm; do
+    [ $cache = cold ] && rm -rf /tmp/qcache_startup
+    QUADCOS_CACHE_DIR=/tmp/qcache_startup python3 -m quadcos.train --preset=gpu --terrain=flat \
+      --num_timesteps=100000 --no_progress --output_dir="/tmp/quadcos_runs/startup_$cache" \
+      > "$OUT/startup_$cache.log" 2>&1
+    cp "/tmp/quadcos_runs/startup_$cache/startup.json" "$OUT/startup_$cache.json"
+    note "startup $cache: $(tr -d '\n ' < "$OUT/startup_$cache.json")"
+  done
+  for randomize in "" --randomize; do
+    python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
+      --train_rows=4096x8192x1 --train_seconds=8 --steps=20 $randomize \
+      --out="$OUT/bench_warp_flat${randomize:+_randomized}.json" \
+      > "$OUT/bench_warp_flat${randomize:+_randomized}.log" 2>&1
+    note "bench warp flat ${randomize:-nominal}: exit $?"
+  done ;;
 *) echo "unknown experiment '$experiment'" >&2; exit 2 ;;
 esac
 note "$experiment done"
