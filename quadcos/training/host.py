@@ -1,13 +1,17 @@
 """What the host loop does between compiled chunks besides training: the metrics window, the
 run's wall clock and start-up times, stopping on SIGINT/SIGTERM and the progress line."""
 
+import json
 import logging
 import math
+import pathlib
 import signal
 import sys
 import threading
 import time
 from typing import Any, TextIO
+
+from quadcos._util import files
 
 logger = logging.getLogger(__name__)
 
@@ -48,16 +52,22 @@ class Clock:
 class StartUp:
     """Seconds from a run's start (`started_at`, a `time.monotonic()`; None: now) to each event
     of its start-up, in the order they happened: where the time to the first training step goes
-    (imports, gait search, env, compiled programs, prefill)."""
+    (imports, gait search, env, compiled programs, prefill). `save` writes them to `path`, if
+    one is set."""
 
     FILE = "startup.json"
 
     def __init__(self, started_at: float | None = None):
         self._start = time.monotonic() if started_at is None else started_at
         self.seconds: dict[str, float] = {}
+        self.path: pathlib.Path | None = None
 
     def mark(self, event: str) -> None:
         self.seconds[event] = round(time.monotonic() - self._start, 3)
+
+    def save(self) -> None:
+        if self.path is not None:
+            files.atomic_write_text(self.path, json.dumps(self.seconds, indent=1) + "\n")
 
 
 class SignalStop:

@@ -179,6 +179,7 @@ def train(
             )
         if writer:
             files.atomic_write_text(run_dir / "config.json", json.dumps(run_info, indent=2) + "\n")
+            startup.path = run_dir / host.StartUp.FILE
             log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
 
     best = None
@@ -197,7 +198,6 @@ def train(
                 best,
                 _deadline(config.max_seconds, started_at),
                 startup,
-                run_dir if writer else None,
             )
     finally:
         if log is not None:
@@ -258,7 +258,8 @@ def run_chunks(
     Calls `on_start` on a state that has not taken a step (the untrained policy), prefills the
     replay buffer if it holds less than `min_replay_size`, then runs compiled chunks until
     `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True. `startup`
-    (optional) is marked after the first evaluation, the prefill and the first chunk.
+    (optional) is marked after the first evaluation, the prefill and the first chunk, and saved
+    after the first chunk.
     """
     startup = host.StartUp() if startup is None else startup
     step = int(state.env_steps)
@@ -281,6 +282,7 @@ def run_chunks(
         chunk_metrics = jax.device_get(chunk_metrics)
         if "first_chunk" not in startup.seconds:
             startup.mark("first_chunk")
+            startup.save()
         chunk = Chunk(chunk_metrics, step, int(state.env_steps), time.monotonic() - start)
         step = chunk.step
         if on_chunk(state, chunk):
@@ -356,14 +358,10 @@ def _train_loop(
     best: BestPolicy | None = None,
     deadline: float | None = None,
     startup: host.StartUp | None = None,
-    run_dir: Path | None = None,
 ) -> tuple[sac.TrainingState, list[dict[str, Any]]]:
     """Prefills if needed, then runs chunks until num_timesteps, the `deadline`
-    (`time.monotonic()`) or a signal; after the first chunk, writes `startup` to
-    `run_dir/startup.json`."""
+    (`time.monotonic()`) or a signal."""
     config = trainer.config
-    startup = host.StartUp() if startup is None else startup
-    started = False
     history = list(log.rows) if log is not None else []
     window = host.Window()
 
@@ -383,13 +381,7 @@ def _train_loop(
         record({"step": 0, "wall_time_s": clock(), **evaluate(state)}, state)
 
     def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
-        nonlocal window, started
-        if not started:
-            started = True
-            if run_dir is not None:
-                files.atomic_write_text(
-                    run_dir / host.StartUp.FILE, json.dumps(startup.seconds, indent=1) + "\n"
-                )
+        nonlocal window
         previous_step, step = chunk.previous_step, chunk.step
         window.add(chunk.metrics, step - previous_step, chunk.seconds)
         _raise_if_non_finite(chunk.metrics, step, store)
