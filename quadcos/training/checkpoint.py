@@ -2,6 +2,7 @@
 
 import contextlib
 import dataclasses
+import gc
 import logging
 import os
 import shutil
@@ -146,6 +147,7 @@ class CheckpointStore:
             except ShapeMismatchError:
                 raise
             except Exception as error:  # orbax/tensorstore raise many types
+                _REPORTED_READS.paths.add(str(self.path(step)))
                 moved_to = self._quarantine(step)
                 logger.warning(
                     "checkpoint %s cannot be read, likely truncated or damaged (%s: %.200s);"
@@ -229,6 +231,25 @@ def _relaid_replay(stored: replay_lib.ReplayState, template: replay_lib.ReplaySt
     )
 
 
+class _ReportedReads(logging.Filter):
+    """Drops asyncio's "Task exception was never retrieved" for reads of a checkpoint that
+    `restore_latest` already reported: tensorstore's other reads of it fail after orbax gave up,
+    and asyncio logs each when its task is collected, which may be long after the restore."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.paths: set[str] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        error = record.exc_info[1] if record.exc_info else None
+        text = f"{record.getMessage()} {error}"
+        return not any(path in text for path in self.paths)
+
+
+_REPORTED_READS = _ReportedReads()
+logging.getLogger("asyncio").addFilter(_REPORTED_READS)
+
+
 @contextlib.contextmanager
 def _failed_reads_quiet() -> Iterator[None]:
     """Silences what a failed orbax read leaves behind; `restore_latest` reports the failure.
@@ -253,6 +274,7 @@ def _failed_reads_quiet() -> Iterator[None]:
     absl_logger.setLevel(logging.CRITICAL)
     try:
         yield
+        gc.collect()  # failed reads' tasks and callbacks go while the hook is set
     finally:
         sys.unraisablehook = previous_hook
         absl_logger.setLevel(previous_level)
