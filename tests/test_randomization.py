@@ -102,6 +102,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
         ("randomization.friction", (1.0, 0.5), "randomization.friction must be (low, high)"),
         ("randomization.latency_s", (-0.01, 0.0), "randomization.latency_s must be"),
         ("randomization.push_force_n", -1.0, "randomization.push_force_n must be finite and >= 0"),
+        ("randomization.obs_noise", -0.1, "randomization.obs_noise must be finite and >= 0"),
     ],
 )
 def test_bad_ranges_are_named(key, value, message):
@@ -134,6 +135,31 @@ def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways():
     np.testing.assert_allclose(y[1:], y[1], atol=1e-6)  # same draw, same motion
     assert y[0] - y[1] > 0.02, y
     assert np.isfinite(np.asarray(state.obs)).all() and not np.asarray(state.done).any()
+
+
+@pytest.mark.slow
+def test_observation_noise_reaches_the_policy_not_the_robot():
+    fixed = {  # every draw fixed, so that the noise's random numbers change nothing else
+        "randomization.enabled": True,
+        "randomization.friction": (1.0, 1.0),
+        "randomization.com_offset_m": 0.0,
+        "randomization.push_interval_s": 0.0,
+        **{f"randomization.{name}": (1.0, 1.0) for name in ("torso_mass_scale", "kp_scale")},
+        **{f"randomization.{name}": (1.0, 1.0) for name in ("damping_scale", "strength_scale")},
+        "randomization.latency_s": (0.0, 0.0),
+    }
+    keys = jax.random.split(jax.random.PRNGKey(4), 8)
+    states = {}
+    for noise in (0.0, 0.05):
+        env = quadcos.make_env("flat", **fixed, **{"randomization.obs_noise": noise})
+        state = jax.jit(jax.vmap(env.reset))(keys)
+        states[noise] = jax.jit(jax.vmap(env.step))(state, jnp.zeros((8, env.action_size)))
+    clean, noisy = states[0.0], states[0.05]
+    np.testing.assert_allclose(
+        noisy.pipeline_state.qpos, clean.pipeline_state.qpos, atol=1e-6
+    )  # the robot moves as without noise
+    difference = np.asarray(noisy.obs - clean.obs)
+    assert 0.04 < difference.std() < 0.06 and abs(difference.mean()) < 0.01, difference.std()
 
 
 @pytest.mark.slow

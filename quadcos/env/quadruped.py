@@ -159,12 +159,13 @@ class QuadrupedEnv(base.Env):
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
         observed = self._observe(data, phase, command)
+        obs, info = self._seen(observed.obs, info)
         zero = jnp.zeros(())
         metrics = {f"reward/{name}": zero for name in reward.TERM_NAMES}
         metrics |= {name: zero for name in _STEP_METRICS}
         return base.State(
             pipeline_state=data,
-            obs=observed.obs,
+            obs=obs,
             reward=zero,
             done=zero,
             metrics=metrics,
@@ -218,9 +219,10 @@ class QuadrupedEnv(base.Env):
             "slope_truth": slope_truth,
             "slope_error": jnp.abs(observed.slope_estimate - slope_truth),
         }
+        obs, info = self._seen(observed.obs, info)
         return state.replace(
             pipeline_state=data,
-            obs=observed.obs,
+            obs=obs,
             reward=sum(terms.values()),
             done=fell.astype(jnp.float32),
             metrics=metrics,
@@ -286,6 +288,16 @@ class QuadrupedEnv(base.Env):
         physics = randomization.next_push(push_key, physics, config, self.dt)
         action = jnp.where(just_reset, 0.0, info["action"])  # what acts during the latency
         return {**info, "physics": physics, "rng": rng, "action": action}
+
+    def _seen(self, obs: jax.Array, info: dict[str, Any]) -> tuple[jax.Array, dict[str, Any]]:
+        """The observation as the policy sees it: with a randomised robot's observation noise."""
+        if not self.randomized or self.config.randomization.obs_noise == 0:
+            return obs, info
+        rng, noise_key = jax.random.split(info["rng"])
+        return randomization.observed(noise_key, obs, self.config.randomization), {
+            **info,
+            "rng": rng,
+        }
 
     def _actuate(
         self,

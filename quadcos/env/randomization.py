@@ -22,7 +22,9 @@ friction U(0.4, 1.0), body masses ×U(0.9, 1.1), base mass ±1 kg, joint frictio
 - control latency: a new action reaches the command filter this many seconds late (whole physics
   steps; the previous action acts meanwhile);
 - pushes: a force of `push_force_n` in a random horizontal direction on the torso for
-  `push_duration_s`, starting on average every `push_interval_s`.
+  `push_duration_s`, starting on average every `push_interval_s`;
+- observation noise: N(0, `obs_noise`²) on each value of the observation the policy sees (its
+  units: m/s, rad; 0, the default, adds none), as `quadcos.sim2sim --obs_noise` adds in C MuJoCo.
 
 Every range is (low, high) in SI units; equal ends fix a value, which is how an evaluation applies
 one perturbation (`quadcos.evaluate --env.randomization.enabled=True
@@ -59,6 +61,7 @@ def default_config() -> ml_collections.ConfigDict:
     config.push_force_n = 50.0
     config.push_duration_s = 0.1
     config.push_interval_s = 5.0  # mean time between pushes; 0: no pushes
+    config.obs_noise = 0.0  # std on each observation value the policy sees
     return config
 
 
@@ -84,7 +87,7 @@ def validate(config: ml_collections.ConfigDict) -> None:
             raise ValueError(
                 f"randomization.{name} must be (low, high) with 0 <= low <= high; got {config[name]}"
             )
-    for name in ("com_offset_m", "push_force_n", "push_duration_s", "push_interval_s"):
+    for name in ("com_offset_m", "push_force_n", "push_duration_s", "push_interval_s", "obs_noise"):
         if not 0 <= config[name] < np.inf:
             raise ValueError(f"randomization.{name} must be finite and >= 0; got {config[name]}")
 
@@ -141,3 +144,8 @@ def next_push(
     force = config.push_force_n * jnp.array([jnp.cos(angle), jnp.sin(angle), 0.0])
     push = jnp.where(start, force, jnp.where(left > 0, physics.push, 0.0))
     return physics._replace(push=push, push_left_s=jnp.where(start, config.push_duration_s, left))
+
+
+def observed(rng: jax.Array, obs: jax.Array, config: ml_collections.ConfigDict) -> jax.Array:
+    """What the policy sees of `obs`: each value plus N(0, obs_noise²)."""
+    return obs + config.obs_noise * jax.random.normal(rng, obs.shape, obs.dtype)
