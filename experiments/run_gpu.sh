@@ -104,11 +104,11 @@ fixed_params)  # Fig. 15: the search for the best fixed parameters, and FIXED_TR
   evaluate fixed:trot trot_slope5 slope5 1024 40 --trace="$OUT/trace_trot_slope5.json" ;;
 warp)  # MJX-JAX vs MJX-Warp parity, start-up (warp-lang installed)
   bash experiments/warp/run_gpu.sh ;;
-scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench)
+scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench); IMPL=warp for MJX-Warp
   export NCCL_NVLS_ENABLE=0
   bench() {  # NAME ARGS...
     local name=$1; shift
-    python3 -m quadcos.bench --train_seconds 10 --walk_timeout_s 480 --impl jax \
+    python3 -m quadcos.bench --train_seconds 10 --walk_timeout_s 480 --impl "${IMPL:-jax}" \
       --out "$OUT/$name.json" "$@" > "$OUT/$name.log" 2>&1
     note "$name: exit $?"
   }

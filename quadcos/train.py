@@ -22,7 +22,6 @@ import sys
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-import jax
 import ml_collections
 
 from quadcos import env as env_lib
@@ -210,7 +209,6 @@ def _main(argv: list[str]) -> int:
                 "--numbered with --coordinator: give every process the same --output_dir"
             )
         parallel.initialize_distributed(args.coordinator, args.num_processes, args.process_id)
-        _physics_for_devices(config)
         writer = parallel.is_writer()  # the other processes neither check nor number run_dir
         if args.numbered and not args.resume and run_dir is not None and writer:
             run_dir = run_dirs.numbered_dir(run_dir)
@@ -298,20 +296,6 @@ def _logging_to_stderr() -> Iterator[None]:
     finally:
         package_logger.removeHandler(handler)
         package_logger.level, package_logger.propagate = saved
-
-
-def _physics_for_devices(config: ml_collections.ConfigDict) -> None:
-    """Several devices take the JAX physics: MJX-Warp's kernels load on the first GPU only."""
-    devices = config.sac.num_devices or len(jax.devices())
-    if devices == 1 or config.env.impl == "jax":
-        return
-    if config.env.impl == "warp":
-        raise UsageError(
-            f"--config.env.impl=warp runs on one device, not {devices}: add --num_devices=1 or"
-            " --config.env.impl=jax"
-        )
-    logger.info("%d devices: the JAX physics (MJX-Warp runs on one device only)", devices)
-    config.env.impl = "jax"
 
 
 def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:

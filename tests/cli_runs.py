@@ -33,8 +33,10 @@ def cli_command(*args: str) -> list[str]:
 
 
 def cli_env() -> dict[str, str]:
-    """The environment of a CLI run: this one, the checkout importable, the tests' cache."""
-    return {**os.environ, "PYTHONPATH": str(ROOT), **cache_env()}
+    """The environment of a CLI run: this one, the checkout importable first (then what
+    PYTHONPATH already held), the tests' cache."""
+    path = os.pathsep.join(filter(None, (str(ROOT), os.environ.get("PYTHONPATH"))))
+    return {**os.environ, "PYTHONPATH": path, **cache_env()}
 
 
 def start_cli(*args: str, **popen_kwargs) -> subprocess.Popen:

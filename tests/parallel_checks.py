@@ -60,9 +60,21 @@ def collectives(env: PointEnv) -> list[str]:
     return sorted(found)
 
 
+class PerDevicePointEnv(PointEnv):
+    """The toy env, stepped as the trainer steps MJX-Warp's: by each device on its own envs."""
+
+    impl = "warp"
+
+
 def devices(run_dir: pathlib.Path) -> dict:
     env = PointEnv()
     out = {"device_count": jax.device_count(), "collectives": collectives(env)}
+    per_device = training.train(PerDevicePointEnv(), toy_config(num_devices=2), progress=False)
+    out["per_device"] = {
+        "collectives": collectives(PerDevicePointEnv()),
+        "final_eval_reward": per_device.metrics["eval/episode_reward"],
+        "obs_sharding": str(per_device.state.env_state.obs.sharding.spec),
+    }
     for count in (1, 2):
         result = training.train(env, toy_config(num_devices=count), progress=False)
         out[f"d{count}"] = {
@@ -113,9 +125,34 @@ def process(run_dir: pathlib.Path, coordinator: str, num_processes: int, process
     }
 
 
+def warp() -> dict:
+    """The paper's robot stepped by MJX-Warp on each of two devices and by MJX-JAX (split by
+    the partitioner): the robots' positions after a prefill and a training chunk."""
+    import quadcos  # the toy checks need no MJX
+
+    positions = {}
+    for impl in ("jax", "warp"):
+        config = toy_config(num_devices=2, num_envs=4, num_eval_envs=2, batch_size=8)
+        config.update(min_replay_size=40, steps_per_chunk=5, replay_size=256)
+        trainer = training.SACTrainer(quadcos.make_env("flat", impl=impl), config)
+        state = trainer.prefill(trainer.init())
+        if impl == "warp":  # the physics calls: how many robots each steps, and any gather
+            text = trainer.train_chunk.lower(state).compile().as_text()
+            calls = re.findall(r"= \(f32\[(\d+),[^\n]*custom-call\(", text)
+            positions["warp_call_rows"] = sorted({int(rows) for rows in calls})
+            positions["all_gathers"] = len(re.findall(r" all-gather(-start)?\(", text))
+        state, _ = trainer.train_chunk(state)
+        positions[impl] = np.asarray(state.env_state.pipeline_state.qpos[:, :3]).tolist()
+        shards = state.env_state.pipeline_state.qpos.addressable_shards
+        positions[f"{impl}_shard_rows"] = [shard.data.shape[0] for shard in shards]
+    return positions
+
+
 if __name__ == "__main__":
     mode, run_dir = sys.argv[1], pathlib.Path(sys.argv[2])
-    if mode == "devices":
+    if mode == "warp":
+        print(json.dumps(warp()))
+    elif mode == "devices":
         shutil.rmtree(run_dir, ignore_errors=True)
         print(json.dumps(devices(run_dir)))
     else:

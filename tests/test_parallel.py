@@ -8,6 +8,7 @@ import socket
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from tests.cli_runs import ROOT, cli_env
@@ -100,6 +101,38 @@ def test_each_update_reduces_its_gradients_in_one_collective_and_samples_locally
 
 
 @pytest.mark.slow
+def test_an_env_stepped_per_device_trains_as_the_partitioned_one(runs):
+    # MJX-Warp's path (`parallel.per_device`): each device steps its own envs in a shard_map,
+    # with no gather of the envs onto every device; the run is the partitioned one's.
+    per_device, two = runs["devices"]["per_device"], runs["devices"]["d2"]
+    assert per_device["obs_sharding"] == "P('devices',)"
+    assert per_device["collectives"] == runs["devices"]["collectives"]
+    assert per_device["final_eval_reward"] == pytest.approx(two["final_eval_reward"], abs=1e-3)
+
+
+@pytest.mark.slow
+def test_warp_steps_each_devices_robots_as_the_jax_physics_does(tmp_path):
+    """Two devices, MJX-Warp's kernels called by each on its own robots (Warp's CPU kernels
+    here; runs where warp-lang is installed): the robots move as under MJX-JAX."""
+    pytest.importorskip("warp", reason="warp-lang (the warp extra) is not installed")
+    process = subprocess.Popen(
+        [sys.executable, str(SCRIPT), "warp", str(tmp_path)],
+        cwd=ROOT,
+        env=_env(2),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    positions = _result(process)
+    assert positions["warp_shard_rows"] == positions["jax_shard_rows"] == [2, 2]
+    # Each device's Warp calls step its own 2 robots; no device gathers all 4.
+    assert positions["warp_call_rows"] == [2] and positions["all_gathers"] == 0
+    difference = np.abs(np.subtract(positions["warp"], positions["jax"]))
+    assert difference.max() < 1e-3, difference
+    assert np.ptp(np.asarray(positions["warp"])[:, 0]) > 0.01  # the robots moved, differently
+
+
+@pytest.mark.slow
 def test_checkpoints_resume_on_another_device_count(runs):
     resumed = runs["devices"]["resumed"]
     # Saved on 2 devices at 2,400 env steps with the replay buffer, resumed on 1 to 4,000, then
@@ -169,10 +202,6 @@ def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
         (
             ["--coordinator=localhost:1234", "--num_processes=2", "--process_id=0", "--numbered"],
             "--numbered with --coordinator: give every process the same --output_dir",
-        ),
-        (
-            ["--num_devices=2", "--config.env.impl=warp"],
-            "--config.env.impl=warp runs on one device, not 2",
         ),
         (["--num_devices=0"], "config.sac.num_devices must be >= 1 or None (all), got 0"),
     ],

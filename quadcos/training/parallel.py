@@ -108,6 +108,30 @@ def named_shardings(layout: Layout, specs: Any) -> Any:
     )
 
 
+def env_specs(abstract_env_state: Any, num_envs: int) -> Any:
+    """The `PartitionSpec` of every leaf of a batched env state: split along axis 0 where the
+    leaf has the env axis, replicated where not (MJX-Warp's buffers shared by a batch's worlds)."""
+    return jax.tree.map(
+        lambda leaf: PartitionSpec(AXIS)
+        if leaf.ndim and leaf.shape[0] == num_envs
+        else PartitionSpec(),
+        abstract_env_state,
+    )
+
+
+def per_device(fn: Callable[..., Any], layout: Layout, in_specs: Any, out_specs: Any) -> Any:
+    """`fn` run by every device on its own slice of the envs (`jax.shard_map`).
+
+    For MJX-Warp's physics: its step is an XLA custom call, which the SPMD partitioner cannot
+    split, so under plain `jit` every device would gather all envs and step them whole. Inside
+    `shard_map` each device's call steps its own worlds with its own Warp module and stream (Warp
+    reads the device from XLA's call frame). Leaves specified replicated (Warp's shared buffers)
+    stay each device's own scratch."""
+    return jax.shard_map(
+        fn, mesh=layout.mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False
+    )
+
+
 def state_specs(abstract_state: Any, sharded_fields: tuple[str, ...], num_envs: int) -> Any:
     """The `PartitionSpec` of every leaf of a (global) training state: split along axis 0 for the
     leaves of `sharded_fields` that have a leading axis (the envs', the replay buffer's), all else
@@ -118,12 +142,7 @@ def state_specs(abstract_state: Any, sharded_fields: tuple[str, ...], num_envs: 
         if name not in sharded_fields:
             return jax.tree.map(lambda _: PartitionSpec(), value)
         if name == "env_state":
-            return jax.tree.map(
-                lambda leaf: PartitionSpec(AXIS)
-                if leaf.ndim and leaf.shape[0] == num_envs
-                else PartitionSpec(),
-                value,
-            )
+            return env_specs(value, num_envs)
         return jax.tree.map(lambda leaf: PartitionSpec(AXIS), value)
 
     fields = {

@@ -136,9 +136,11 @@ class SACTrainer:
         self.eval_env = training_wrappers.VmapWrapper(eval_env or env)
         # Jitted once and called inside init, prefill and the chunk: tracing the MJX reset and
         # step is most of a small run's start-up, and a nested jit is traced once for all three.
-        self._reset_envs = jax.jit(self.env.reset)
+        self.layout = parallel.make_layout(config.num_devices)
+        parallel.check_divisible(config, self.layout.shards)
+        shards = self.layout.shards
+        self._reset_envs, self._step_envs = self._batched_env(getattr(env, "impl", "jax"))
         self.observation_size = observation_size(self._reset_envs, config.num_envs)
-        self._step_envs = jax.jit(self.env.step)
         self.action_size = env.action_size
         self.networks = make_networks(
             self.observation_size,
@@ -148,10 +150,6 @@ class SACTrainer:
             config.normalize_observations,
         )
         self._make_policy = sac_networks.make_inference_fn(self.networks)
-
-        self.layout = parallel.make_layout(config.num_devices)
-        parallel.check_divisible(config, self.layout.shards)
-        shards = self.layout.shards
 
         self._policy_optimizer = _optimizer(config.learning_rate.actor, config.max_grad_norm)
         self._q_optimizer = _optimizer(config.learning_rate.critic, config.max_grad_norm)
@@ -210,6 +208,19 @@ class SACTrainer:
         # The key is an argument, not a constant of the program: runs of any seed share it (and
         # the persistent compilation cache's copy).
         self._evaluate_compiled = jax.jit(self._evaluate)
+
+    def _batched_env(self, impl: str) -> tuple[Any, Any]:
+        """The jitted reset (keys → states) and step of all training envs. On several devices
+        with MJX-Warp, each device resets and steps its own envs (`parallel.per_device`); the
+        JAX physics is split by the SPMD partitioner with the rest of the program."""
+        if self.layout.mesh is None or impl != "warp":
+            return jax.jit(self.env.reset), jax.jit(self.env.step)
+        keys = jax.ShapeDtypeStruct((self.config.num_envs, 2), jnp.uint32)
+        specs = parallel.env_specs(jax.eval_shape(self.env.reset, keys), self.config.num_envs)
+        envs_axis = jax.sharding.PartitionSpec(parallel.AXIS)
+        reset = parallel.per_device(self.env.reset, self.layout, envs_axis, specs)
+        step = parallel.per_device(self.env.step, self.layout, (specs, envs_axis), specs)
+        return jax.jit(reset), jax.jit(step)
 
     def init(self) -> TrainingState:
         """Returns the initial training state (empty replay buffer), committed to the default
