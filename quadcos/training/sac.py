@@ -71,11 +71,15 @@ class TrainingState:
     exploration_noise: jax.Array
 
 
+def env_keys(num_envs: int) -> jax.ShapeDtypeStruct:
+    """The shape of the keys a batched env's reset takes."""
+    return jax.ShapeDtypeStruct((num_envs,) + jax.random.PRNGKey(0).shape, jnp.uint32)
+
+
 def observation_size(reset_envs: Any, num_envs: int) -> int:
     """Length of the flat observation vector of a batched env's `reset_envs` (keys → states):
     read off the trace the trainer's init needs anyway (the same jitted function and shapes)."""
-    keys = jax.ShapeDtypeStruct((num_envs,) + jax.random.PRNGKey(0).shape, jnp.uint32)
-    obs = jax.eval_shape(reset_envs, keys).obs
+    obs = jax.eval_shape(reset_envs, env_keys(num_envs)).obs
     if not hasattr(obs, "shape") or len(obs.shape) != 2:
         raise ValueError(f"SAC needs a flat observation vector; got {obs}")
     return obs.shape[1]
@@ -215,8 +219,8 @@ class SACTrainer:
         JAX physics is split by the SPMD partitioner with the rest of the program."""
         if self.layout.mesh is None or impl != "warp":
             return jax.jit(self.env.reset), jax.jit(self.env.step)
-        keys = jax.ShapeDtypeStruct((self.config.num_envs, 2), jnp.uint32)
-        specs = parallel.env_specs(jax.eval_shape(self.env.reset, keys), self.config.num_envs)
+        num_envs = self.config.num_envs
+        specs = parallel.env_specs(jax.eval_shape(self.env.reset, env_keys(num_envs)), num_envs)
         envs_axis = jax.sharding.PartitionSpec(parallel.AXIS)
         reset = parallel.per_device(self.env.reset, self.layout, envs_axis, specs)
         step = parallel.per_device(self.env.step, self.layout, (specs, envs_axis), specs)
