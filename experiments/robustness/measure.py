@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 
 NOMINAL = {
-    "impl": "jax",  # per-robot physics: MJX's JAX implementation (Warp takes no per-robot model)
     "randomization.enabled": True,
     "randomization.friction": (1.5, 1.5),
     "randomization.torso_mass_scale": (1.0, 1.0),
@@ -25,6 +24,7 @@ NOMINAL = {
     "randomization.strength_scale": (1.0, 1.0),
     "randomization.latency_s": (0.0, 0.0),
     "randomization.push_interval_s": 0.0,
+    "randomization.obs_noise": 0.0,
 }
 CONDITIONS = {
     "nominal": {},
@@ -34,6 +34,7 @@ CONDITIONS = {
     "torso mass +20 %": {"randomization.torso_mass_scale": (1.2, 1.2)},
     "motor strength -20 %": {"randomization.strength_scale": (0.8, 0.8)},
     "latency 40 ms": {"randomization.latency_s": (0.04, 0.04)},
+    "observation noise 0.05": {"randomization.obs_noise": 0.05},
     # 50 N for 0.1 s, every 2 s on average (about ten pushes per 20-s episode).
     "pushes 50 N, 0.1 s": {
         "randomization.push_force_n": 50.0,
@@ -50,6 +51,10 @@ def main() -> None:
     parser.add_argument("--num_envs", type=int, default=256)
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--out")
+    parser.add_argument(
+        "--conditions", nargs="+", choices=list(CONDITIONS), default=list(CONDITIONS),
+        help="measure only these (default: all)",
+    )
     args = parser.parse_args()
     if args.table:
         print(table([json.loads(Path(path).read_text()) for path in args.table]))
@@ -61,7 +66,8 @@ def main() -> None:
 
     caches.enable()
     rows = {}
-    for name, overrides in CONDITIONS.items():
+    for name in args.conditions:
+        overrides = CONDITIONS[name]
         started = time.monotonic()
         result = evaluation.evaluate(
             args.policy,
