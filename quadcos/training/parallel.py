@@ -6,8 +6,9 @@ buffer are split along their first axis over the devices and whose networks, opt
 and statistics are replicated: XLA's SPMD partitioner gives every device its slice of the envs
 to step and its ring of the buffer (`replay.ShardedReplay`) to fill and sample, and sums the
 gradients across devices, so that the parameters stay identical everywhere. (`jax.shard_map` of
-the MJX step crashes XLA's GPU compiler — jax 0.11.2, two H200s — while this runs:
-experiments/scaling.)
+MJX-JAX's step crashes XLA's GPU compiler — jax 0.11.2, two H200s — while this runs:
+experiments/scaling.) MJX-Warp's step, a custom call the partitioner cannot split, is the
+exception: `per_device` runs it in a `shard_map`.
 
 `num_envs`, `batch_size`, `replay_size` and `num_eval_envs` stay global (the whole run's): each
 must divide evenly by the number of devices (`check_divisible`).
