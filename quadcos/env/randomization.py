@@ -23,8 +23,10 @@ friction U(0.4, 1.0), body masses ×U(0.9, 1.1), base mass ±1 kg, joint frictio
   steps; the previous action acts meanwhile);
 - pushes: a force of `push_force_n` in a random horizontal direction on the torso for
   `push_duration_s`, starting on average every `push_interval_s`;
-- observation noise: N(0, `obs_noise`²) on each value of the observation the policy sees (its
-  units: m/s, rad; 0, the default, adds none), as `quadcos.sim2sim --obs_noise` adds in C MuJoCo.
+- observation noise: N(0, `obs_noise`²) on each value of the observation the policy sees (the
+  phase and command too, where observed; 0, the default, adds none), as `quadcos.sim2sim
+  --obs_noise` adds in C MuJoCo. Brax's auto-reset restarts an env from its first state, so its
+  episodes begin with the same noisy first observation.
 
 Every range is (low, high) in SI units; equal ends fix a value, which is how an evaluation applies
 one perturbation (`quadcos.evaluate --env.randomization.enabled=True

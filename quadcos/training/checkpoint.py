@@ -147,8 +147,10 @@ class CheckpointStore:
             except ShapeMismatchError:
                 raise
             except Exception as error:  # orbax/tensorstore raise many types
-                _REPORTED_READS.paths.add(str(self.path(step)))
+                path = self.path(step)
+                _REPORTED_READS.paths.update({str(path), str(path.resolve())})
                 moved_to = self._quarantine(step)
+                gc.collect()  # the failed reads' tasks and callbacks go while the hooks are set
                 logger.warning(
                     "checkpoint %s cannot be read, likely truncated or damaged (%s: %.200s);"
                     " moved to %s, falling back to the previous one",
@@ -241,9 +243,11 @@ class _ReportedReads(logging.Filter):
         self.paths: set[str] = set()
 
     def filter(self, record: logging.LogRecord) -> bool:
+        if not str(record.msg).startswith("Task exception was never retrieved"):
+            return True
         error = record.exc_info[1] if record.exc_info else None
         text = f"{record.getMessage()} {error}"
-        return not any(path in text for path in self.paths)
+        return not any(f"{path}{os.sep}" in text for path in self.paths)
 
 
 _REPORTED_READS = _ReportedReads()
@@ -274,7 +278,6 @@ def _failed_reads_quiet() -> Iterator[None]:
     absl_logger.setLevel(logging.CRITICAL)
     try:
         yield
-        gc.collect()  # failed reads' tasks and callbacks go while the hook is set
     finally:
         sys.unraisablehook = previous_hook
         absl_logger.setLevel(previous_level)

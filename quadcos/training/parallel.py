@@ -5,10 +5,10 @@ functions are the one-device program, jitted (`jit`) on a training state whose e
 buffer are split along their first axis over the devices and whose networks, optimiser states
 and statistics are replicated: XLA's SPMD partitioner gives every device its slice of the envs
 to step and its ring of the buffer (`replay.ShardedReplay`) to fill and sample, and sums the
-gradients across devices, so that the parameters stay identical everywhere. (`jax.shard_map` of
-MJX-JAX's step crashes XLA's GPU compiler — jax 0.11.2, two H200s — while this runs:
+gradients across devices, so that the parameters stay identical everywhere. (A `shard_map` of
+the MJX step crashed XLA's GPU compiler — jax 0.11.2, two H200s — while this runs:
 experiments/scaling.) MJX-Warp's step, a custom call the partitioner cannot split, is the
-exception: `per_device` runs it in a `shard_map`.
+exception: `per_device` runs it in a `shard_map` (tested on CPU devices; not yet on GPUs).
 
 `num_envs`, `batch_size`, `replay_size` and `num_eval_envs` stay global (the whole run's): each
 must divide evenly by the number of devices (`check_divisible`).
