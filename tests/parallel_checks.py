@@ -142,6 +142,8 @@ def warp() -> dict:
             positions["warp_call_rows"] = sorted({int(rows) for rows in calls})
             positions["all_gathers"] = len(re.findall(r" all-gather(-start)?\(", text))
         state, _ = trainer.train_chunk(state)
+        metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
+        positions[f"{impl}_eval_reward"] = float(metrics["eval/episode_reward"])
         positions[impl] = np.asarray(state.env_state.pipeline_state.qpos[:, :3]).tolist()
         shards = state.env_state.pipeline_state.qpos.addressable_shards
         positions[f"{impl}_shard_rows"] = [shard.data.shape[0] for shard in shards]

@@ -130,6 +130,8 @@ def test_warp_steps_each_devices_robots_as_the_jax_physics_does(tmp_path):
     difference = np.abs(np.subtract(positions["warp"], positions["jax"]))
     assert difference.max() < 1e-3, difference
     assert np.ptp(np.asarray(positions["warp"])[:, 0]) > 0.01  # the robots moved, differently
+    # The evaluation (every device runs all its episodes) scores alike on both physics.
+    assert positions["warp_eval_reward"] == pytest.approx(positions["jax_eval_reward"], rel=0.01)
 
 
 @pytest.mark.slow
