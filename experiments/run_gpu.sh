@@ -2,7 +2,7 @@
 # Runs one experiment on a GPU machine, from the repository root:
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
-#   fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal |
+#   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal |
 #   startup_and_randomized (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of
 #   MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
@@ -86,6 +86,22 @@ any_slope)  # one policy for any slope: hip offsets, with and without the r_y ca
   for seed in 2027 4242; do
     evaluate experiments/policies/any_slope any_slope_testset$seed testset:$seed 4288 40
   done ;;
+any_slope_seeds)  # --preset=any_slope as it ships, one run per seed with a time budget (ANY_S)
+  for s in ${SEEDS:-0 1 2}; do
+    name=any_slope_s$s
+    train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300}
+    best=$OUT/runs/$name/policy_best
+    evaluate "$best" ${name}_testset2026 testset:2026 4288 40
+    evaluate "$best" ${name}_slope5 slope5 1024 40
+    evaluate "$best" ${name}_s4 s4 1024 30
+    evaluate "$best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json"
+  done
+  for s in ${SEEDS:-0 1 2}; do  # the other held-out test sets last
+    for set in 2027 4242; do
+      evaluate "$OUT/runs/any_slope_s$s/policy_best" any_slope_s${s}_testset$set testset:$set 4288 40
+    done
+  done
+  python3 experiments/any_slope/seeds.py "$OUT" --out "$OUT/seeds.json" ;;
 robustness)  # trained with domain randomisation vs without, under fixed perturbations
   train 330 flat_randomized_s0 --terrain=flat --seed=0 --config.env.impl=jax \
     --config.env.randomization.enabled=True
@@ -104,21 +120,33 @@ fixed_params)  # Fig. 15: the search for the best fixed parameters, and FIXED_TR
   evaluate fixed:trot trot_slope5 slope5 1024 40 --trace="$OUT/trace_trot_slope5.json" ;;
 warp)  # MJX-JAX vs MJX-Warp parity, start-up (warp-lang installed)
   bash experiments/warp/run_gpu.sh ;;
-scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench); IMPL=warp for MJX-Warp
-  export NCCL_NVLS_ENABLE=0
+scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench); IMPL=warp for MJX-Warp.
+  # SCALING_ROWS: the one-GPU train rows (ENVSxBATCHxUPDATES); two GPUs run each with twice the envs
+  # and batch (equal per-GPU work). SCALING_CROSS=0 leaves out the time-to-cross-slope5 runs.
+  export NCCL_NVLS_ENABLE=0 PYTHONFAULTHANDLER=1
+  rows1=${SCALING_ROWS:-4096x8192x8,8192x8192x8} rows2=""
+  IFS=, read -ra one <<< "$rows1"
+  for row in "${one[@]}"; do
+    IFS=x read -r envs batch updates <<< "$row"
+    rows2+="${rows2:+,}$((2 * envs))x$((2 * batch))x$updates"
+  done
   bench() {  # NAME ARGS...
     local name=$1; shift
     python3 -m quadcos.bench --train_seconds 10 --walk_timeout_s 480 --impl "${IMPL:-jax}" \
       --out "$OUT/$name.json" "$@" > "$OUT/$name.log" 2>&1
     note "$name: exit $?"
   }
-  CUDA_VISIBLE_DEVICES=0 bench slope5cross_1dev --num_devices 1 --only slope5 &
-  CUDA_VISIBLE_DEVICES=1 bench flat_1dev --num_devices 1 --only train --terrain flat --train_rows 4096x8192x8,8192x8192x8
-  CUDA_VISIBLE_DEVICES=1 bench slope5_1dev --num_devices 1 --only train --terrain slope5 --train_rows 4096x8192x8,8192x8192x8
+  if [ "${SCALING_CROSS:-1}" = 1 ]; then
+    CUDA_VISIBLE_DEVICES=0 bench slope5cross_1dev --num_devices 1 --only slope5 &
+    CUDA_VISIBLE_DEVICES=1 bench flat_1dev --num_devices 1 --only train --terrain flat --train_rows "$rows1"
+  else
+    CUDA_VISIBLE_DEVICES=0 bench flat_1dev --num_devices 1 --only train --terrain flat --train_rows "$rows1" &
+  fi
+  CUDA_VISIBLE_DEVICES=1 bench slope5_1dev --num_devices 1 --only train --terrain slope5 --train_rows "$rows1"
   wait
-  bench flat_2dev --num_devices 2 --only train --terrain flat --train_rows 8192x16384x8,16384x16384x8
-  bench slope5cross_2dev --num_devices 2 --only slope5
-  bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows 8192x16384x8,16384x16384x8
+  bench flat_2dev --num_devices 2 --only train --terrain flat --train_rows "$rows2"
+  [ "${SCALING_CROSS:-1}" = 1 ] && bench slope5cross_2dev --num_devices 2 --only slope5
+  bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows "$rows2"
   python3 -m quadcos.benchmarking.scaling --out "$OUT/scaling.json" "$OUT"/*_?dev.json > "$OUT/table.md" 2>&1 ;;
 bench_slope5)  # BENCHMARKS.md's slope5 section: time until >= 99 % of 1024 episodes cross
   python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_timeout_s=420 \

@@ -1,0 +1,101 @@
+"""seeds.json from the `any_slope_seeds` runs: one row per seed of `--preset=any_slope`.
+
+    python experiments/any_slope/seeds.py DIR --out experiments/any_slope/seeds.json
+
+DIR holds what `bash experiments/run_gpu.sh any_slope_seeds` wrote: runs/any_slope_sN/
+(config.json, metrics.jsonl) and eval_any_slope_sN_{testset2026,testset2027,testset4242,slope5,s4,
+flat}.json. `train_seconds` is the process's wall time at the evaluation whose policy
+`policy_best` keeps (the best evaluation reward), which is when that policy was written.
+Prints the rows as a Markdown table.
+"""
+
+import argparse
+import json
+import pathlib
+import re
+import sys
+
+_COMMAND = "python -m quadcos.train --preset=any_slope --seed={seed} --max_seconds={budget:g}"
+
+
+def _read(path: pathlib.Path) -> dict | None:
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _kept(metrics: list[dict]) -> dict:
+    """The evaluation row whose policy `policy_best` holds: the first with the highest reward."""
+    rows = [row for row in metrics if row.get("eval/episode_reward") is not None]
+    rewards = [row["eval/episode_reward"] for row in rows]
+    finite = [(reward, -index) for index, reward in enumerate(rewards) if reward == reward]
+    return rows[-max(finite)[1]]
+
+
+def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
+    name = run.name
+    config = json.loads((run / "config.json").read_text())
+    metrics = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line]
+    kept = _kept(metrics)
+    evals = {key: _read(folder / f"eval_{name}_{key}.json") for key in (
+        "testset2026", "testset2027", "testset4242", "slope5", "s4", "flat")}
+
+    def success(key: str) -> float | None:
+        return evals[key] and evals[key]["success_rate"]
+
+    def testset(key: str, field: str):
+        return evals[key] and evals[key][field]
+
+    flat = evals["flat"]
+    seed = int(config["config"]["seed"])
+    return {
+        "seed": seed,
+        "train_seconds": round(kept["wall_time_s"], 1),
+        "env_steps": int(kept["step"]),
+        "last_env_steps": int(metrics[-1]["step"]),
+        "testset2026_mean": testset("testset2026", "mean_course_success_rate"),
+        "testset2026_worst": testset("testset2026", "worst_course_success_rate"),
+        "testset2026_worst_course": testset("testset2026", "worst_course"),
+        "testset2027_mean": testset("testset2027", "mean_course_success_rate"),
+        "testset2027_worst": testset("testset2027", "worst_course_success_rate"),
+        "testset4242_mean": testset("testset4242", "mean_course_success_rate"),
+        "testset4242_worst": testset("testset4242", "worst_course_success_rate"),
+        "slope5": success("slope5"),
+        "s4": success("s4"),
+        "flat_success": success("flat"),
+        "flat_speed_m_s": flat and flat["mean_forward_speed"],
+        "flat_max_attitude_rad": flat and max(
+            flat["mean_max_abs_pitch_error"], flat["mean_max_abs_roll"], flat["mean_max_abs_yaw"]
+        ),
+        "command": _COMMAND.format(seed=seed, budget=config["config"]["max_seconds"]),
+    }
+
+
+def _cell(value) -> str:
+    if value is None:
+        return "—"
+    return f"{value:.3f}" if isinstance(value, float) else str(value)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("folder", type=pathlib.Path)
+    parser.add_argument("--out", type=pathlib.Path, required=True)
+    args = parser.parse_args(argv)
+    runs = sorted(
+        (run for run in (args.folder / "runs").glob("any_slope_s*") if re.fullmatch(r"any_slope_s\d+", run.name)),
+        key=lambda run: int(run.name.rsplit("s", 1)[1]),
+    )
+    if not runs:
+        print(f"seeds.py: no runs/any_slope_sN in {args.folder}", file=sys.stderr)
+        return 2
+    rows = [seed_row(args.folder, run) for run in runs]
+    args.out.write_text(json.dumps(rows, indent=2) + "\n")
+    keys = [key for key in rows[0] if key != "command"]
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---|" * len(keys))
+    for row in rows:
+        print("| " + " | ".join(_cell(row[key]) for key in keys) + " |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
