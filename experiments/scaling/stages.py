@@ -1,14 +1,15 @@
 """Each compiled stage of the data-parallel trainer on the quadruped, one after another, with the
 seconds each takes (first call: compile + run): where a device count fails, the last line says at
 which stage. `python -X faulthandler experiments/scaling/stages.py NUM_DEVICES IMPL MODE`, MODE:
-`trainer` (SACTrainer over NUM_DEVICES: the one-device program jitted on a sharded state) or `step` (nothing but `jax.vmap(env.step)` under `jax.shard_map`: the
-reproducer of XLA's GPU compiler crash, README.md)."""
+`trainer` (SACTrainer over NUM_DEVICES: the one-device program jitted on a sharded state) or `step` (nothing but `jax.vmap(env.step)` under `jax.shard_map`, as the trainer steps
+MJX-Warp per device: the reproducer of XLA's GPU compiler crash, README.md)."""
 
+import os
 import sys
 import time
 
 import jax
-from jax.sharding import NamedSharding, PartitionSpec
+from jax.sharding import NamedSharding
 
 from quadcos import env as env_lib
 from quadcos.benchmarking.settings import TrainRow, trainer_config
@@ -26,16 +27,17 @@ def timed(name, call):
 devices, impl, mode = int(sys.argv[1]), sys.argv[2], sys.argv[3]
 env = env_lib.make_env("flat", impl=impl)
 if mode == "step":
-    mesh = parallel.make_layout(devices).mesh
-    state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), 1024 * devices))
-    spec = jax.tree.map(lambda leaf: PartitionSpec(parallel.AXIS) if leaf.ndim else PartitionSpec(), state)
+    layout = parallel.make_layout(devices)
+    num_envs = int(os.environ.get("ENVS_PER_DEVICE", 1024)) * devices
+    state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
+    spec = parallel.env_specs(state, num_envs)
     step = jax.jit(
-        jax.shard_map(
+        parallel.per_device(
             lambda s: jax.vmap(env.step)(s, jax.numpy.zeros((s.obs.shape[0], env.action_size))),
-            mesh=mesh, in_specs=(spec,), out_specs=spec, check_vma=False,
+            layout, in_specs=(spec,), out_specs=spec,
         )
     )
-    state = jax.device_put(state, jax.tree.map(lambda p: NamedSharding(mesh, p), spec))
+    state = jax.device_put(state, jax.tree.map(lambda p: NamedSharding(layout.mesh, p), spec))
     timed("step", lambda: step(state))
     sys.exit(0)
 trainer = SACTrainer(env, trainer_config("gpu", TrainRow(1024 * devices, 1024 * devices, 1), devices))
