@@ -22,7 +22,6 @@ import sys
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-import jax
 import ml_collections
 
 from quadcos import env as env_lib
@@ -210,7 +209,6 @@ def _main(argv: list[str]) -> int:
                 "--numbered with --coordinator: give every process the same --output_dir"
             )
         parallel.initialize_distributed(args.coordinator, args.num_processes, args.process_id)
-        _physics_for_devices(config)
         writer = parallel.is_writer()  # the other processes neither check nor number run_dir
         if args.numbered and not args.resume and run_dir is not None and writer:
             run_dir = run_dirs.numbered_dir(run_dir)
@@ -298,24 +296,6 @@ def _logging_to_stderr() -> Iterator[None]:
     finally:
         package_logger.removeHandler(handler)
         package_logger.level, package_logger.propagate = saved
-
-
-def _physics_for_devices(config: ml_collections.ConfigDict) -> None:
-    """Several devices: `impl=auto` takes the JAX physics; an explicit `impl=warp` runs each
-    device's envs in a `shard_map` (`parallel.per_device`), tested on CPU devices only."""
-    devices = config.sac.num_devices or len(jax.devices())
-    if devices == 1 or config.env.impl == "jax":
-        return
-    if config.env.impl == "warp":
-        logger.warning(
-            "impl=warp on %d devices: each device steps its own envs in a shard_map, which is"
-            " tested on CPU devices only (a shard_map of the MJX step once crashed XLA's GPU"
-            " compiler: experiments/scaling); --config.env.impl=jax is the measured path",
-            devices,
-        )
-        return
-    logger.info("%d devices: the JAX physics (impl=auto; --config.env.impl=warp: Warp)", devices)
-    config.env.impl = "jax"
 
 
 def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:

@@ -69,11 +69,13 @@ class PerDevicePointEnv(PointEnv):
 def devices(run_dir: pathlib.Path) -> dict:
     env = PointEnv()
     out = {"device_count": jax.device_count(), "collectives": collectives(env)}
+    out["shardy"] = jax.config.jax_use_shardy_partitioner
     per_device = training.train(PerDevicePointEnv(), toy_config(num_devices=2), progress=False)
     out["per_device"] = {
         "collectives": collectives(PerDevicePointEnv()),
         "final_eval_reward": per_device.metrics["eval/episode_reward"],
         "obs_sharding": str(per_device.state.env_state.obs.sharding.spec),
+        "shardy": jax.config.jax_use_shardy_partitioner,
     }
     for count in (1, 2):
         result = training.train(env, toy_config(num_devices=count), progress=False)

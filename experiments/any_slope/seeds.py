@@ -11,6 +11,7 @@ Prints the rows as a Markdown table.
 
 import argparse
 import json
+import math
 import pathlib
 import re
 import sys
@@ -26,17 +27,21 @@ def _kept(metrics: list[dict]) -> dict:
     """The evaluation row whose policy `policy_best` holds: the first with the highest reward."""
     rows = [row for row in metrics if row.get("eval/episode_reward") is not None]
     rewards = [row["eval/episode_reward"] for row in rows]
-    finite = [(reward, -index) for index, reward in enumerate(rewards) if reward == reward]
+    finite = [(reward, -index) for index, reward in enumerate(rewards) if math.isfinite(reward)]
     return rows[-max(finite)[1]]
 
 
 def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
     name = run.name
     config = json.loads((run / "config.json").read_text())
-    metrics = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line]
+    metrics = [
+        json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line
+    ]
     kept = _kept(metrics)
-    evals = {key: _read(folder / f"eval_{name}_{key}.json") for key in (
-        "testset2026", "testset2027", "testset4242", "slope5", "s4", "flat")}
+    evals = {
+        key: _read(folder / f"eval_{name}_{key}.json")
+        for key in ("testset2026", "testset2027", "testset4242", "slope5", "s4", "flat")
+    }
 
     def success(key: str) -> float | None:
         return evals[key] and evals[key]["success_rate"]
@@ -62,7 +67,8 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
         "s4": success("s4"),
         "flat_success": success("flat"),
         "flat_speed_m_s": flat and flat["mean_forward_speed"],
-        "flat_max_attitude_rad": flat and max(
+        "flat_max_attitude_rad": flat
+        and max(
             flat["mean_max_abs_pitch_error"], flat["mean_max_abs_roll"], flat["mean_max_abs_yaw"]
         ),
         "command": _COMMAND.format(seed=seed, budget=config["config"]["max_seconds"]),
@@ -81,7 +87,11 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=pathlib.Path, required=True)
     args = parser.parse_args(argv)
     runs = sorted(
-        (run for run in (args.folder / "runs").glob("any_slope_s*") if re.fullmatch(r"any_slope_s\d+", run.name)),
+        (
+            run
+            for run in (args.folder / "runs").glob("any_slope_s*")
+            if re.fullmatch(r"any_slope_s\d+", run.name)
+        ),
         key=lambda run: int(run.name.rsplit("s", 1)[1]),
     )
     if not runs:

@@ -2,14 +2,14 @@
 seconds each takes (first call: compile + run): where a device count fails, the last line says at
 which stage. `python -X faulthandler experiments/scaling/stages.py NUM_DEVICES IMPL MODE`, MODE:
 `trainer` (SACTrainer over NUM_DEVICES: the one-device program jitted on a sharded state) or `step` (nothing but `jax.vmap(env.step)` under `jax.shard_map`, as the trainer steps
-MJX-Warp per device: the reproducer of XLA's GPU compiler crash, README.md)."""
+MJX-Warp per device: the reproducer of XLA's GPU compiler crash under Shardy, README.md;
+`JAX_USE_SHARDY_PARTITIONER=false` runs it; ENVS_PER_DEVICE, default 1024)."""
 
 import os
 import sys
 import time
 
 import jax
-from jax.sharding import NamedSharding
 
 from quadcos import env as env_lib
 from quadcos.benchmarking.settings import TrainRow, trainer_config
@@ -28,19 +28,24 @@ devices, impl, mode = int(sys.argv[1]), sys.argv[2], sys.argv[3]
 env = env_lib.make_env("flat", impl=impl)
 if mode == "step":
     layout = parallel.make_layout(devices)
-    num_envs = int(os.environ.get("ENVS_PER_DEVICE", 1024)) * devices
+    num_envs = int(os.environ.get("ENVS_PER_DEVICE", "1024")) * devices
     state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
-    spec = parallel.env_specs(state, num_envs)
-    step = jax.jit(
-        parallel.per_device(
-            lambda s: jax.vmap(env.step)(s, jax.numpy.zeros((s.obs.shape[0], env.action_size))),
-            layout, in_specs=(spec,), out_specs=spec,
+
+    def step_all(s):
+        return jax.vmap(env.step)(s, jax.numpy.zeros((s.obs.shape[0], env.action_size)))
+
+    if layout.mesh is not None:  # as parallel.per_device, but with JAX's partitioner as set
+        spec = parallel.env_specs(state, num_envs)
+        step_all = jax.shard_map(
+            step_all, mesh=layout.mesh, in_specs=(spec,), out_specs=spec, check_vma=False
         )
-    )
-    state = jax.device_put(state, jax.tree.map(lambda p: NamedSharding(layout.mesh, p), spec))
-    timed("step", lambda: step(state))
+        state = jax.device_put(state, parallel.named_shardings(layout, spec))
+    print(f"Shardy: {jax.config.jax_use_shardy_partitioner}", flush=True)
+    timed("step", lambda: jax.jit(step_all)(state))
     sys.exit(0)
-trainer = SACTrainer(env, trainer_config("gpu", TrainRow(1024 * devices, 1024 * devices, 1), devices))
+trainer = SACTrainer(
+    env, trainer_config("gpu", TrainRow(1024 * devices, 1024 * devices, 1), devices)
+)
 state = timed("init", trainer.init)
 state = timed("prefill", lambda: trainer.prefill(state))
 state = timed("train_chunk", lambda: trainer.train_chunk(state)[0])

@@ -113,9 +113,9 @@ def env_specs(abstract_env_state: Any, num_envs: int) -> Any:
     """The `PartitionSpec` of every leaf of a batched env state: split along axis 0 where the
     leaf has the env axis, replicated where not (MJX-Warp's buffers shared by a batch's worlds)."""
     return jax.tree.map(
-        lambda leaf: PartitionSpec(AXIS)
-        if leaf.ndim and leaf.shape[0] == num_envs
-        else PartitionSpec(),
+        lambda leaf: (
+            PartitionSpec(AXIS) if leaf.ndim and leaf.shape[0] == num_envs else PartitionSpec()
+        ),
         abstract_env_state,
     )
 
@@ -127,10 +127,22 @@ def per_device(fn: Callable[..., Any], layout: Layout, in_specs: Any, out_specs:
     split, so under plain `jit` every device would gather all envs and step them whole. Inside
     `shard_map` each device's call steps its own worlds with its own Warp module and stream (Warp
     reads the device from XLA's call frame). Leaves specified replicated (Warp's shared buffers)
-    stay each device's own scratch."""
+    stay each device's own scratch.
+
+    Programs holding such a `shard_map` are partitioned by GSPMD, not Shardy: with jax 0.11.2 on
+    two H100s, XLA's `shardy-xla` pass segfaults on a `shard_map` of the MJX step (either physics;
+    `experiments/scaling/stages.py 2 jax step`), and compiles and runs it with Shardy off."""
+    _partition_with_gspmd()
     return jax.shard_map(
         fn, mesh=layout.mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False
     )
+
+
+def _partition_with_gspmd() -> None:
+    """Turns Shardy off for the process (JAX's `jax_use_shardy_partitioner`), once, logged."""
+    if jax.config.jax_use_shardy_partitioner:
+        logger.info("per-device physics: XLA partitions with GSPMD (Shardy crashes on it)")
+        jax.config.update("jax_use_shardy_partitioner", False)
 
 
 def state_specs(abstract_state: Any, sharded_fields: tuple[str, ...], num_envs: int) -> Any:
