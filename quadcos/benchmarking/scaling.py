@@ -57,7 +57,13 @@ def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
         rate, base_rate = row["env_steps_per_s"], base and base["env_steps_per_s"]
         row["speedup"] = rate / base_rate if rate and base_rate else None
     return sorted(
-        rows, key=lambda row: (row["terrain"], row["envs_per_device"] or 0, row["num_devices"])
+        rows,
+        key=lambda row: (
+            row["terrain"],
+            row["envs_per_device"] or 0,
+            row["updates_per_step"] or 0,
+            row["num_devices"],
+        ),
     )
 
 
@@ -68,15 +74,16 @@ def table(rows: Sequence[dict[str, Any]]) -> str:
         return "—" if value is None else format(value, form)
 
     lines = [
-        "| terrain | devices | envs (per device) | env-steps/s | × one device"
-        " | time to walk (s) | time to cross slope5 (s) |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "| terrain | physics | devices | envs (per device) | updates / env step | env-steps/s"
+        " | × one device | time to walk (s) | time to cross slope5 (s) |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in rows:
         envs = "—" if row["num_envs"] is None else f"{row['num_envs']} ({row['envs_per_device']})"
         lines.append(
-            f"| {row['terrain']} | {row['num_devices']} | {envs}"
-            f" | {number(row['env_steps_per_s'], ',.0f')} | {number(row['speedup'], '.2f')}"
+            f"| {row['terrain']} | {row['impl']} | {row['num_devices']} | {envs}"
+            f" | {number(row['updates_per_step'], 'd')} | {number(row['env_steps_per_s'], ',.0f')}"
+            f" | {number(row['speedup'], '.2f')}"
             f" | {number(row['time_to_walk_flat_s'], '.1f')}"
             f" | {number(row['time_to_cross_slope5_s'], '.1f')} |"
         )
