@@ -1,13 +1,17 @@
-"""Puts the Menagerie robots' train rows beside the paper robot's in benchmarks/h100.json.
+"""Merges train rows measured in separate processes into benchmarks/h100.json.
 
-    python benchmarks/h100/robots/merge.py benchmarks/h100/robots/bench_*_train.json \
-        --into benchmarks/h100.json
+    python benchmarks/h100/merge.py benchmarks/h100/robots/bench_*_train.json \
+        benchmarks/h100/randomized/bench_warp_flat*.json --into benchmarks/h100.json \
+        --startup benchmarks/h100/startup/startup_cold.json benchmarks/h100/startup/startup_warm.json
 
-Each input is one `python -m quadcos.bench --robot=... --only physics,train` process; its train
-rows (named by robot, impl and terrain) are merged with `quadcos.benchmarking.results.merge_results`,
-each carrying `physics_env_steps_per_s`: the raw physics rate its own process measured at the
-row's envs, over the robot's physics steps per env step. The top-level physics and env rates are
-left out: they are keyed by env count alone and would mix robots.
+Each input is one `python -m quadcos.bench ... --only physics,train` process; its train rows (named
+by robot, impl, terrain, cache and randomisation) are merged with
+`quadcos.benchmarking.results.merge_results`, each carrying `physics_env_steps_per_s`: the raw
+physics rate its own process measured at the row's envs, over the robot's physics steps per env
+step. The top-level physics and env rates are left out: they are keyed by env count alone and
+would mix robots. `--startup COLD WARM`: two runs' `startup.json` (`quadcos.train`'s, empty and
+warm caches); their `first_chunk` (process start → the first compiled training chunk done)
+becomes `startup_cold_s` / `startup_warm_s`, and each file's events `startup_cold` / `startup_warm`.
 """
 
 import argparse
@@ -33,10 +37,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("inputs", nargs="+", type=pathlib.Path)
     parser.add_argument("--into", type=pathlib.Path, required=True)
+    parser.add_argument("--startup", nargs=2, type=pathlib.Path, metavar=("COLD", "WARM"))
     args = parser.parse_args()
     merged = json.loads(args.into.read_text())
     for path in args.inputs:
         merged = results_lib.merge_results(merged, train_rows(path))
+    for cache, path in zip(("cold", "warm"), args.startup or (), strict=False):
+        events = json.loads(path.read_text())
+        merged[f"startup_{cache}_s"] = events["first_chunk"]
+        merged[f"startup_{cache}"] = events
     args.into.write_text(json.dumps(merged, indent=1) + "\n")
     for row in merged["train"]:
         physics = row.get("physics_env_steps_per_s")
