@@ -3,6 +3,8 @@ rebuild the same env from it (the env the run was trained in)."""
 
 import json
 import pathlib
+import subprocess
+import sys
 
 import pytest
 
@@ -27,7 +29,9 @@ def test_the_committed_configs_are_found():
 def test_resume_and_evaluate_rebuild_the_same_env(path):
     resumed = train.build_config(train._saved_config(path.parent), {}).env.to_dict()
     overrides, terrain = sources.trained_env(json.loads(path.read_text()))
-    evaluated = apply_overrides(env_lib.default_config(), overrides).to_dict() | {"terrain": terrain}
+    evaluated = apply_overrides(env_lib.default_config(), overrides).to_dict() | {
+        "terrain": terrain
+    }
     assert evaluated == resumed
     saved = json.loads(path.read_text())["run_info"]["env"]
     if "action_filter_tau" not in saved:  # made before the command filter: trained without one
@@ -51,3 +55,15 @@ def test_a_config_from_a_newer_quadcos_is_refused():
         runs.migrate(saved)
     with pytest.raises(ValueError, match="not a quadcos run config"):
         runs.migrate({"config": {}})
+
+
+def test_the_committed_any_slope_seeds_are_what_their_runs_and_evaluations_say(tmp_path):
+    out = tmp_path / "seeds.json"
+    script = ROOT / "experiments" / "any_slope" / "seeds.py"
+    folder = ROOT / "experiments" / "any_slope" / "seeds"
+    subprocess.run([sys.executable, str(script), str(folder), "--out", str(out)], check=True)
+    committed = json.loads((ROOT / "experiments" / "any_slope" / "seeds.json").read_text())
+    assert json.loads(out.read_text()) == committed
+    assert [row["seed"] for row in committed] == [0, 1, 2]
+    for row in committed:  # each kept policy is the one of a run's own evaluation
+        assert row["env_steps"] <= row["last_env_steps"] and row["train_seconds"] > 0
