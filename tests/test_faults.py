@@ -323,6 +323,7 @@ arguments = st.one_of(
 @hypothesis.example(["--config.env.control_dt=1e999"])
 @hypothesis.example(["--config.env.impl=warp"])
 @hypothesis.example(["--config.sac.replay_size=1000000000000"])
+@hypothesis.example(["--config.sac.best_policy_max_fall_rate=2"])
 def test_fuzzed_command_lines_fail_in_one_line_and_write_nothing(argv):
     with tempfile.TemporaryDirectory() as directory:
         run_dir = pathlib.Path(directory) / "out"

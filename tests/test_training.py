@@ -134,21 +134,25 @@ def test_best_policy_is_that_of_the_best_evaluation(learned):
     assert best.config["best_of_run"] == {
         "step": best_row["step"],
         "eval/episode_reward": pytest.approx(best_row["eval/episode_reward"]),
+        "eval/fall_rate": pytest.approx(best_row.get("eval/fall_rate", 0.0)),
     }
     observations = jnp.array([[0.0, 0.5], [0.9, -0.4]])
     same = np.array_equal(best.act(observations), learned.policy.act(observations))
     assert same == (best_row["step"] == rows[-1]["step"])
 
 
+_SPEC = policy_lib.PolicySpec(
+    observation_size=2, action_size=1, hidden_sizes=(4,), normalize_observations=True
+)
+_STATE = types.SimpleNamespace(
+    normalizer_params=types.SimpleNamespace(mean=np.zeros(2), std=np.ones(2)),
+    policy_params={"w": np.ones(3)},
+)
+
+
 def test_best_policy_beats_earlier_rows_only(tmp_path):
     """Resumed: the rows before the resume count; a worse or equal evaluation saves nothing."""
-    spec = policy_lib.PolicySpec(
-        observation_size=2, action_size=1, hidden_sizes=(4,), normalize_observations=True
-    )
-    state = types.SimpleNamespace(
-        normalizer_params=types.SimpleNamespace(mean=np.zeros(2), std=np.ones(2)),
-        policy_params={"w": np.ones(3)},
-    )
+    spec, state = _SPEC, _STATE
     best = loop.BestPolicy(
         tmp_path / "policy_best", spec, {"run_info": {}}, [{"step": 0, "eval/episode_reward": 5.0}]
     )
@@ -157,9 +161,31 @@ def test_best_policy_beats_earlier_rows_only(tmp_path):
     assert not (tmp_path / "policy_best").exists()
     assert best.offer(state, {"step": 20, "eval/episode_reward": 7.5})
     saved = json.loads((tmp_path / "policy_best" / "policy.json").read_text())
-    assert saved["config"]["best_of_run"] == {"step": 20, "eval/episode_reward": 7.5}
+    assert saved["config"]["best_of_run"] == {
+        "step": 20,
+        "eval/episode_reward": 7.5,
+        "eval/fall_rate": 0.0,
+    }
     assert not best.offer(state, {"step": 30, "eval/episode_reward": 6.0})
+    assert not best.offer(state, {"step": 40, "eval/episode_reward": float("nan")})
     assert json.loads((tmp_path / "policy_best" / "policy.json").read_text()) == saved
+
+
+def test_best_policy_prefers_an_evaluation_that_does_not_fall(tmp_path):
+    """With a fall-rate bound, a slower evaluation without falls beats a richer one that falls;
+    the reward ranks evaluations on the same side of the bound, resumed rows included."""
+    path = tmp_path / "policy_best" / "policy.json"
+    history = [{"step": 0, "eval/episode_reward": 9.0, "eval/fall_rate": 0.5}]
+    best = loop.BestPolicy(path.parent, _SPEC, {}, history, max_fall_rate=0.01)
+    assert not best.offer(_STATE, {"step": 10, "eval/episode_reward": 8.0, "eval/fall_rate": 0.3})
+    assert best.offer(_STATE, {"step": 20, "eval/episode_reward": 3.0, "eval/fall_rate": 0.01})
+    assert not best.offer(_STATE, {"step": 30, "eval/episode_reward": 9.5, "eval/fall_rate": 0.02})
+    assert best.offer(_STATE, {"step": 40, "eval/episode_reward": 4.0, "eval/fall_rate": 0.0})
+    assert json.loads(path.read_text())["config"]["best_of_run"]["step"] == 40
+    # Without the bound (the default), the reward alone ranks them.
+    plain = loop.BestPolicy(tmp_path / "plain", _SPEC, {}, history)
+    assert plain.offer(_STATE, {"step": 30, "eval/episode_reward": 9.5, "eval/fall_rate": 0.02})
+    assert not plain.offer(_STATE, {"step": 40, "eval/episode_reward": 4.0, "eval/fall_rate": 0.0})
 
 
 # --- Resume -----------------------------------------------------------------

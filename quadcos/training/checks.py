@@ -24,6 +24,7 @@ _SHAPES = (
     "eval_episode_length",
 )
 
+
 class ConfigError(ValueError):
     """The config cannot run: inconsistent values, or more memory than the device has.
 
@@ -55,7 +56,9 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                     f"config.gait_search.{name} must be a whole number >= 1, got {search[name]}"
                 )
         if not 0 < search.seconds < math.inf:
-            raise ValueError(f"config.gait_search.seconds must be finite and > 0, got {search.seconds}")
+            raise ValueError(
+                f"config.gait_search.seconds must be finite and > 0, got {search.seconds}"
+            )
         if not -(2**63) <= config.seed < 2**63:
             raise ValueError(f"config.seed must fit in 64 bits, got {config.seed}")
         if not (0 <= config.discount <= 1 and 0 < config.tau <= 1):
@@ -138,6 +141,11 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
             raise ValueError(f"config.{name} must be >= 1, got {config[name]}")
     if not 0 <= config.max_seconds < math.inf:
         raise ValueError(f"config.max_seconds must be finite and >= 0, got {config.max_seconds}")
+    if not 0 <= config.best_policy_max_fall_rate <= 1:
+        raise ValueError(
+            "config.best_policy_max_fall_rate must be a fraction in [0, 1], got"
+            f" {config.best_policy_max_fall_rate}"
+        )
     if config.actor_warmup_steps < 0:
         raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")
     if config.num_devices is not None and config.num_devices < 1:
@@ -165,5 +173,3 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
             f" ({config.min_replay_size}) takes {prefill_steps} env steps >="
             f" num_timesteps ({config.num_timesteps})"
         )
-
-

@@ -131,6 +131,9 @@ def default_config() -> ml_collections.ConfigDict:
     # last policy is worse than an earlier one (experiments/any_slope: the generalist's late
     # collapse into stalling) still yields the good one.
     config.keep_best_policy = False
+    # With keep_best_policy: an evaluation that falls in at most this fraction of its episodes
+    # beats every one that falls more, whatever their rewards (1.0: the reward alone ranks).
+    config.best_policy_max_fall_rate = 1.0
     # Store the replay buffer in checkpoints (exact resume, large files).
     config.save_replay = False
 

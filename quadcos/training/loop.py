@@ -184,7 +184,13 @@ def train(
 
     best = None
     if run_dir is not None and writer and config.keep_best_policy:
-        best = BestPolicy(run_dir / "policy_best", spec, run_info, log.rows if log else [])
+        best = BestPolicy(
+            run_dir / "policy_best",
+            spec,
+            run_info,
+            log.rows if log else [],
+            config.best_policy_max_fall_rate,
+        )
     try:
         with host.SignalStop() as stop:
             state, history = _train_loop(
@@ -310,16 +316,19 @@ def _log_final_step(
         )
 
 
-# The training-time evaluation metric that ranks a run's policies for `keep_best_policy`.
+# The training-time evaluation metrics that rank a run's policies for `keep_best_policy`.
 _BEST_BY = "eval/episode_reward"
+_FALLS = "eval/fall_rate"
 
 
 class BestPolicy:
     """The policy of the best training-time evaluation of a run (`keep_best_policy`).
 
-    `offer` saves the state's policy to `directory` when its evaluation's episode reward beats
-    every earlier one of the run (rows before a resume included), its step and reward added to
-    the saved config under "best_of_run".
+    An evaluation whose fall rate is at most `max_fall_rate` beats every one above it; among
+    evaluations on the same side, the higher episode reward wins (`max_fall_rate` 1: reward alone).
+    `offer` saves the state's policy to `directory` when its evaluation beats every earlier one of
+    the run (rows before a resume included), its step, reward and fall rate added to the saved
+    config under "best_of_run".
     """
 
     def __init__(
@@ -328,18 +337,34 @@ class BestPolicy:
         spec: policy_lib.PolicySpec,
         run_info: dict[str, Any],
         history: list[dict[str, Any]],
+        max_fall_rate: float = 1.0,
     ):
         self.directory = directory
         self._spec = spec
         self._run_info = run_info
-        self.reward = max((row[_BEST_BY] for row in history if _BEST_BY in row), default=-math.inf)
+        self._max_fall_rate = max_fall_rate
+        self.rank = max((self._rank(row) for row in history if _BEST_BY in row), default=None)
+
+    @property
+    def reward(self) -> float:
+        return -math.inf if self.rank is None else self.rank[1]
+
+    def _rank(self, row: dict[str, Any]) -> tuple[bool, float]:
+        return row.get(_FALLS, 0.0) <= self._max_fall_rate, row[_BEST_BY]
 
     def offer(self, state: sac.TrainingState, row: dict[str, Any]) -> bool:
         """Saves the policy if `row` (its evaluation) is the best so far; True if it did."""
-        if not row.get(_BEST_BY, -math.inf) > self.reward:
+        if not math.isfinite(row.get(_BEST_BY, math.nan)):
             return False
-        self.reward = row[_BEST_BY]
-        best_of_run = {"step": int(row["step"]), _BEST_BY: float(self.reward)}
+        rank = self._rank(row)
+        if self.rank is not None and not rank > self.rank:
+            return False
+        self.rank = rank
+        best_of_run = {
+            "step": int(row["step"]),
+            _BEST_BY: float(row[_BEST_BY]),
+            _FALLS: float(row.get(_FALLS, 0.0)),
+        }
         config = {**self._run_info, "best_of_run": best_of_run}
         policy_lib.save_policy(
             self.directory, policy_lib.Policy.from_training_state(state, self._spec, config)
