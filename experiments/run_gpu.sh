@@ -3,7 +3,7 @@
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal |
-#   startup_and_randomized (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of
+#   profile | startup_and_randomized (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of
 #   MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
@@ -246,6 +246,18 @@ anymal)  # ANYmal C from nothing alone, with the current preset and gait search
   evaluate "$OUT/runs/$name/policy_best" ${name}_slope5 slope5 1024 40
   evaluate "$OUT/runs/$name/policy_best" ${name}_s4 s4 1024 30
   wait ;;
+profile)  # where the 1- and 8-update training rows' time goes (flat and slope5, Warp, 4096 envs)
+  for terrain in flat slope5; do
+    python3 -m quadcos.bench --impl=warp --terrain=$terrain --only=physics,train --env_counts=4096 \
+      --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
+      --profile_dir="/tmp/quadcos_profile/$terrain" --out="$OUT/bench_warp_${terrain}_profiled.json" \
+      > "$OUT/bench_warp_${terrain}_profiled.log" 2>&1
+    note "bench $terrain profiled: exit $?"
+    for row in 4096x8192x1 4096x8192x8; do
+      python3 -m quadcos.benchmarking.profile "/tmp/quadcos_profile/$terrain/$row" --top 25 \
+        > "$OUT/profile_${terrain}_$row.md" 2>&1
+    done
+  done ;;
 startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
   # with and without domain randomisation, flat, 4096 envs, 1 update per env step
   for cache in cold warm; do

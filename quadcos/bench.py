@@ -105,6 +105,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--impl", default="auto", choices=backends.IMPLS, help="MJX implementation")
     parser.add_argument(
+        "--profile_dir",
+        help="also trace two training chunks of each train row with jax.profiler into"
+        " DIR/ROW (summarise with python -m quadcos.benchmarking.profile DIR/ROW)",
+    )
+    parser.add_argument(
         "--randomize",
         action="store_true",
         help="env, train and stock sections with domain randomisation (its default ranges;"
@@ -200,6 +205,7 @@ def run(
             settings.num_devices,
             settings.robot,
             settings.randomize,
+            settings.profile_dir and f"{settings.profile_dir}/{row}",
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]

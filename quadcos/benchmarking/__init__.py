@@ -6,4 +6,6 @@
   trainers      our trainer and stock Brax SAC, side by side
   time_to_walk  training (in the trainer's own host loop) until the policy walks or crosses
   results       the results JSON, merging, Markdown tables
+  scaling       results on 1 and N devices side by side
+  profile       where a profiled training chunk's time goes (jax.profiler trace summary)
 """

@@ -120,6 +120,7 @@ class Settings:
     num_devices: int = 1
     robot: str = "quadcos"
     randomize: bool = False
+    profile_dir: str | None = None
 
 
 _GPU_ROWS = "4096x8192x1,4096x8192x8,16384x16384x4"
@@ -271,4 +272,5 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         num_devices=args.num_devices,
         robot=args.robot,
         randomize=args.randomize,
+        profile_dir=args.profile_dir,
     )

@@ -27,6 +27,7 @@ def measure_trainer(
     num_devices: int = 1,
     robot: str = "quadcos",
     randomize: bool = False,
+    profile_dir: str | None = None,
 ) -> dict[str, float]:
     """Our trainer's training throughput for one row (over `num_devices`), and its time to the
     first training step.
@@ -34,6 +35,7 @@ def measure_trainer(
     Builds the env and trainer from nothing, runs `init` and `prefill`, then chunks of
     `steps_per_chunk` vectorised env steps (each with `updates_per_step` SAC updates); the first
     chunk compiles, the ones after it are timed until `train_seconds` have passed (>= 2).
+    `profile_dir`: then two more chunks run under `jax.profiler.trace` into it (untimed).
 
     Returns:
       env_steps_per_s, first_chunk_s (compile + one chunk), start_to_first_step_s (startup_s +
@@ -60,6 +62,11 @@ def measure_trainer(
         jax.block_until_ready((state, metrics))
         seconds += time.perf_counter() - start
         chunks += 1
+    if profile_dir is not None:
+        with jax.profiler.trace(profile_dir, create_perfetto_trace=True):
+            for _ in range(2):
+                state, metrics = trainer.train_chunk(state)
+                jax.block_until_ready((state, metrics))
     if trainer.chunk_traces != 1:
         raise RuntimeError(f"train_chunk was traced {trainer.chunk_traces} times")
     env_steps = chunks * config.steps_per_chunk * config.num_envs

@@ -1,0 +1,58 @@
+"""`quadcos.benchmarking.profile`: a jax.profiler trace summed per timeline, name and kind."""
+
+import gzip
+
+import jax
+import jax.numpy as jnp
+import pytest
+
+from quadcos.benchmarking import profile
+
+
+def _events():
+    meta = [
+        {"ph": "M", "name": "process_name", "pid": 1, "args": {"name": "/device:GPU:0"}},
+        {"ph": "M", "name": "thread_name", "pid": 1, "tid": 7, "args": {"name": "XLA Ops"}},
+    ]
+    ops = [  # a module holding two ops, then a gap, then an all-reduce
+        {"ph": "X", "pid": 1, "tid": 7, "ts": 0, "dur": 100, "name": "jit__train_chunk"},
+        {"ph": "X", "pid": 1, "tid": 7, "ts": 10, "dur": 40, "name": "mjx_warp_step_kernel"},
+        {"ph": "X", "pid": 1, "tid": 7, "ts": 50, "dur": 30, "name": "gemm_fusion.3"},
+        {"ph": "X", "pid": 1, "tid": 7, "ts": 300, "dur": 100, "name": "all-reduce.1"},
+    ]
+    return meta + ops
+
+
+def test_busy_time_counts_nested_events_once_and_kinds_name_the_work():
+    span_s, found = profile.timelines(_events())
+    assert span_s == pytest.approx(400e-6)
+    (ops,) = found
+    assert (ops.process, ops.thread, ops.events) == ("/device:GPU:0", "XLA Ops", 4)
+    assert ops.busy_s == pytest.approx(200e-6)  # the module's 100 µs and the all-reduce's 100
+    assert ops.by_kind["warp (physics)"] == pytest.approx(40e-6)
+    assert ops.by_kind["matmul"] == pytest.approx(30e-6)
+    assert ops.by_kind["collective"] == pytest.approx(100e-6)
+    text = profile.report(span_s, found, top=2)
+    assert "| /device:GPU:0 | XLA Ops | 4 | 0.000 | 0.50 |" in text
+    assert "all-reduce.1" in text and "gemm_fusion.3" not in text  # only the top 2 names
+
+
+def test_a_real_trace_is_read(tmp_path):
+    step = jax.jit(lambda x: jnp.sin(x) @ x.T)
+    x = jnp.ones((64, 64))
+    step(x).block_until_ready()
+    with jax.profiler.trace(str(tmp_path), create_perfetto_trace=True):
+        for _ in range(3):
+            step(x).block_until_ready()
+    span_s, found = profile.timelines(profile.read_events(profile.trace_file(tmp_path)))
+    assert span_s > 0 and any(timeline.thread == "python" for timeline in found)
+    assert "busy / span" in profile.summarize(tmp_path)
+
+
+def test_a_folder_without_a_trace_is_refused_in_one_line(tmp_path, capsys):
+    (tmp_path / "bad.json.gz").write_bytes(gzip.compress(b"not json"))
+    assert profile.main([str(tmp_path)]) == 2
+    assert "no perfetto_trace.json.gz" in capsys.readouterr().err
+    assert profile.main([str(tmp_path / "bad.json.gz")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a readable trace" in err[0]
