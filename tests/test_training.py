@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from quadcos import training
-from quadcos.training import checkpoint, host, loop
+from quadcos.training import best_policy, checkpoint, host
 from quadcos.training import policy as policy_lib
 from tests.toy_env import CHUNK, PointEnv, toy_config
 
@@ -153,7 +153,7 @@ _STATE = types.SimpleNamespace(
 def test_best_policy_beats_earlier_rows_only(tmp_path):
     """Resumed: the rows before the resume count; a worse or equal evaluation saves nothing."""
     spec, state = _SPEC, _STATE
-    best = loop.BestPolicy(
+    best = best_policy.BestPolicy(
         tmp_path / "policy_best", spec, {"run_info": {}}, [{"step": 0, "eval/episode_reward": 5.0}]
     )
     assert not best.offer(state, {"step": 10, "eval/episode_reward": 5.0})
@@ -176,14 +176,14 @@ def test_best_policy_prefers_an_evaluation_that_does_not_fall(tmp_path):
     the reward ranks evaluations on the same side of the bound, resumed rows included."""
     path = tmp_path / "policy_best" / "policy.json"
     history = [{"step": 0, "eval/episode_reward": 9.0, "eval/fall_rate": 0.5}]
-    best = loop.BestPolicy(path.parent, _SPEC, {}, history, max_fall_rate=0.01)
+    best = best_policy.BestPolicy(path.parent, _SPEC, {}, history, max_fall_rate=0.01)
     assert not best.offer(_STATE, {"step": 10, "eval/episode_reward": 8.0, "eval/fall_rate": 0.3})
     assert best.offer(_STATE, {"step": 20, "eval/episode_reward": 3.0, "eval/fall_rate": 0.01})
     assert not best.offer(_STATE, {"step": 30, "eval/episode_reward": 9.5, "eval/fall_rate": 0.02})
     assert best.offer(_STATE, {"step": 40, "eval/episode_reward": 4.0, "eval/fall_rate": 0.0})
     assert json.loads(path.read_text())["config"]["best_of_run"]["step"] == 40
     # Without the bound (the default), the reward alone ranks them.
-    plain = loop.BestPolicy(tmp_path / "plain", _SPEC, {}, history)
+    plain = best_policy.BestPolicy(tmp_path / "plain", _SPEC, {}, history)
     assert plain.offer(_STATE, {"step": 30, "eval/episode_reward": 9.5, "eval/fall_rate": 0.02})
     assert not plain.offer(_STATE, {"step": 40, "eval/episode_reward": 4.0, "eval/fall_rate": 0.0})
 

@@ -134,6 +134,7 @@ PRESETS["any_slope"] = {
     "sac.max_seconds": 870.0,
 }
 
+
 def default_config() -> ml_collections.ConfigDict:
     """The whole run's config: {"env": env config, "sac": trainer config}."""
     config = ml_collections.ConfigDict()
@@ -191,5 +192,3 @@ def _expand_groups(overrides: dict[str, Any], known: list[str]) -> dict[str, Any
         members = [name for name in known if name.startswith(key + ".")]
         expanded |= dict.fromkeys(members, value) if members and key not in known else {key: value}
     return expanded
-
-

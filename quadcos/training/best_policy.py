@@ -1,0 +1,63 @@
+"""`policy_best/`: the policy of a run's best training-time evaluation (`keep_best_policy`)."""
+
+import math
+from pathlib import Path
+from typing import Any
+
+from quadcos.training import policy as policy_lib
+from quadcos.training import sac
+
+# The training-time evaluation metrics that rank a run's policies for `keep_best_policy`.
+_BEST_BY = "eval/episode_reward"
+_FALLS = "eval/fall_rate"
+
+
+class BestPolicy:
+    """The policy of the best training-time evaluation of a run (`keep_best_policy`).
+
+    An evaluation whose fall rate is at most `max_fall_rate` beats every one above it; among
+    evaluations on the same side, the higher episode reward wins (`max_fall_rate` 1: reward alone).
+    `offer` saves the state's policy to `directory` when its evaluation beats every earlier one of
+    the run (rows before a resume included), its step, reward and fall rate added to the saved
+    config under "best_of_run".
+    """
+
+    def __init__(
+        self,
+        directory: Path,
+        spec: policy_lib.PolicySpec,
+        run_info: dict[str, Any],
+        history: list[dict[str, Any]],
+        max_fall_rate: float = 1.0,
+    ):
+        self.directory = directory
+        self._spec = spec
+        self._run_info = run_info
+        self._max_fall_rate = max_fall_rate
+        self.rank = max((self._rank(row) for row in history if _BEST_BY in row), default=None)
+
+    @property
+    def reward(self) -> float:
+        return -math.inf if self.rank is None else self.rank[1]
+
+    def _rank(self, row: dict[str, Any]) -> tuple[bool, float]:
+        return row.get(_FALLS, 0.0) <= self._max_fall_rate, row[_BEST_BY]
+
+    def offer(self, state: sac.TrainingState, row: dict[str, Any]) -> bool:
+        """Saves the policy if `row` (its evaluation) is the best so far; True if it did."""
+        if not math.isfinite(row.get(_BEST_BY, math.nan)):
+            return False
+        rank = self._rank(row)
+        if self.rank is not None and not rank > self.rank:
+            return False
+        self.rank = rank
+        best_of_run = {
+            "step": int(row["step"]),
+            _BEST_BY: float(row[_BEST_BY]),
+            _FALLS: float(row.get(_FALLS, 0.0)),
+        }
+        config = {**self._run_info, "best_of_run": best_of_run}
+        policy_lib.save_policy(
+            self.directory, policy_lib.Policy.from_training_state(state, self._spec, config)
+        )
+        return True
