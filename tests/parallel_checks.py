@@ -48,7 +48,20 @@ def collectives(env: PointEnv) -> list[str]:
     one update, as "kind what" (what: "gradients" for a reduction of the update's gradients,
     else the JAX operation XLA's partitioner made it from)."""
     trainer = training.SACTrainer(env, toy_config(num_devices=2, steps_per_chunk=1))
-    text = trainer.train_chunk.lower(trainer.prefill(trainer.init())).compile().as_text()
+    return _collectives(trainer.train_chunk.lower(trainer.prefill(trainer.init())))
+
+
+def eval_collectives(env: PointEnv) -> list[str]:
+    """The cross-device operations of the compiled 2-device training-time evaluation."""
+    trainer = training.SACTrainer(env, toy_config(num_devices=2))
+    state = trainer.init()
+    keys = jax.random.split(jax.random.PRNGKey(0), trainer.config.num_eval_envs)
+    lowered = trainer._evaluate_compiled.lower(state.normalizer_params, state.policy_params, keys)
+    return _collectives(lowered)
+
+
+def _collectives(lowered) -> list[str]:
+    text = lowered.compile().as_text()
     found = []
     for line in text.splitlines():
         kind = re.search(r" (all-reduce|all-gather|all-to-all|collective-permute|reduce-scatter)(-start)?\(", line)
@@ -68,8 +81,9 @@ class PerDevicePointEnv(PointEnv):
 
 def devices(run_dir: pathlib.Path) -> dict:
     env = PointEnv()
-    out = {"device_count": jax.device_count(), "collectives": collectives(env)}
-    out["shardy"] = jax.config.jax_use_shardy_partitioner
+    shardy = jax.config.jax_use_shardy_partitioner  # before any trainer runs over the mesh
+    out = {"device_count": jax.device_count(), "collectives": collectives(env), "shardy": shardy}
+    out["eval_collectives"] = eval_collectives(env)
     per_device = training.train(PerDevicePointEnv(), toy_config(num_devices=2), progress=False)
     out["per_device"] = {
         "collectives": collectives(PerDevicePointEnv()),

@@ -79,6 +79,9 @@ def test_two_devices_keep_one_set_of_parameters_and_learn_as_one(runs):
     assert one["env_steps"] == two["env_steps"] == 4000
     # The same initial policy and evaluation episodes, split over the devices.
     assert two["first_eval_reward"] == pytest.approx(one["first_eval_reward"], abs=1e-4)
+    # Each device evaluates its half of the episodes; only the metrics' means cross devices.
+    evaluation = runs["devices"]["eval_collectives"]
+    assert evaluation and all(entry.startswith("all-reduce") for entry in evaluation), evaluation
     for run in (one, two):
         assert run["final_eval_reward"] > run["first_eval_reward"] + 4.0
     assert two["final_eval_reward"] == pytest.approx(one["final_eval_reward"], abs=RETURN_TOLERANCE)
@@ -106,7 +109,8 @@ def test_an_env_stepped_per_device_trains_as_the_partitioned_one(runs):
     # with no gather of the envs onto every device; the run is the partitioned one's.
     per_device, two = runs["devices"]["per_device"], runs["devices"]["d2"]
     assert per_device["obs_sharding"] == "P('devices',)"
-    # Shardy crashes XLA's GPU compiler on a shard_map of the MJX step: per-device runs use GSPMD.
+    # Shardy crashes XLA's GPU compiler on a shard_map of the MJX step: runs over a mesh (whose
+    # evaluation, and MJX-Warp's steps, run per device) partition with GSPMD.
     assert runs["devices"]["shardy"] and not per_device["shardy"]
     assert per_device["collectives"] == runs["devices"]["collectives"]
     assert per_device["final_eval_reward"] == pytest.approx(two["final_eval_reward"], abs=1e-3)

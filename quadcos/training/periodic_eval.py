@@ -25,14 +25,14 @@ class EvalTotals:
 def evaluate(
     eval_env: envs.Env,
     policy: Callable[[jax.Array], jax.Array],
-    key: jax.Array,
+    keys: jax.Array,
     *,
-    num_episodes: int,
     episode_length: int,
 ) -> Metrics:
-    """Runs `num_episodes` episodes of `policy` (batched obs → actions) on the batched
-    `eval_env` for `episode_length` steps each, from the same initial states (drawn from `key`)
-    every time. An episode is alive until the env reports done; steps after that are ignored.
+    """Runs one episode per key of `keys` of `policy` (batched obs → actions) on the batched
+    `eval_env` for `episode_length` steps each, from the initial states the keys draw (the same
+    keys, the same episodes). An episode is alive until the env reports done; steps after that
+    are ignored.
 
     Returns:
       Averages over the episodes of: `eval/episode_reward` (sum of rewards),
@@ -41,7 +41,6 @@ def evaluate(
       per-episode sum for keys starting with `reward/`, else the per-episode mean over alive
       steps.
     """
-    keys = jax.random.split(key, num_episodes)
     env_state = eval_env.reset(keys)
     zeros = jnp.zeros((keys.shape[0],))
     totals = EvalTotals(

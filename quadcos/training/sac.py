@@ -26,6 +26,7 @@ from brax.training import types
 from brax.training.acme import running_statistics, specs
 from brax.training.agents.sac import losses as sac_losses
 from brax.training.agents.sac import networks as sac_networks
+from jax.sharding import PartitionSpec
 
 from quadcos.training import curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import replay as replay_lib
@@ -208,10 +209,20 @@ class SACTrainer:
         self.train_chunk = parallel.jit(
             self._train_chunk, self.layout, self._specs, (self._specs, None), donate=True
         )
-        # On several devices every device runs all evaluation episodes (replicated parameters).
-        # The key is an argument, not a constant of the program: runs of any seed share it (and
-        # the persistent compilation cache's copy).
+        # The keys are an argument, not a constant of the program: runs of any seed share it (and
+        # the persistent compilation cache's copy). On several devices each device runs its share
+        # of the episodes (the same episodes as on one device) and the means are averaged.
         self._evaluate_compiled = jax.jit(self._evaluate)
+        if self.layout.mesh is not None:
+            replicated, split = PartitionSpec(), PartitionSpec(parallel.AXIS)
+            self._evaluate_compiled = jax.jit(
+                parallel.per_device(
+                    lambda *args: jax.lax.pmean(self._evaluate(*args), parallel.AXIS),
+                    self.layout,
+                    (replicated, replicated, split),
+                    replicated,
+                )
+            )
 
     def _batched_env(self, impl: str) -> tuple[Any, Any]:
         """The jitted reset (keys → states) and step of all training envs. On several devices
@@ -221,7 +232,7 @@ class SACTrainer:
             return jax.jit(self.env.reset), jax.jit(self.env.step)
         num_envs = self.config.num_envs
         specs = parallel.env_specs(jax.eval_shape(self.env.reset, env_keys(num_envs)), num_envs)
-        envs_axis = jax.sharding.PartitionSpec(parallel.AXIS)
+        envs_axis = PartitionSpec(parallel.AXIS)
         reset = parallel.per_device(self.env.reset, self.layout, envs_axis, specs)
         step = parallel.per_device(self.env.step, self.layout, (specs, envs_axis), specs)
         return jax.jit(reset), jax.jit(step)
@@ -423,22 +434,21 @@ class SACTrainer:
         policy_params: types.Params,
     ) -> Metrics:
         """The training-time evaluation: the same episodes (initial states) every call."""
-        return self._evaluate_compiled(normalizer_params, policy_params, self._eval_key)
+        keys = jax.random.split(self._eval_key, self.config.num_eval_envs)
+        return self._evaluate_compiled(normalizer_params, policy_params, keys)
 
     def _evaluate(
         self,
         normalizer_params: running_statistics.RunningStatisticsState,
         policy_params: types.Params,
-        key: jax.Array,
+        keys: jax.Array,
     ) -> Metrics:
         """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean) from
-        the initial states `key` draws."""
+        the initial states `keys` draw, one episode each."""
         policy = self._make_policy((normalizer_params, policy_params), deterministic=True)
-        metrics = periodic_eval.evaluate(
+        return periodic_eval.evaluate(
             self.eval_env,
-            lambda obs: policy(obs, key)[0],
-            key,
-            num_episodes=self.config.num_eval_envs,
+            lambda obs: policy(obs, keys[0])[0],  # deterministic: the key is not used
+            keys,
             episode_length=self.config.eval_episode_length,
         )
-        return metrics
