@@ -121,9 +121,10 @@ def env_specs(abstract_env_state: Any, num_envs: int) -> Any:
 
 
 def per_device(fn: Callable[..., Any], layout: Layout, in_specs: Any, out_specs: Any) -> Any:
-    """`fn` run by every device on its own slice of the envs (`jax.shard_map`).
+    """`fn` run by every device on its own slice of the envs (`jax.shard_map`): the training-time
+    evaluation's episodes, and the training envs' steps with MJX-Warp.
 
-    For MJX-Warp's physics: its step is an XLA custom call, which the SPMD partitioner cannot
+    MJX-Warp's step is an XLA custom call, which the SPMD partitioner cannot
     split, so under plain `jit` every device would gather all envs and step them whole. Inside
     `shard_map` each device's call steps its own worlds with its own Warp module and stream (Warp
     reads the device from XLA's call frame). Leaves specified replicated (Warp's shared buffers)
