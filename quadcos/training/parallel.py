@@ -5,10 +5,9 @@ functions are the one-device program, jitted (`jit`) on a training state whose e
 buffer are split along their first axis over the devices and whose networks, optimiser states
 and statistics are replicated: XLA's SPMD partitioner gives every device its slice of the envs
 to step and its ring of the buffer (`replay.ShardedReplay`) to fill and sample, and sums the
-gradients across devices, so that the parameters stay identical everywhere. (A `shard_map` of
-the MJX step crashed XLA's GPU compiler — jax 0.11.2, two H200s — while this runs:
-experiments/scaling.) MJX-Warp's step, a custom call the partitioner cannot split, is the
-exception: `per_device` runs it in a `shard_map` (tested on CPU devices; not yet on GPUs).
+gradients across devices, so that the parameters stay identical everywhere. The exceptions run
+in a `shard_map` (`per_device`): MJX-Warp's step, a custom call the partitioner cannot split, and
+the training-time evaluation, each device on its share of the episodes.
 
 `num_envs`, `batch_size`, `replay_size` and `num_eval_envs` stay global (the whole run's): each
 must divide evenly by the number of devices (`check_divisible`).
@@ -142,7 +141,7 @@ def per_device(fn: Callable[..., Any], layout: Layout, in_specs: Any, out_specs:
 def _partition_with_gspmd() -> None:
     """Turns Shardy off for the process (JAX's `jax_use_shardy_partitioner`), once, logged."""
     if jax.config.jax_use_shardy_partitioner:
-        logger.info("per-device physics: XLA partitions with GSPMD (Shardy crashes on it)")
+        logger.info("per-device programs: XLA partitions with GSPMD (Shardy crashes on them)")
         jax.config.update("jax_use_shardy_partitioner", False)
 
 

@@ -213,6 +213,7 @@ class SACTrainer:
         # the persistent compilation cache's copy). On several devices each device runs its share
         # of the episodes (the same episodes as on one device) and the means are averaged.
         self._evaluate_compiled = jax.jit(self._evaluate)
+        self._eval_keys = jax.random.split(self._eval_key, config.num_eval_envs)
         if self.layout.mesh is not None:
             replicated, split = PartitionSpec(), PartitionSpec(parallel.AXIS)
             self._evaluate_compiled = jax.jit(
@@ -434,8 +435,7 @@ class SACTrainer:
         policy_params: types.Params,
     ) -> Metrics:
         """The training-time evaluation: the same episodes (initial states) every call."""
-        keys = jax.random.split(self._eval_key, self.config.num_eval_envs)
-        return self._evaluate_compiled(normalizer_params, policy_params, keys)
+        return self._evaluate_compiled(normalizer_params, policy_params, self._eval_keys)
 
     def _evaluate(
         self,
