@@ -3,8 +3,8 @@
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal |
-#   profile | startup_and_randomized (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of
-#   MuJoCo Menagerie's robot XMLs).
+#   profile | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
+#   needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
 # and traces, status (one line per step). Copy the summaries into experiments/EXPERIMENT.
@@ -102,6 +102,40 @@ any_slope_seeds)  # --preset=any_slope as it ships, one run per seed with a time
     done
   done
   python3 experiments/any_slope/seeds.py "$OUT" --out "$OUT/seeds.json" ;;
+any_slope_gpus)  # --preset=any_slope over every GPU of the host at equal per-GPU work (4096 envs,
+  # batch 8192 and a 4 M replay a GPU; evaluations as often per GPU), against any_slope_seeds' one GPU
+  gpus=$(nvidia-smi -L | wc -l)
+  export NCCL_NVLS_ENABLE=0
+  for s in ${SEEDS:-0}; do
+    name=any_slope_${gpus}gpu_s$s
+    train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300} \
+      --num_devices=$gpus --num_envs=$((4096 * gpus)) --config.sac.batch_size=$((8192 * gpus)) \
+      --config.sac.replay_size=$((4000000 * gpus)) --config.sac.eval_interval=$((10000000 * gpus))
+    best=$OUT/runs/$name/policy_best
+    CUDA_VISIBLE_DEVICES=0 evaluate "$best" ${name}_testset2026 testset:2026 4288 40 &
+    (export CUDA_VISIBLE_DEVICES=1
+     evaluate "$best" ${name}_slope5 slope5 1024 40; evaluate "$best" ${name}_s4 s4 1024 30
+     evaluate "$best" ${name}_flat flat 1024 20)
+    wait
+  done ;;
+any_slope_lever)  # --preset=any_slope with LEVER_FLAGS on top, run LEVER: one GPU, held-out courses
+  for s in ${SEEDS:-0}; do
+    name=${LEVER:?name the lever}_s$s
+    # shellcheck disable=SC2086  # LEVER_FLAGS: several flags
+    train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300} \
+      ${LEVER_FLAGS:?flags}
+    evaluate "$OUT/runs/$name/policy_best" ${name}_testset2026 testset:2026 4288 40
+  done ;;
+robust_scratch)  # a flat policy from nothing (--preset=scratch) trained with randomisation and
+  # observation noise, then measured under the robustness conditions
+  name=robust_scratch_s${SEEDS:-0}
+  train $((${ROBUST_S:-300} + 60)) $name --preset=scratch --terrain=flat --seed=${SEEDS:-0} \
+    --max_seconds=${ROBUST_S:-300} --config.env.randomization.enabled=True \
+    --config.env.randomization.obs_noise=0.02
+  python3 experiments/robustness/measure.py --policy="$OUT/runs/$name/policy_best" --num_envs=1024 \
+    --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" "friction 0.4" \
+    --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
+  note "measured $name: exit $? $(tail -n 6 "$OUT/$name.log" | tr '\n' ' ')" ;;
 robustness)  # trained with domain randomisation vs without, under fixed perturbations
   train 330 flat_randomized_s0 --terrain=flat --seed=0 --config.env.impl=jax \
     --config.env.randomization.enabled=True
@@ -243,8 +277,10 @@ anymal)  # ANYmal C from nothing alone, with the current preset and gait search
     --terrain=flat --episodes=64 --out="$OUT/sim2sim_${name}_flat.json" \
     > "$OUT/sim2sim_${name}_flat.log" 2>&1 &
   evaluate "$OUT/runs/$name/policy_best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json"
-  evaluate "$OUT/runs/$name/policy_best" ${name}_slope5 slope5 1024 40
-  evaluate "$OUT/runs/$name/policy_best" ${name}_s4 s4 1024 30
+  if [ "${ANYMAL_SLOPES:-1}" = 1 ]; then  # the flat policy on the slope courses
+    evaluate "$OUT/runs/$name/policy_best" ${name}_slope5 slope5 1024 40
+    evaluate "$OUT/runs/$name/policy_best" ${name}_s4 s4 1024 30
+  fi
   wait ;;
 profile)  # where the 1- and 8-update training rows' time goes (flat and slope5, Warp, 4096 envs)
   for terrain in flat slope5; do
