@@ -128,10 +128,10 @@ any_slope_lever)  # --preset=any_slope with LEVER_FLAGS on top, run LEVER: one G
   done ;;
 robust_scratch)  # a flat policy from nothing (--preset=scratch) trained with randomisation and
   # observation noise, then measured under the robustness conditions
-  name=robust_scratch_s${SEEDS:-0}
+  name=robust_scratch${ROBUST_NAME:-}_s${SEEDS:-0}
   train $((${ROBUST_S:-300} + 60)) $name --preset=scratch --terrain=flat --seed=${SEEDS:-0} \
     --max_seconds=${ROBUST_S:-300} --config.env.randomization.enabled=True \
-    --config.env.randomization.obs_noise=0.02
+    --config.env.randomization.obs_noise=0.02 ${ROBUST_FLAGS:-}
   python3 experiments/robustness/measure.py --policy="$OUT/runs/$name/policy_best" --num_envs=1024 \
     --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" "friction 0.4" \
     --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1

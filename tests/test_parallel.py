@@ -229,6 +229,7 @@ def test_scale_out_flags_are_checked_in_one_line(args, message, tmp_path, capsys
     [
         ("h200x2", ("flat_1dev", "flat_2dev", "slope5_1dev", "slope5_2dev")),
         ("h100x2", ("flat_1dev", "flat_2dev", "slope5_1dev")),
+        ("h200x2_warp", ("flat_1dev", "flat_2dev", "slope5_1dev", "slope5_2dev")),
     ],
 )
 def test_committed_two_gpu_table_is_what_its_runs_measured(device, names):
@@ -250,3 +251,20 @@ def test_committed_two_gpu_table_is_what_its_runs_measured(device, names):
         assert two["envs_per_device"] == one["envs_per_device"] == 4096
         assert two["speedup"] == pytest.approx(two["env_steps_per_s"] / one["env_steps_per_s"])
     assert scaling.table(rows) == (directory / "table.md").read_text().strip()
+
+
+def test_a_two_gpu_row_is_compared_with_the_one_gpu_row_of_its_own_physics():
+    from quadcos.benchmarking import scaling
+
+    def run(impl, devices, rate):
+        row = {"num_envs": 4096 * devices, "batch_size": 8192 * devices, "updates_per_step": 1}
+        return {
+            "terrain": "flat",
+            "impl": impl,
+            "settings": {"num_devices": devices},
+            "train": [{**row, "quadcos_env_steps_per_s": rate}],
+        }
+
+    runs = [run("jax", 1, 100.0), run("warp", 1, 400.0), run("jax", 2, 180.0), run("warp", 2, 760.0)]
+    speedups = {(row["impl"], row["num_devices"]): row["speedup"] for row in scaling.scaling_rows(runs)}
+    assert speedups == {("jax", 1): 1.0, ("jax", 2): 1.8, ("warp", 1): 1.0, ("warp", 2): 1.9}

@@ -57,13 +57,21 @@ def test_a_config_from_a_newer_quadcos_is_refused():
         runs.migrate({"config": {}})
 
 
-def test_the_committed_any_slope_seeds_are_what_their_runs_and_evaluations_say(tmp_path):
-    out = tmp_path / "seeds.json"
+@pytest.mark.parametrize(
+    ("name", "runs", "seeds"),
+    [("seeds", None, [0, 1, 2]), ("levers", ".*", [0, 0, 0])],
+)
+def test_the_committed_any_slope_tables_are_what_their_runs_and_evaluations_say(
+    name, runs, seeds, tmp_path
+):
+    out = tmp_path / f"{name}.json"
     script = ROOT / "experiments" / "any_slope" / "seeds.py"
-    folder = ROOT / "experiments" / "any_slope" / "seeds"
-    subprocess.run([sys.executable, str(script), str(folder), "--out", str(out)], check=True)
-    committed = json.loads((ROOT / "experiments" / "any_slope" / "seeds.json").read_text())
+    folder = ROOT / "experiments" / "any_slope" / name
+    pattern = ["--runs", runs] if runs else []
+    subprocess.run([sys.executable, str(script), str(folder), "--out", str(out), *pattern], check=True)
+    committed = json.loads((ROOT / "experiments" / "any_slope" / f"{name}.json").read_text())
     assert json.loads(out.read_text()) == committed
-    assert [row["seed"] for row in committed] == [0, 1, 2]
+    assert [row["seed"] for row in committed] == seeds
     for row in committed:  # each kept policy is the one of a run's own evaluation
         assert row["env_steps"] <= row["last_env_steps"] and row["train_seconds"] > 0
+        assert row["command"].startswith("python -m quadcos.train --preset=any_slope --seed=")

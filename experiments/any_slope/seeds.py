@@ -1,12 +1,14 @@
 """seeds.json from the `any_slope_seeds` runs: one row per seed of `--preset=any_slope`.
 
-    python experiments/any_slope/seeds.py DIR --out experiments/any_slope/seeds.json
+    python experiments/any_slope/seeds.py DIR --out experiments/any_slope/seeds.json [--runs REGEX]
 
-DIR holds what `bash experiments/run_gpu.sh any_slope_seeds` wrote: runs/any_slope_sN/
-(config.json, metrics.jsonl) and eval_any_slope_sN_{testset2026,testset2027,testset4242,slope5,s4,
-flat}.json. `train_seconds` is the process's wall time at the evaluation whose policy
-`policy_best` keeps (the best evaluation reward), which is when that policy was written.
-Prints the rows as a Markdown table.
+DIR holds what `bash experiments/run_gpu.sh any_slope_seeds` (or `any_slope_lever`,
+`any_slope_gpus`) wrote: runs/NAME/ (config.json, metrics.jsonl) and eval_NAME_{testset2026,
+testset2027,testset4242,slope5,s4,flat}.json, for the run names REGEX matches (default
+`any_slope_s\d+`); evaluations not there are null. `train_seconds` is the process's wall time at
+the evaluation whose policy `policy_best` keeps (the trainer's rule: `best_policy_max_fall_rate`,
+then the evaluation reward), which is when that policy was written; `command` is the run's own
+command line. Prints the rows as a Markdown table.
 """
 
 import argparse
@@ -14,21 +16,34 @@ import json
 import math
 import pathlib
 import re
+import shlex
 import sys
-
-_COMMAND = "python -m quadcos.train --preset=any_slope --seed={seed} --max_seconds={budget:g}"
 
 
 def _read(path: pathlib.Path) -> dict | None:
     return json.loads(path.read_text()) if path.exists() else None
 
 
-def _kept(metrics: list[dict]) -> dict:
-    """The evaluation row whose policy `policy_best` holds: the first with the highest reward."""
+def _kept(metrics: list[dict], max_fall_rate: float) -> dict:
+    """The evaluation row whose policy `policy_best` holds (quadcos.training.best_policy): the
+    first of the highest rank, an evaluation with at most `max_fall_rate` falls ranking above any
+    with more, then by reward."""
     rows = [row for row in metrics if row.get("eval/episode_reward") is not None]
-    rewards = [row["eval/episode_reward"] for row in rows]
-    finite = [(reward, -index) for index, reward in enumerate(rewards) if math.isfinite(reward)]
-    return rows[-max(finite)[1]]
+    ranks = [
+        (row.get("eval/fall_rate", 0.0) <= max_fall_rate, row["eval/episode_reward"], -index)
+        for index, row in enumerate(rows)
+        if math.isfinite(row["eval/episode_reward"])
+    ]
+    return rows[-max(ranks)[2]]
+
+
+def _command(argv: list[str]) -> str:
+    """The training command of a run from its recorded argv: the last preset and the flags after
+    it, without the output folder and the progress flag."""
+    presets = [index for index, arg in enumerate(argv) if arg.startswith("--preset=")]
+    flags = argv[presets[-1] :] if presets else argv
+    kept = [arg for arg in flags if not arg.startswith(("--output_dir=", "--no_progress"))]
+    return " ".join(["python -m quadcos.train", *map(shlex.quote, kept)])
 
 
 def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
@@ -37,7 +52,7 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
     metrics = [
         json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line
     ]
-    kept = _kept(metrics)
+    kept = _kept(metrics, config["config"].get("best_policy_max_fall_rate", 1.0))
     evals = {
         key: _read(folder / f"eval_{name}_{key}.json")
         for key in ("testset2026", "testset2027", "testset4242", "slope5", "s4", "flat")
@@ -52,6 +67,7 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
     flat = evals["flat"]
     seed = int(config["config"]["seed"])
     return {
+        "run": name,
         "seed": seed,
         "train_seconds": round(kept["wall_time_s"], 1),
         "env_steps": int(kept["step"]),
@@ -71,7 +87,7 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
         and max(
             flat["mean_max_abs_pitch_error"], flat["mean_max_abs_roll"], flat["mean_max_abs_yaw"]
         ),
-        "command": _COMMAND.format(seed=seed, budget=config["config"]["max_seconds"]),
+        "command": _command(config["run_info"]["argv"]),
     }
 
 
@@ -85,17 +101,14 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("folder", type=pathlib.Path)
     parser.add_argument("--out", type=pathlib.Path, required=True)
+    parser.add_argument("--runs", default=r"any_slope_s\d+", help="regex of the run names")
     args = parser.parse_args(argv)
     runs = sorted(
-        (
-            run
-            for run in (args.folder / "runs").glob("any_slope_s*")
-            if re.fullmatch(r"any_slope_s\d+", run.name)
-        ),
-        key=lambda run: int(run.name.rsplit("s", 1)[1]),
+        (run for run in (args.folder / "runs").glob("*") if re.fullmatch(args.runs, run.name)),
+        key=lambda run: run.name,
     )
     if not runs:
-        print(f"seeds.py: no runs/any_slope_sN in {args.folder}", file=sys.stderr)
+        print(f"seeds.py: no runs/ matching {args.runs!r} in {args.folder}", file=sys.stderr)
         return 2
     rows = [seed_row(args.folder, run) for run in runs]
     args.out.write_text(json.dumps(rows, indent=2) + "\n")

@@ -22,7 +22,7 @@ _PROG = "quadcos.benchmarking.scaling"
 
 def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """One row per (terrain, device count, train row) of the runs, with the speedup over the
-    one-device row of the same terrain and per-device envs, batch and updates."""
+    one-device row of the same terrain, physics and per-device envs, batch and updates."""
     rows = []
     for run in runs:
         devices = int(run["settings"]["num_devices"])
@@ -51,7 +51,7 @@ def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     for row in rows:
         same = lambda other: all(  # noqa: E731
             other[key] == row[key]
-            for key in ("terrain", "envs_per_device", "batch_per_device", "updates_per_step")
+            for key in ("terrain", "impl", "envs_per_device", "batch_per_device", "updates_per_step")
         )
         base = next((other for other in rows if other["num_devices"] == 1 and same(other)), None)
         rate, base_rate = row["env_steps_per_s"], base and base["env_steps_per_s"]
