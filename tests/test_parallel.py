@@ -266,5 +266,6 @@ def test_a_two_gpu_row_is_compared_with_the_one_gpu_row_of_its_own_physics():
         }
 
     runs = [run("jax", 1, 100.0), run("warp", 1, 400.0), run("jax", 2, 180.0), run("warp", 2, 760.0)]
-    speedups = {(row["impl"], row["num_devices"]): row["speedup"] for row in scaling.scaling_rows(runs)}
+    rows = scaling.scaling_rows(runs)
+    speedups = {(row["impl"], row["num_devices"]): row["speedup"] for row in rows}
     assert speedups == {("jax", 1): 1.0, ("jax", 2): 1.8, ("warp", 1): 1.0, ("warp", 2): 1.9}

@@ -68,7 +68,8 @@ def test_the_committed_any_slope_tables_are_what_their_runs_and_evaluations_say(
     script = ROOT / "experiments" / "any_slope" / "seeds.py"
     folder = ROOT / "experiments" / "any_slope" / name
     pattern = ["--runs", runs] if runs else []
-    subprocess.run([sys.executable, str(script), str(folder), "--out", str(out), *pattern], check=True)
+    command = [sys.executable, str(script), str(folder), "--out", str(out), *pattern]
+    subprocess.run(command, check=True)
     committed = json.loads((ROOT / "experiments" / "any_slope" / f"{name}.json").read_text())
     assert json.loads(out.read_text()) == committed
     assert [row["seed"] for row in committed] == seeds

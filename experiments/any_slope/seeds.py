@@ -1,4 +1,4 @@
-"""seeds.json from the `any_slope_seeds` runs: one row per seed of `--preset=any_slope`.
+r"""seeds.json from the `any_slope_seeds` runs: one row per seed of `--preset=any_slope`.
 
     python experiments/any_slope/seeds.py DIR --out experiments/any_slope/seeds.json [--runs REGEX]
 

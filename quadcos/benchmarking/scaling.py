@@ -18,6 +18,8 @@ from typing import Any
 from quadcos._util import cli, files
 
 _PROG = "quadcos.benchmarking.scaling"
+# What a row on N devices shares with the one-device row it is compared with.
+_SAME_WORK = ("terrain", "impl", "envs_per_device", "batch_per_device", "updates_per_step")
 
 
 def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -51,7 +53,7 @@ def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     for row in rows:
         same = lambda other: all(  # noqa: E731
             other[key] == row[key]
-            for key in ("terrain", "impl", "envs_per_device", "batch_per_device", "updates_per_step")
+            for key in _SAME_WORK
         )
         base = next((other for other in rows if other["num_devices"] == 1 and same(other)), None)
         rate, base_rate = row["env_steps_per_s"], base and base["env_steps_per_s"]
