@@ -265,7 +265,7 @@ def test_a_two_gpu_row_is_compared_with_the_one_gpu_row_of_its_own_physics():
             "train": [{**row, "quadcos_env_steps_per_s": rate}],
         }
 
-    runs = [run("jax", 1, 100.0), run("warp", 1, 400.0), run("jax", 2, 180.0), run("warp", 2, 760.0)]
-    rows = scaling.scaling_rows(runs)
+    rates = {("jax", 1): 100.0, ("warp", 1): 400.0, ("jax", 2): 180.0, ("warp", 2): 760.0}
+    rows = scaling.scaling_rows([run(impl, n, rate) for (impl, n), rate in rates.items()])
     speedups = {(row["impl"], row["num_devices"]): row["speedup"] for row in rows}
     assert speedups == {("jax", 1): 1.0, ("jax", 2): 1.8, ("warp", 1): 1.0, ("warp", 2): 1.9}
