@@ -1,6 +1,9 @@
 """`quadcos.benchmarking.profile`: a jax.profiler trace summed per timeline, name and kind."""
 
 import gzip
+import pathlib
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -56,3 +59,18 @@ def test_a_folder_without_a_trace_is_refused_in_one_line(tmp_path, capsys):
     assert profile.main([str(tmp_path / "bad.json.gz")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not a readable trace" in err[0]
+
+
+def test_the_committed_per_step_table_is_what_the_gpu_profiles_say():
+    root = pathlib.Path(__file__).resolve().parents[1]
+    folder = root / "benchmarks" / "h100" / "profile"
+    script = [sys.executable, str(folder / "per_step.py"), str(folder)]
+    table = subprocess.run(script, capture_output=True, text=True, check=True).stdout
+    assert table == (folder / "per_step.md").read_text()
+    assert table.strip() in (root / "docs" / "benchmarks.md").read_text()
+    rows = [line.split(" | ") for line in table.splitlines()[2:]]
+    assert len(rows) == 4
+    for cells in rows:  # idle is what the GPU's busy time leaves of a step; the kinds cover it
+        wall, physics, fusions, matmuls, copies, idle = (float(c.strip(" |")) for c in cells[3:])
+        assert 0 < idle < wall
+        assert physics + fusions + matmuls + copies >= 0.99 * (wall - idle)

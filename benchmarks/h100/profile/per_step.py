@@ -1,0 +1,56 @@
+"""The per-env-step table of docs/benchmarks.md ("Where the time goes") from this folder's files.
+
+    python benchmarks/h100/profile/per_step.py benchmarks/h100/profile > per_step.md
+
+Reads `bench_warp_{flat,slope5}_profiled.json` (rates) and `profile_{terrain}_{row}.md` (the
+output of `python -m quadcos.benchmarking.profile`: the trace's span, the GPU stream's busy time by
+kind). The traced chunks hold span × rate / envs env steps; each kind's seconds over that count is
+its time per env step; idle = wall − busy (the stream's merged busy intervals; kinds that overlap,
+such as a copy beside a kernel, can sum to more than busy).
+"""
+
+import json
+import pathlib
+import re
+import sys
+
+KINDS = ("warp (physics)", "fusion", "matmul", "copy")
+
+
+def gpu_stream(text: str) -> dict[str, float]:
+    """Busy seconds of the GPU stream's timeline, by kind and in all ("busy"), and the span."""
+    span = float(re.search(r"trace span ([\d.]+) s", text).group(1))
+    busy = float(re.search(r"^\| /device:GPU:0 \| [^|]+\| \d+ \| ([\d.]+) \|", text, re.M).group(1))
+    section = text[text.index("**/device:GPU:0") :]
+    section = section[: section.find("\n**", 1) if "\n**" in section[1:] else len(section)]
+    found = re.findall(r"^\| kind: ([^|]+?) \| ([\d.]+) \|", section, re.M)
+    kinds = {kind: float(seconds) for kind, seconds in found}
+    return {"span": span, "busy": busy, **kinds}
+
+
+def main(folder: pathlib.Path) -> None:
+    print(
+        "| row (MJX-Warp, 4096 envs, batch 8192) | env-steps/s | / raw physics | wall ms"
+        " | Warp physics kernels | XLA fusions | matmuls | copies | GPU idle |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for terrain in ("flat", "slope5"):
+        bench = json.loads((folder / f"bench_warp_{terrain}_profiled.json").read_text())
+        for row in bench["train"]:
+            envs, batch, updates = row["num_envs"], row["batch_size"], row["updates_per_step"]
+            rate = row["quadcos_env_steps_per_s"]
+            text = (folder / f"profile_{terrain}_{envs}x{batch}x{updates}.md").read_text()
+            stream = gpu_stream(text)
+            steps = stream["span"] * rate / envs
+            per_step = {key: 1e3 * value / steps for key, value in stream.items()}
+            wall = 1e3 * envs / rate
+            cells = [f"{per_step.get(kind, 0.0):.2f}" for kind in KINDS]
+            print(
+                f"| {terrain}, {updates} update{'s' * (updates > 1)} | {rate / 1e3:.0f} k"
+                f" | {rate / row['physics_env_steps_per_s']:.2f} | {wall:.2f} | {' | '.join(cells)}"
+                f" | {wall - per_step['busy']:.2f} |"
+            )
+
+
+if __name__ == "__main__":
+    main(pathlib.Path(sys.argv[1]))
