@@ -1,6 +1,8 @@
 """Lane terrains (courses side by side), the random course family, the held-out test set, the
 course curriculum and per-course evaluation."""
 
+import re
+
 import flax.struct
 import jax
 import jax.numpy as jnp
@@ -133,6 +135,26 @@ def test_next_level_moves_up_on_success_and_down_on_failure():
         jnp.zeros(4000), jax.random.PRNGKey(1), 4, 4.0,
     )
     assert set(np.unique(tops)) == {0, 1, 2, 3}
+    # promote_lanes: a success climbs that many lanes, a failure still goes down one
+    faster = curriculum.next_level(level, fell, crossed, walked, jax.random.PRNGKey(0), 8, 4.0, 3)
+    np.testing.assert_array_equal(faster, [0, 1, 5, 5, 2, 2, 6])
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("promote_lanes", 0, "promote_lanes must be a whole number >= 1, got 0"),
+        ("start_fraction", 0.0, "start_fraction must be in (0, 1]"),
+        ("promote_m", -1.0, "promote_m finite and > 0"),
+    ],
+)
+def test_a_bad_curriculum_value_is_named(key, value, message):
+    from quadcos.training import checks
+
+    config = training_config.default_config()
+    config.curriculum[key] = value
+    with pytest.raises(checks.ConfigError, match=re.escape(message)):
+        checks.check_config(config)
 
 
 @flax.struct.dataclass

@@ -52,7 +52,9 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
     metrics = [
         json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line
     ]
-    kept = _kept(metrics, config["config"].get("best_policy_max_fall_rate", 1.0))
+    sac = config["config"]
+    kept = _kept(metrics, sac.get("best_policy_max_fall_rate", 1.0))
+    levels = [row["train/course_level"] for row in metrics if "train/course_level" in row]
     evals = {
         key: _read(folder / f"eval_{name}_{key}.json")
         for key in ("testset2026", "testset2027", "testset4242", "slope5", "s4", "flat")
@@ -65,13 +67,19 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
         return evals[key] and evals[key][field]
 
     flat = evals["flat"]
-    seed = int(config["config"]["seed"])
+    seed = int(sac["seed"])
     return {
         "run": name,
         "seed": seed,
         "train_seconds": round(kept["wall_time_s"], 1),
         "env_steps": int(kept["step"]),
         "last_env_steps": int(metrics[-1]["step"]),
+        # The course curriculum's mean lane at the end (of 64, in order of slope) and the episodes
+        # each env ran: a lane is climbed at most once per episode.
+        "course_level": round(levels[-1], 1) if levels else None,
+        "episodes_per_env": round(
+            metrics[-1]["step"] / (sac["num_envs"] * sac["episode_length"]), 1
+        ),
         "testset2026_mean": testset("testset2026", "mean_course_success_rate"),
         "testset2026_worst": testset("testset2026", "worst_course_success_rate"),
         "testset2026_worst_course": testset("testset2026", "worst_course"),

@@ -59,6 +59,17 @@ def check_config(config: ml_collections.ConfigDict) -> None:
             raise ValueError(
                 f"config.gait_search.seconds must be finite and > 0, got {search.seconds}"
             )
+        lessons = config.curriculum
+        if not (isinstance(lessons.promote_lanes, int) and lessons.promote_lanes >= 1):
+            raise ValueError(
+                "config.curriculum.promote_lanes must be a whole number >= 1, got"
+                f" {lessons.promote_lanes}"
+            )
+        if not (0 < lessons.start_fraction <= 1 and 0 < lessons.promote_m < math.inf):
+            raise ValueError(
+                "config.curriculum.start_fraction must be in (0, 1] and promote_m finite and > 0,"
+                f" got {lessons.start_fraction} and {lessons.promote_m}"
+            )
         if not -(2**63) <= config.seed < 2**63:
             raise ValueError(f"config.seed must fit in 64 bits, got {config.seed}")
         if not (0 <= config.discount <= 1 and 0 < config.tau <= 1):

@@ -101,12 +101,14 @@ def default_config() -> ml_collections.ConfigDict:
 
     # --- Course curriculum (only on lane terrains: quadcos.courses) -------------------
     # Each env runs on the lane of its level (a random: family's lanes are in order of slope):
-    # up a lane after an episode without a fall that crossed its course or walked promote_m m,
-    # down after a fall or a time-out short of promote_m / 2 m (quadcos.training.curriculum).
-    # Envs start on the lowest start_fraction of the lanes. enabled=False: each env keeps the
-    # lane and spawn point of its first reset (Brax's auto-reset).
+    # up promote_lanes lanes after an episode without a fall that crossed its course or walked
+    # promote_m m, down one after a fall or a time-out short of promote_m / 2 m
+    # (quadcos.training.curriculum). A lane is climbed at most once an episode, so the pace is
+    # episodes per env: 300 s of --preset=any_slope reach lane 25-34 of 64. Envs start on the
+    # lowest start_fraction of the lanes. enabled=False: each env keeps the lane and spawn point
+    # of its first reset (Brax's auto-reset).
     config.curriculum = ml_collections.ConfigDict(
-        dict(enabled=True, start_fraction=0.25, promote_m=4.0)
+        dict(enabled=True, start_fraction=0.25, promote_m=4.0, promote_lanes=1)
     )
 
     # --- Host loop -------------------------------------------------------------

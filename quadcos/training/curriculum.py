@@ -6,8 +6,9 @@ would stay on one lane (and one spawn point) for the whole run. `CourseCurriculu
 on lane terrains: each env keeps a level, the lane it runs on (the lanes of a `random:` family are
 in order of slope), and an env whose episode ends restarts on the lane its new level names:
 
-- up one lane when the episode ended without a fall, having crossed its course or walked
-  `promote_m` m; from the top lane to a lane drawn uniformly (so no lane is forgotten);
+- up `promote_lanes` lanes (default one) when the episode ended without a fall, having crossed its
+  course or walked `promote_m` m; past the top lane to a lane drawn uniformly (so no lane is
+  forgotten);
 - down one lane when it fell, or timed out having walked less than promote_m / 2 m;
 - otherwise on the same lane, at a new spawn point.
 
@@ -44,6 +45,7 @@ def next_level(
     key: jax.Array,
     num_levels: int,
     promote_m: float,
+    promote_lanes: int = 1,
 ) -> jax.Array:
     """The level (lane) of an env's next episode after one that ended (see the module doc).
 
@@ -55,10 +57,11 @@ def next_level(
       key: PRNG key for the lanes of envs that leave the top lane.
       num_levels: number of lanes.
       promote_m: m walked that count as success where the course was not crossed.
+      promote_lanes: lanes climbed after a success.
     """
     up = ~fell & (crossed | (walked >= promote_m))
     down = fell | (~up & (walked < promote_m / 2))
-    level = jnp.where(up, level + 1, jnp.where(down, level - 1, level))
+    level = jnp.where(up, level + promote_lanes, jnp.where(down, level - 1, level))
     anywhere = jax.random.randint(key, level.shape, 0, num_levels, dtype=level.dtype)
     return jnp.clip(jnp.where(level >= num_levels, anywhere, level), 0, num_levels - 1)
 
@@ -77,6 +80,7 @@ class CourseCurriculum(envs.Wrapper):
         self._num_levels = lane_env.terrain.num_lanes
         self._lane_end_x = jnp.asarray(lane_env.terrain.lane_end_x, jnp.float32)
         self._promote_m = float(config.promote_m)
+        self._promote_lanes = int(config.promote_lanes)
         self._start_levels = max(1, round(config.start_fraction * self._num_levels))
 
     def reset(self, rng: jax.Array) -> envs.State:
@@ -104,6 +108,7 @@ class CourseCurriculum(envs.Wrapper):
             key=keys[0, 0],
             num_levels=self._num_levels,
             promote_m=self._promote_m,
+            promote_lanes=self._promote_lanes,
         )
         level = jnp.where(done, new_level, level)
         # A reset costs about an MJX step: skip it in the steps where no episode ended.
