@@ -66,3 +66,39 @@ def test_survival_min_speed_is_validated():
     config.survival_min_speed = float("nan")
     with pytest.raises(ValueError, match="survival_min_speed"):
         env_lib.validate_config(ml_collections.ConfigDict(config))
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("warp.graph_mode", "graphs", "unknown warp.graph_mode 'graphs'; known: auto, warp,"),
+        ("substep_unroll", 0, "substep_unroll must be a whole number >= 1; got 0"),
+    ],
+)
+def test_bad_loop_and_graph_settings_are_named(key, value, message):
+    config = env_lib.default_config()
+    *parents, leaf = key.split(".")
+    (config[parents[0]] if parents else config)[leaf] = value
+    with pytest.raises(ValueError, match=message):
+        env_lib.validate_config(config)
+
+
+@pytest.mark.slow
+def test_unrolled_substeps_step_the_robots_as_the_loop_does():
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    looped = env_lib.make_env("flat", impl="jax", control_dt=0.01)  # 2 physics steps
+    unrolled = env_lib.make_env("flat", impl="jax", control_dt=0.01, substep_unroll=2)
+    state = jax.jit(looped.reset)(jax.random.PRNGKey(0))
+    action = jnp.full(looped.action_size, 0.3)
+    one, other = jax.jit(looped.step)(state, action), jax.jit(unrolled.step)(state, action)
+    np.testing.assert_allclose(one.pipeline_state.qpos, other.pipeline_state.qpos, atol=1e-6)
+    assert float(one.reward) == pytest.approx(float(other.reward), abs=1e-4)
+    # the substep loop is the one while loop that unrolling removes (MJX's own loops remain)
+    loops = [
+        jax.jit(env.step).lower(state, action).as_text().count("stablehlo.while")
+        for env in (looped, unrolled)
+    ]
+    assert loops[0] == loops[1] + 1

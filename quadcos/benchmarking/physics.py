@@ -21,12 +21,18 @@ def make_batch_reset(env: base.Env) -> Callable[[int], base.State]:
 
 def measure_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: int) -> Timing:
     """Raw `mjx.step` of `env.model` over the batch `states.pipeline_state`; one call =
-    `env.substeps` physics steps (an env step's worth)."""
+    `env.substeps` physics steps (an env step's worth), looped as the env loops them
+    (`substep_unroll`)."""
     step_all = jax.vmap(mjx.step, in_axes=(None, 0))
+    unroll = min(env.config.substep_unroll, env.substeps)
 
     def env_step_of_physics(data: mjx.Data) -> mjx.Data:
         data, _ = jax.lax.scan(
-            lambda data, _: (step_all(env.model, data), None), data, None, length=env.substeps
+            lambda data, _: (step_all(env.model, data), None),
+            data,
+            None,
+            length=env.substeps,
+            unroll=unroll,
         )
         return data
 

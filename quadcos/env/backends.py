@@ -101,16 +101,28 @@ def default_warp_config() -> ml_collections.ConfigDict:
     config.max_envs = 16384  # the largest batch stepped at once; the trainer raises it as needed
     config.contacts_per_env = 8
     config.constraints_per_env = 0  # 0: what the robot can need (constraint_rows)
+    # CUDA graph capture of MJX-Warp's calls (warp.JaxCallableGraphMode): "auto" is MJX's choice
+    # (Warp captures and replays a graph per call on a GPU), or one of GRAPH_MODES by name.
+    config.graph_mode = "auto"
     return config
 
 
-def put_model(mj_model, impl: str) -> mjx.Model:
-    """The device model for a resolved `impl`. With Warp, the per-step console warning that the
-    solver reached its iteration limit is off: our MJCF sets few iterations on purpose, and the
-    JAX physics stops there silently too. Buffer overflows (dropped contacts) still warn."""
-    model = mjx.put_model(mj_model, impl=impl)
+GRAPH_MODES = ("auto", "warp", "warp_staged", "jax", "none")
+
+
+def put_model(mj_model, impl: str, graph_mode: str = "auto") -> mjx.Model:
+    """The device model for a resolved `impl` (with Warp, captured in CUDA graphs as `graph_mode`
+    says). With Warp, the per-step console warning that the solver reached its iteration limit is
+    off: our MJCF sets few iterations on purpose, and the JAX physics stops there silently too.
+    Buffer overflows (dropped contacts) still warn."""
     if impl != "warp":
-        return model
+        return mjx.put_model(mj_model, impl=impl)
+    mode = None
+    if graph_mode != "auto":
+        import warp  # noqa: PLC0415 — installed wherever impl is warp
+
+        mode = warp.JaxCallableGraphMode[graph_mode.upper()]
+    model = mjx.put_model(mj_model, impl=impl, graph_mode=mode)
     from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType  # noqa: PLC0415
 
     option = model.opt._impl  # noqa: SLF001 — Warp's own options live there

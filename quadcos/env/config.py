@@ -34,6 +34,9 @@ def default_config() -> ml_collections.ConfigDict:
     # s: MJX step; control_dt must be a multiple. 0 = the robot's (quadcos.robot.presets: the
     # paper's robot 0.005 s, 200 Hz).
     config.physics_dt = 0.0
+    # jax.lax.scan's unroll factor of the physics steps in a control step: 1 runs them as a loop
+    # (XLA's while loop on a GPU), control_dt / physics_dt as straight-line code.
+    config.substep_unroll = 1
     config.solver_iterations = 0  # 0 = the robot's preset's, else the MJCF's
     config.ls_iterations = 0  # 0 = the robot's preset's, else the MJCF's
     config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
@@ -135,6 +138,13 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
             "warp.max_envs × warp.contacts_per_env must be < 2**31; got"
             f" {config.warp.max_envs} × {config.warp.contacts_per_env}"
         )
+    if config.warp.graph_mode not in backends.GRAPH_MODES:
+        raise ValueError(
+            f"unknown warp.graph_mode {config.warp.graph_mode!r};"
+            f" known: {', '.join(backends.GRAPH_MODES)}"
+        )
+    if not (isinstance(config.substep_unroll, int) and config.substep_unroll >= 1):
+        raise ValueError(f"substep_unroll must be a whole number >= 1; got {config.substep_unroll!r}")
     if config.controller not in CONTROLLERS:
         raise ValueError(
             f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}"

@@ -83,7 +83,7 @@ class QuadrupedEnv(base.Env):
         )
         self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)
-        self.model = backends.put_model(self.mj_model, self.impl)
+        self.model = backends.put_model(self.mj_model, self.impl, config.warp.graph_mode)
         self.substeps = round(config.control_dt / config.physics_dt)
         tau = config.survival_speed_tau
         self._speed_blend = 1.0 - math.exp(-self.dt / tau) if tau > 0 else 1.0
@@ -328,7 +328,10 @@ class QuadrupedEnv(base.Env):
             return (data, oscillator.advance_phase(phase, period, dt), command), period
 
         (data, phase, command), periods = jax.lax.scan(
-            substep, (data, phase, command), jnp.arange(self.substeps)
+            substep,
+            (data, phase, command),
+            jnp.arange(self.substeps),
+            unroll=min(self.config.substep_unroll, self.substeps),
         )
         if self.config.oscillator_form == "literal":
             phase = jnp.mod(oscillator.TWO_PI * data.time / periods[-1], oscillator.TWO_PI)
