@@ -3,7 +3,7 @@
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal |
-#   profile | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
+#   profile | launch_levers | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
 #   needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
@@ -293,6 +293,15 @@ profile)  # where the 1- and 8-update training rows' time goes (flat and slope5,
       python3 -m quadcos.benchmarking.profile "/tmp/quadcos_profile/$terrain/$row" --top 25 \
         > "$OUT/profile_${terrain}_$row.md" 2>&1
     done
+  done ;;
+launch_levers)  # the physics launch settings against the training rate (flat, Warp, 4096 envs, 1
+  # update per env step): env_steps_per_s of short runs, one per setting
+  for lever in default "--config.env.substep_unroll=10" "--config.env.warp.graph_mode=jax" \
+      "--config.env.warp.graph_mode=warp_staged" "--config.env.warp.graph_mode=none"; do
+    name=launch_${lever//[^a-z0-9_]/_}
+    flags=(); [ "$lever" = default ] || flags=("$lever")
+    train 150 "$name" --terrain=flat --seed=0 --num_timesteps=6000000 \
+      --config.sac.updates_per_step=1 --config.sac.eval_interval=3000000 "${flags[@]}"
   done ;;
 startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
   # with and without domain randomisation, flat, 4096 envs, 1 update per env step
