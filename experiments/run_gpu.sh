@@ -298,7 +298,7 @@ launch_levers)  # the physics launch settings against the training rate (flat, W
   # update per env step): env_steps_per_s of short runs, one per setting
   for lever in default "--config.env.substep_unroll=10" "--config.env.warp.graph_mode=jax" \
       "--config.env.warp.graph_mode=warp_staged" "--config.env.warp.graph_mode=none"; do
-    name=launch_${lever//[^a-z0-9_]/_}
+    name=${lever#--config.env.}; name=launch_${name//[^a-z0-9_]/_}
     flags=(); [ "$lever" = default ] || flags=("$lever")
     train 150 "$name" --terrain=flat --seed=0 --num_timesteps=6000000 \
       --config.sac.updates_per_step=1 --config.sac.eval_interval=3000000 "${flags[@]}"
