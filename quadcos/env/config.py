@@ -144,7 +144,9 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
             f" known: {', '.join(backends.GRAPH_MODES)}"
         )
     if not (isinstance(config.substep_unroll, int) and config.substep_unroll >= 1):
-        raise ValueError(f"substep_unroll must be a whole number >= 1; got {config.substep_unroll!r}")
+        raise ValueError(
+            f"substep_unroll must be a whole number >= 1; got {config.substep_unroll!r}"
+        )
     if config.controller not in CONTROLLERS:
         raise ValueError(
             f"unknown controller {config.controller!r}; known: {', '.join(CONTROLLERS)}"
