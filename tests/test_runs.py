@@ -76,3 +76,17 @@ def test_the_committed_any_slope_tables_are_what_their_runs_and_evaluations_say(
     for row in committed:  # each kept policy is the one of a run's own evaluation
         assert row["env_steps"] <= row["last_env_steps"] and row["train_seconds"] > 0
         assert row["command"].startswith("python -m quadcos.train --preset=any_slope --seed=")
+
+
+def test_the_committed_success_by_slope_is_what_the_evaluations_say():
+    folder = ROOT / "experiments" / "any_slope"
+    table = (folder / "by_slope.md").read_text()
+    names = [line.split(" | ")[0].strip("| ") for line in table.splitlines()[2:]]
+    found = {path.stem: path for path in folder.rglob("eval_*.json")}
+    command = [sys.executable, str(folder / "by_slope.py"), *(str(found[name]) for name in names)]
+    assert subprocess.run(command, capture_output=True, text=True, check=True).stdout == table
+    # the 870-s policy crosses the steepest courses; every 300-s run does worse there
+    steepest = [float(line.split(" | ")[-1].split()[0]) for line in table.splitlines()[2:]]
+    assert steepest[names.index("eval_posture_cap_s0_testset")] > max(
+        value for name, value in zip(names, steepest) if name != "eval_posture_cap_s0_testset"
+    )
