@@ -294,14 +294,16 @@ profile)  # where the 1- and 8-update training rows' time goes (flat and slope5,
         > "$OUT/profile_${terrain}_$row.md" 2>&1
     done
   done ;;
-launch_levers)  # the physics launch settings against the training rate (flat, Warp, 4096 envs, 1
-  # update per env step): env_steps_per_s of short runs, one per setting
-  for lever in default "--config.env.substep_unroll=10" "--config.env.warp.graph_mode=jax" \
-      "--config.env.warp.graph_mode=warp_staged" "--config.env.warp.graph_mode=none"; do
-    name=${lever#--config.env.}; name=launch_${name//[^a-z0-9_]/_}
-    flags=(); [ "$lever" = default ] || flags=("$lever")
-    train 150 "$name" --terrain=flat --seed=0 --num_timesteps=6000000 \
-      --config.sac.updates_per_step=1 --config.sac.eval_interval=3000000 "${flags[@]}"
+launch_levers)  # the physics launch settings against the training and raw physics rates (flat,
+  # Warp, 4096 envs, 1 and 8 updates per env step), one bench process per setting
+  for lever in default substep_unroll=10 warp.graph_mode=jax warp.graph_mode=warp_staged \
+      warp.graph_mode=none; do
+    flags=(); [ "$lever" = default ] || flags=(--env "$lever")
+    name=bench_launch_${lever//[^a-z0-9_]/_}
+    python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
+      --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 "${flags[@]}" \
+      --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
+    note "$name: exit $? $(grep -o 'train 4096x8192x1: [^,]*' "$OUT/$name.log")"
   done ;;
 startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
   # with and without domain randomisation, flat, 4096 envs, 1 update per env step

@@ -110,6 +110,14 @@ def _parser() -> argparse.ArgumentParser:
         " DIR/ROW (summarise with python -m quadcos.benchmarking.profile DIR/ROW)",
     )
     parser.add_argument(
+        "--env",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="env config override of the physics, env, train and stock sections (repeatable),"
+        " e.g. substep_unroll=10 or warp.graph_mode=jax",
+    )
+    parser.add_argument(
         "--randomize",
         action="store_true",
         help="env, train and stock sections with domain randomisation (its default ranges;"
@@ -170,6 +178,7 @@ def run(
             settings.impl,
             robot=settings.robot,
             randomize=settings.randomize,
+            **dict(settings.env),
         )
         reset_batch = physics.make_batch_reset(env)
 
@@ -206,6 +215,7 @@ def run(
             settings.robot,
             settings.randomize,
             settings.profile_dir and f"{settings.profile_dir}/{row}",
+            dict(settings.env),
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
@@ -233,6 +243,7 @@ def run(
                 settings.impl,
                 robot=settings.robot,
                 randomize=settings.randomize,
+                **dict(settings.env),
             ),
             trainer_config(settings.training_preset, row),
             settings.train_seconds,

@@ -12,7 +12,6 @@ directory at the end; logs and progress go to stderr.
 """
 
 import argparse
-import ast
 import contextlib
 import json
 import logging
@@ -28,6 +27,7 @@ from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
 from quadcos._util import caches, cli, provenance
 from quadcos._util.cli import UsageError
+from quadcos._util.overrides import parse_value
 from quadcos.evaluation import gait_search
 from quadcos.training import host, parallel, run_dirs
 from quadcos.training.presets import PRESETS, build_config, default_config  # noqa: F401 (re-exported)
@@ -48,19 +48,6 @@ FLAGS = {
 
 
 logger = logging.getLogger("quadcos.train")  # also when run as __main__
-
-
-def _parse_value(text: str) -> Any:
-    """A flag value as a Python literal when it is one (1e-3, (64, 64), True), a float for nan
-    and inf, else a string."""
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
-        pass
-    try:
-        return float(text)
-    except ValueError:
-        return text
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -172,7 +159,7 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
                 f"unrecognised argument {item!r} (config overrides look like --config.sac.batch_size=1024)"
             )
         key, text = item[len("--config.") :].split("=", 1)
-        overrides[key] = _parse_value(text)
+        overrides[key] = parse_value(text)
     return args, overrides
 
 

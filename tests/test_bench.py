@@ -359,3 +359,24 @@ def test_slope5_section_trains_with_spawns_along_the_course_and_evaluates_from_t
     assert settings.trainer_config("scratch", **course.sac).episode_length == 400
     assert settings.SECTION_COURSES["walk"] == settings.Course("time_to_walk_flat_s", "flat")
     assert course.result_key == "time_to_cross_slope5_s"
+
+
+def test_env_overrides_reach_the_env_and_keep_their_rows_apart():
+    args = bench._parser().parse_args(
+        ["--preset=cpu", "--env", "substep_unroll=2", "--env", "warp.graph_mode=none"]
+    )
+    chosen = settings.settings_from_args(args).env
+    assert chosen == (("substep_unroll", 2), ("warp.graph_mode", "none"))
+    env = settings.make_bench_env("flat", "smoke", "jax", **dict(chosen))
+    assert (env.config.substep_unroll, env.config.warp.graph_mode) == (2, "none")
+    for bad, message in (("substep_unroll", "KEY=VALUE"), ("substep_unrol=2", "substep_unrol")):
+        with pytest.raises(ValueError, match=message):
+            settings.settings_from_args(bench._parser().parse_args(["--env", bad]))
+    row = {"num_envs": 4, "batch_size": 8, "updates_per_step": 1}
+    plain = {"device": "cpu", "train": [{**row, "quadcos_env_steps_per_s": 3.0}]}
+    text = results_lib.env_text(chosen)
+    unrolled = {"device": "cpu", "env": text, "train": [{**row, "env": text}]}
+    with pytest.raises(ValueError, match="cannot merge results measured with --env"):
+        results_lib.merge_results(plain, unrolled)
+    assert results_lib._row_key(plain["train"][0]) != results_lib._row_key(unrolled["train"][0])
+    assert text == "substep_unroll=2,warp.graph_mode=none"

@@ -1,5 +1,6 @@
 """Dotted-key overrides for ml_collections configs; an unknown key is an error."""
 
+import ast
 import copy
 import difflib
 import math
@@ -7,6 +8,19 @@ from collections.abc import Mapping
 from typing import Any
 
 import ml_collections
+
+
+def parse_value(text: str) -> Any:
+    """A command-line value as a Python literal when it is one (1e-3, (64, 64), True), a float for
+    nan and inf, else a string."""
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
 
 
 def apply_overrides(

@@ -52,6 +52,7 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "terrain": settings.terrain,
         "robot": settings.robot,
         "randomized": settings.randomize,
+        "env": env_text(settings.env),
         "impl": backends.resolve_impl(
             settings.impl, robot_lib.load(settings.robot).preset.gpu_physics
         ),
@@ -74,6 +75,11 @@ def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     """
     if old.get("device") != new["device"]:
         raise ValueError(f"cannot merge results of {new['device']!r} into {old.get('device')!r}")
+    if old.get("env", "") != new.get("env", ""):  # physics and env rates are not kept apart
+        raise ValueError(
+            f"cannot merge results measured with --env {new.get('env')!r} into ones measured"
+            f" with {old.get('env') or 'none'!r}"
+        )
     merged = {**old}
     for key, value in new.items():
         if key == "train":
@@ -96,15 +102,21 @@ def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     return merged
 
 
+def env_text(env: Sequence[tuple[str, Any]]) -> str:
+    """`--env` overrides as one string ("substep_unroll=10,warp.graph_mode=jax"; "" for none)."""
+    return ",".join(f"{key}={value}" for key, value in env)
+
+
 def _row_key(row: dict[str, Any]) -> tuple[Any, ...]:
-    # Rows measured before robot, terrain, impl, cache and randomisation were recorded: the
-    # paper's robot on flat, JAX, no cache, nominal physics.
+    # Rows measured before robot, terrain, impl, cache, randomisation and env overrides were
+    # recorded: the paper's robot on flat, JAX, no cache, nominal physics, no overrides.
     context = (
         row.get("robot", "quadcos"),
         row.get("terrain", "flat"),
         row.get("impl", "jax"),
         row.get("cache", "cold"),
         row.get("randomized", False),
+        row.get("env", ""),
     )
     return row["num_envs"], row["batch_size"], row["updates_per_step"], *context
 
@@ -124,6 +136,7 @@ def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
             results["impl"],
             results["cache"],
             results.get("randomized", False),
+            results.get("env", ""),
         )
         if _row_key(entry) == (row.num_envs, row.batch_size, row.updates_per_step, *context):
             return entry
@@ -136,6 +149,7 @@ def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
         "impl": results["impl"],
         "cache": results["cache"],
         "randomized": results.get("randomized", False),
+        "env": results.get("env", ""),
         "quadcos_env_steps_per_s": None,
         "stock_brax_env_steps_per_s": None,
     }
@@ -195,8 +209,9 @@ def markdown_table(results: dict[str, Any]) -> str:
         ratio = f"{ours / stock:.2f}" if ours and stock else "—"
         physics = row.get("physics_env_steps_per_s")
         of_physics = f"{ours / physics:.2f}" if ours and physics else "—"
-        robot, terrain, impl, cache, randomized = _row_key(row)[3:]
+        robot, terrain, impl, cache, randomized, env = _row_key(row)[3:]
         context = f"{robot} | {terrain} | {impl}{', randomised' if randomized else ''}"
+        context += f", {env}" if env else ""
         sizes = f"{row['num_envs']:,} | {row['batch_size']:,} | {row['updates_per_step']}"
         start = row.get("quadcos_start_to_first_step_s")
         start = f"{format_seconds(start)} ({cache} cache)" if start is not None else "—"

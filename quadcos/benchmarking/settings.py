@@ -9,7 +9,7 @@ import ml_collections
 
 from quadcos import env as env_lib
 from quadcos import training
-from quadcos._util.overrides import apply_overrides
+from quadcos._util.overrides import apply_overrides, parse_value
 from quadcos.equations import oscillator
 from quadcos.training.presets import PRESETS as TRAIN_PRESETS
 
@@ -98,6 +98,8 @@ class Settings:
       robot: the quadruped of every section (a `quadcos.robot.load` spec).
       randomize: the env, train and stock sections' robots draw their own physics
         (`env.randomization`, its default ranges).
+      env: env config overrides ((dotted key, value), ...) of the physics, env, train and stock
+        sections (`--env substep_unroll=10`).
       num_devices: devices the train, walk and slope5 sections' trainers spread over
         (data-parallel; rows stay global: per-device envs = num_envs / num_devices).
     """
@@ -121,6 +123,7 @@ class Settings:
     robot: str = "quadcos"
     randomize: bool = False
     profile_dir: str | None = None
+    env: tuple[tuple[str, Any], ...] = ()
 
 
 _GPU_ROWS = "4096x8192x1,4096x8192x8,16384x16384x4"
@@ -165,6 +168,22 @@ def _preset_overrides(preset: str, prefix: str) -> dict[str, Any]:
         for key, value in TRAIN_PRESETS[preset].items()
         if key.startswith(prefix)
     }
+
+
+def _env_overrides(items: list[str]) -> tuple[tuple[str, Any], ...]:
+    """`--env KEY=VALUE` flags as (key, value) pairs, checked against the env config.
+
+    Raises:
+      ValueError: a flag without "=", or a key or value the env config does not take.
+    """
+    pairs = []
+    for item in items:
+        key, equals, text = item.partition("=")
+        if not equals or not key:
+            raise ValueError(f"--env takes KEY=VALUE, got {item!r}")
+        pairs.append((key, parse_value(text)))
+    apply_overrides(env_lib.default_config(), dict(pairs))
+    return tuple(pairs)
 
 
 def make_bench_env(
@@ -254,6 +273,7 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         if not preset[name] >= 0:
             raise ValueError(f"--{name} must be >= 0, got {preset[name]}")
     return Settings(
+        env=_env_overrides(args.env),
         env_counts=_ints(preset["env_counts"]),
         train_rows=train_rows,
         stock_rows=stock_rows,
