@@ -19,21 +19,18 @@ import re
 import shlex
 import sys
 
+from quadcos.training import best_policy
+
 
 def _read(path: pathlib.Path) -> dict | None:
     return json.loads(path.read_text()) if path.exists() else None
 
 
 def _kept(metrics: list[dict], max_fall_rate: float) -> dict:
-    """The evaluation row whose policy `policy_best` holds (quadcos.training.best_policy): the
-    first of the highest rank, an evaluation with at most `max_fall_rate` falls ranking above any
-    with more, then by reward."""
-    rows = [row for row in metrics if row.get("eval/episode_reward") is not None]
-    ranks = [
-        (row.get("eval/fall_rate", 0.0) <= max_fall_rate, row["eval/episode_reward"], -index)
-        for index, row in enumerate(rows)
-        if math.isfinite(row["eval/episode_reward"])
-    ]
+    """The evaluation row whose policy `policy_best` holds: the first of the highest rank
+    (quadcos.training.best_policy.rank) among those with a finite reward."""
+    rows = [row for row in metrics if math.isfinite(row.get("eval/episode_reward", math.nan))]
+    ranks = [(*best_policy.rank(row, max_fall_rate), -index) for index, row in enumerate(rows)]
     return rows[-max(ranks)[2]]
 
 

@@ -24,7 +24,6 @@ def measure_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: int) -
     `env.substeps` physics steps (an env step's worth), looped as the env loops them
     (`substep_unroll`)."""
     step_all = jax.vmap(mjx.step, in_axes=(None, 0))
-    unroll = min(env.config.substep_unroll, env.substeps)
 
     def env_step_of_physics(data: mjx.Data) -> mjx.Data:
         data, _ = jax.lax.scan(
@@ -32,7 +31,7 @@ def measure_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: int) -
             data,
             None,
             length=env.substeps,
-            unroll=unroll,
+            unroll=env.substep_unroll,
         )
         return data
 

@@ -85,6 +85,7 @@ class QuadrupedEnv(base.Env):
         self.randomized = bool(config.randomization.enabled)
         self.model = backends.put_model(self.mj_model, self.impl, config.warp.graph_mode)
         self.substeps = round(config.control_dt / config.physics_dt)
+        self.substep_unroll = min(config.substep_unroll, self.substeps)  # lax.scan's unroll
         tau = config.survival_speed_tau
         self._speed_blend = 1.0 - math.exp(-self.dt / tau) if tau > 0 else 1.0
         self.weights = reward.RewardWeights(**config.reward.to_dict())
@@ -331,7 +332,7 @@ class QuadrupedEnv(base.Env):
             substep,
             (data, phase, command),
             jnp.arange(self.substeps),
-            unroll=min(self.config.substep_unroll, self.substeps),
+            unroll=self.substep_unroll,
         )
         if self.config.oscillator_form == "literal":
             phase = jnp.mod(oscillator.TWO_PI * data.time / periods[-1], oscillator.TWO_PI)

@@ -12,6 +12,12 @@ _BEST_BY = "eval/episode_reward"
 _FALLS = "eval/fall_rate"
 
 
+def rank(row: dict[str, Any], max_fall_rate: float) -> tuple[bool, float]:
+    """How an evaluation row ranks for `policy_best` (higher is better): whether it falls in at
+    most `max_fall_rate` of its episodes, then its episode reward."""
+    return row.get(_FALLS, 0.0) <= max_fall_rate, row[_BEST_BY]
+
+
 class BestPolicy:
     """The policy of the best training-time evaluation of a run (`keep_best_policy`).
 
@@ -34,23 +40,22 @@ class BestPolicy:
         self._spec = spec
         self._run_info = run_info
         self._max_fall_rate = max_fall_rate
-        self.rank = max((self._rank(row) for row in history if _BEST_BY in row), default=None)
+        self.rank = max(
+            (rank(row, max_fall_rate) for row in history if _BEST_BY in row), default=None
+        )
 
     @property
     def reward(self) -> float:
         return -math.inf if self.rank is None else self.rank[1]
 
-    def _rank(self, row: dict[str, Any]) -> tuple[bool, float]:
-        return row.get(_FALLS, 0.0) <= self._max_fall_rate, row[_BEST_BY]
-
     def offer(self, state: sac.TrainingState, row: dict[str, Any]) -> bool:
         """Saves the policy if `row` (its evaluation) is the best so far; True if it did."""
         if not math.isfinite(row.get(_BEST_BY, math.nan)):
             return False
-        rank = self._rank(row)
-        if self.rank is not None and not rank > self.rank:
+        ranked = rank(row, self._max_fall_rate)
+        if self.rank is not None and not ranked > self.rank:
             return False
-        self.rank = rank
+        self.rank = ranked
         best_of_run = {
             "step": int(row["step"]),
             _BEST_BY: float(row[_BEST_BY]),
