@@ -2,7 +2,7 @@
 # Runs one experiment on a GPU machine, from the repository root:
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
-#   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal |
+#   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal | anymal_slope5 |
 #   profile | launch_levers | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
 #   needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
@@ -68,12 +68,14 @@ slope5)  # Figs. 11-19: slope5 from scratch, robots spawned along the course
     evaluate "$OUT/runs/$name/policy" ${name}_testset testset:2026 4288 40
     evaluate "$OUT/runs/$name/policy" ${name}_flat flat 1024 10
   done ;;
-any_slope)  # one policy for any slope: hip offsets, with and without the r_y cap, 870 s each
+any_slope)  # one policy for any slope: hip offsets, with and without the r_y cap, 870 s each, one
+  # lane of the curriculum a success (policies/any_slope)
   for s in ${SEEDS:-0}; do
     for variant in posture_cap posture; do
       name=${variant}_s$s extra=()
       [ $variant = posture ] && extra=(--config.env.forward_speed_cap=0)  # r_y uncapped
-      train 900 $name --preset=any_slope "${extra[@]}" --seed=$s  # its own budget: 870 s
+      train 930 $name --preset=any_slope "${extra[@]}" --seed=$s --max_seconds=870 \
+        --config.sac.curriculum.promote_lanes=1
       best=$OUT/runs/$name/policy_best
       evaluate "$best" ${name}_testset testset:2026 4288 40
       evaluate "$best" ${name}_slope5 slope5 1024 40 --trace="$OUT/trace_${name}_slope5.json"
@@ -86,10 +88,13 @@ any_slope)  # one policy for any slope: hip offsets, with and without the r_y ca
   for seed in 2027 4242; do
     evaluate experiments/policies/any_slope any_slope_testset$seed testset:$seed 4288 40
   done ;;
-any_slope_seeds)  # --preset=any_slope as it ships, one run per seed with a time budget (ANY_S)
+any_slope_seeds)  # --preset=any_slope as it ships, one run per seed with a time budget (ANY_S);
+  # ANY_FLAGS: train flags on top (runs named any_slope${ANY_NAME}_sSEED)
   for s in ${SEEDS:-0 1 2}; do
-    name=any_slope_s$s
-    train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300}
+    name=any_slope${ANY_NAME:-}_s$s
+    # shellcheck disable=SC2086  # ANY_FLAGS: several flags
+    train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300} \
+      ${ANY_FLAGS:-}
     best=$OUT/runs/$name/policy_best
     evaluate "$best" ${name}_testset2026 testset:2026 4288 40
     evaluate "$best" ${name}_slope5 slope5 1024 40
@@ -98,19 +103,22 @@ any_slope_seeds)  # --preset=any_slope as it ships, one run per seed with a time
   done
   for s in ${SEEDS:-0 1 2}; do  # the other held-out test sets last
     for set in 2027 4242; do
-      evaluate "$OUT/runs/any_slope_s$s/policy_best" any_slope_s${s}_testset$set testset:$set 4288 40
+      name=any_slope${ANY_NAME:-}_s$s
+      evaluate "$OUT/runs/$name/policy_best" ${name}_testset$set testset:$set 4288 40
     done
   done
-  python3 experiments/any_slope/seeds.py "$OUT" --out "$OUT/seeds.json" ;;
+  python3 experiments/any_slope/seeds.py "$OUT" --runs "any_slope${ANY_NAME:-}_s[0-9]+" --out "$OUT/seeds.json" ;;
 any_slope_gpus)  # --preset=any_slope over every GPU of the host at equal per-GPU work (4096 envs,
   # batch 8192 and a 4 M replay a GPU; evaluations as often per GPU), against any_slope_seeds' one GPU
   gpus=$(nvidia-smi -L | wc -l)
   export NCCL_NVLS_ENABLE=0
   for s in ${SEEDS:-0}; do
     name=any_slope_${gpus}gpu_s$s
+    # shellcheck disable=SC2086  # ANY_FLAGS: several flags
     train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300} \
       --num_devices=$gpus --num_envs=$((4096 * gpus)) --config.sac.batch_size=$((8192 * gpus)) \
-      --config.sac.replay_size=$((4000000 * gpus)) --config.sac.eval_interval=$((10000000 * gpus))
+      --config.sac.replay_size=$((4000000 * gpus)) --config.sac.eval_interval=$((10000000 * gpus)) \
+      ${ANY_FLAGS:-}  # ANY_FLAGS: train flags on top
     best=$OUT/runs/$name/policy_best
     CUDA_VISIBLE_DEVICES=0 evaluate "$best" ${name}_testset2026 testset:2026 4288 40 &
     (export CUDA_VISIBLE_DEVICES=1
@@ -259,6 +267,20 @@ robots_alone)  # each run alone on the GPU: ANYmal C and Go1 / Go2 from nothing,
     --seconds=40 --out="$OUT/sim2sim_unitree_go1_any_slope_s0_slope5.json" \
     > "$OUT/sim2sim_unitree_go1_any_slope_s0_slope5.log" 2>&1
   wait ;;
+anymal_slope5)  # ANYmal C from nothing on slope5's sections (10-m run-out, spawns along them), as
+  # unitree_go1_slope5_s0; then slope5, S-4 and flat, and slope5 in C MuJoCo
+  : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
+  export MENAGERIE_ROOT
+  name=anybotics_anymal_c_slope5_s0
+  train $((${ANYMAL_S:-420} + 60)) $name --preset=scratch --robot=menagerie:anybotics_anymal_c --seed=0 \
+    "${SLOPE5_COURSE[@]}" --config.env.spawn_x_max=10 --max_seconds=${ANYMAL_S:-420}
+  best=$OUT/runs/$name/policy_best
+  JAX_PLATFORMS=cpu python3 -m quadcos.sim2sim --no_progress --policy="$best" --terrain=slope5 \
+    --episodes=64 --seconds=40 --out="$OUT/sim2sim_${name}_slope5.json" > "$OUT/sim2sim_${name}_slope5.log" 2>&1 &
+  evaluate "$best" ${name}_slope5 slope5 1024 40 --trace="$OUT/trace_${name}_slope5.json"
+  evaluate "$best" ${name}_s4 s4 1024 30
+  evaluate "$best" ${name}_flat flat 1024 20
+  wait ;;
 anymal_search10)  # ANYmal C with a gait search of 10-s episodes, 4 robots a candidate
   : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
   export MENAGERIE_ROOT
@@ -295,9 +317,9 @@ profile)  # where the 1- and 8-update training rows' time goes (flat and slope5,
     done
   done ;;
 launch_levers)  # the physics launch settings against the training and raw physics rates (flat,
-  # Warp, 4096 envs, 1 and 8 updates per env step), one bench process per setting
-  for lever in default substep_unroll=10 warp.graph_mode=jax warp.graph_mode=warp_staged \
-      warp.graph_mode=none; do
+  # Warp, 4096 envs, 1 and 8 updates per env step), one bench process per setting (LEVERS: a subset)
+  for lever in ${LEVERS:-default substep_unroll=10 warp.graph_mode=jax warp.graph_mode=warp_staged \
+      warp.graph_mode=none}; do
     flags=(); [ "$lever" = default ] || flags=(--env "$lever")
     name=bench_launch_${lever//[^a-z0-9_]/_}
     python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \

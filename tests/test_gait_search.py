@@ -59,9 +59,9 @@ def test_the_any_slope_preset_is_the_generalists_recipe_with_a_time_budget():
     assert config.env.observe_slope and config.env.observe_phase
     assert config.env.posture_bound == 0.6 and config.env.forward_speed_cap == 0.8
     assert config.env.action_centre == "search" and config.sac.keep_best_policy
-    assert config.sac.max_seconds == 870.0
-    flagged = train.build_config(train.PRESETS["any_slope"], {"sac.max_seconds": 300.0})
-    assert flagged.sac.max_seconds == 300.0
+    assert config.sac.max_seconds == 300.0 and config.sac.curriculum.promote_lanes == 2
+    flagged = train.build_config(train.PRESETS["any_slope"], {"sac.max_seconds": 870.0})
+    assert flagged.sac.max_seconds == 870.0
 
 
 def test_bad_search_settings_are_refused_before_anything_runs(tmp_path):

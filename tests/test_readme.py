@@ -107,16 +107,17 @@ def test_readme_evaluation_example_runs(monkeypatch):
 
 
 def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypatch):
-    """The docs' `--terrain=random:` training command line, with the training replaced by a check
-    of the env and trainer config it was handed."""
+    """The docs' any-slope training command line (`--preset=any_slope`, the random course family),
+    with the training replaced by a check of the env and trainer config it was handed."""
     lines = [
         line
         for block in BASH_BLOCKS
         for line in block.replace("\\\n", " ").splitlines()
-        if "quadcos.train" in line and "--terrain=random:" in line
+        if "quadcos.train" in line and "--preset=any_slope" in line
     ]
-    assert len(lines) == 1
-    command = shlex.split(lines[0])
+    assert len(lines) == 2  # docs/training.md and docs/terrains.md: the same line
+    assert len({line.split("#")[0].strip() for line in lines}) == 1
+    command = shlex.split(lines[0].split("#")[0])
     command = [arg for arg in command if not arg.startswith("--output_dir")]
     monkeypatch.chdir(tmp_path)
     built = {}
@@ -135,6 +136,7 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
     ):
         assert train.main(command[3:] + [f"--output_dir={tmp_path / 'run'}"]) == 0
     assert built["terrain"].num_lanes == 64 and built["config"].curriculum.enabled
+    assert built["config"].curriculum.promote_lanes == 2 and built["config"].max_seconds == 300
     assert built["config"].episode_length == 400
     assert built["search_terrain"] == "random:max_deg=12,sections=3-5,len=1-3,seed=0"
     assert built["search"]["num_candidates"] * built["search"]["robots_per_candidate"] == 4096
