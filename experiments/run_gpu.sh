@@ -245,7 +245,7 @@ robots_alone)  # each run alone on the GPU: ANYmal C and Go1 / Go2 from nothing,
   # Go1 on any slope trains while the GPU evaluates the runs above and the host's CPUs run them
   # in C MuJoCo (its time is not a target).
   XLA_PYTHON_CLIENT_MEM_FRACTION=0.6 train $((${ANY_S:-300} + 60)) unitree_go1_any_slope_s0 --preset=any_slope --robot=menagerie:unitree_go1 \
-    --seed=0 --max_seconds=${ANY_S:-300} &
+    --seed=0 --max_seconds=${ANY_S:-300} --config.sac.curriculum.promote_lanes=1 &  # as committed
   trainer=$!
   for name in anybotics_anymal_c_s0 unitree_go1_s1 unitree_go1_s2 unitree_go2_s0; do
     run=$OUT/runs/$name

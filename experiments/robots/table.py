@@ -16,6 +16,7 @@ import argparse
 import json
 import math
 import pathlib
+import sys
 
 WALK_SURVIVAL = 0.99
 WALK_SPEED = 0.5  # m/s
@@ -123,14 +124,15 @@ def figure(found: list[dict], folder: pathlib.Path, out: pathlib.Path) -> None:
     """Forward position against time of each robot's traced flat episode."""
     from matplotlib.figure import Figure
 
+    traces = {row["run"]: _read(folder / f"trace_{row['run']}_flat.json") for row in found}
+    traces = {run: trace for run, trace in traces.items() if trace is not None}
+    if not traces:  # keep the figure there is rather than draw an empty one
+        print(f"table.py: no trace_NAME_flat.json in {folder}; {out} left as it is", file=sys.stderr)
+        return
     fig = Figure(figsize=(7, 4))
     ax = fig.subplots()
-    for row in found:
-        trace = _read(folder / f"trace_{row['run']}_flat.json")
-        if trace is None:
-            continue
-        series = trace["series"]
-        ax.plot(series["time"], series["cog_x"], label=row["run"])
+    for run, trace in traces.items():
+        ax.plot(trace["series"]["time"], trace["series"]["cog_x"], label=run)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("forward position of the torso (m)")
     ax.set_title("policy_best on flat ground, one deterministic episode each")
