@@ -268,12 +268,16 @@ robots_alone)  # each run alone on the GPU: ANYmal C and Go1 / Go2 from nothing,
     > "$OUT/sim2sim_unitree_go1_any_slope_s0_slope5.log" 2>&1
   wait ;;
 anymal_slope5)  # ANYmal C from nothing on slope5's sections (10-m run-out, spawns along them), as
-  # unitree_go1_slope5_s0; then slope5, S-4 and flat, and slope5 in C MuJoCo
+  # unitree_go1_slope5_s0; then slope5, S-4 and flat, and slope5 in C MuJoCo. ANYMAL_FLAGS: train
+  # flags on top (run anybotics_anymal_c_slope5${ANYMAL_NAME}_s0), e.g. the flat run's gait as the
+  # action centre instead of a search on the slopes:
+  # ANYMAL_NAME=_flatgait ANYMAL_FLAGS=--config.env.action_centre=-0.497199,0.419977,0.2018,3.41153,0.269936
   : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
   export MENAGERIE_ROOT
-  name=anybotics_anymal_c_slope5_s0
+  name=anybotics_anymal_c_slope5${ANYMAL_NAME:-}_s0
+  # shellcheck disable=SC2086  # ANYMAL_FLAGS: several flags
   train $((${ANYMAL_S:-420} + 60)) $name --preset=scratch --robot=menagerie:anybotics_anymal_c --seed=0 \
-    "${SLOPE5_COURSE[@]}" --config.env.spawn_x_max=10 --max_seconds=${ANYMAL_S:-420}
+    "${SLOPE5_COURSE[@]}" --config.env.spawn_x_max=10 --max_seconds=${ANYMAL_S:-420} ${ANYMAL_FLAGS:-}
   best=$OUT/runs/$name/policy_best
   JAX_PLATFORMS=cpu python3 -m quadcos.sim2sim --no_progress --policy="$best" --terrain=slope5 \
     --episodes=64 --seconds=40 --out="$OUT/sim2sim_${name}_slope5.json" > "$OUT/sim2sim_${name}_slope5.log" 2>&1 &
