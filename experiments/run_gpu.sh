@@ -3,7 +3,7 @@
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal | anymal_slope5 |
-#   profile | launch_levers | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
+#   profile | launch_levers | xla_levers | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
 #   needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
@@ -330,6 +330,20 @@ launch_levers)  # the physics launch settings against the training and raw physi
       --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 "${flags[@]}" \
       --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
     note "$name: exit $? $(grep -o 'train 4096x8192x1: [^,]*' "$OUT/$name.log")"
+  done ;;
+xla_levers)  # XLA's command buffers (CUDA graphs of its own kernels) against the GPU's idle time
+  # between launches: the launch_levers rows (flat, Warp, 4096 envs) under other XLA_FLAGS, one
+  # bench process each (XLA_LEVERS: values of --xla_gpu_enable_command_buffer separated by ";";
+  # "default": the flag unset, "none": command buffers off)
+  IFS=';' read -r -a sets <<< "${XLA_LEVERS:-default;none;+WHILE,+CONDITIONAL}"
+  for set in "${sets[@]}"; do
+    flags="--xla_gpu_triton_gemm_any=true"
+    [ "$set" = default ] || flags="$flags --xla_gpu_enable_command_buffer=${set/none/}"
+    name=bench_xla_${set//[^A-Za-z0-9_]/_}
+    XLA_FLAGS=$flags python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train \
+      --env_counts=4096 --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
+      --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
+    note "$name ($flags): exit $? $(grep -o 'train 4096x8192x1: [^,]*' "$OUT/$name.log")"
   done ;;
 startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
   # with and without domain randomisation, flat, 4096 envs, 1 update per env step
