@@ -277,6 +277,22 @@ def test_posture_adds_front_and_hind_hip_offsets_to_the_rhythm(flat_env):
     assert posed.rhythm_parameters(action) == flat_env.rhythm_parameters(action[:5])
 
 
+def test_the_start_ramp_lets_the_rhythm_in_over_the_first_seconds(flat_env):
+    ramped = quadcos.make_env("flat", posture_bound=0.4, start_ramp_s=0.5)
+    plain = quadcos.make_env("flat", posture_bound=0.4)
+    action = jnp.array([0.3, -0.2, 0.1, 0.5, -0.4, 1.0, -0.5])
+    home = ramped.layout.home
+    np.testing.assert_allclose(ramped.joint_targets(action, 1.0, 0.0), home, atol=1e-6)
+    full = plain.joint_targets(action, 1.0, 0.25) - home
+    assert float(jnp.abs(full).max()) > 0.1
+    np.testing.assert_allclose(ramped.joint_targets(action, 1.0, 0.25) - home, full / 2, atol=1e-6)
+    for time in (0.5, 3.0):  # then all of it, as without the ramp
+        expected = plain.joint_targets(action, 1.0, time)
+        np.testing.assert_allclose(ramped.joint_targets(action, 1.0, time), expected, atol=1e-6)
+    with pytest.raises(ValueError, match="start_ramp_s"):
+        quadcos.make_env("flat", start_ramp_s=-1.0)
+
+
 def test_the_speed_cap_limits_what_a_step_of_progress_pays():
     from quadcos import env as env_lib
 

@@ -44,6 +44,10 @@ def test_oscillator_twins(centre):
         np.testing.assert_allclose(
             twins.posture_offsets(posture, 0.6), oscillator.posture_offsets(posture, 0.6), atol=1e-6
         )
+        time, ramp = RNG.uniform(0, 1.0), RNG.choice([0.0, 0.5])
+        assert twins.start_ramp(time, ramp) == pytest.approx(
+            float(oscillator.start_ramp(time, ramp)), abs=1e-6
+        )
 
 
 def test_slope_twins():

@@ -127,7 +127,7 @@ def figure(found: list[dict], folder: pathlib.Path, out: pathlib.Path) -> None:
     traces = {row["run"]: _read(folder / f"trace_{row['run']}_flat.json") for row in found}
     traces = {run: trace for run, trace in traces.items() if trace is not None}
     if not traces:  # keep the figure there is rather than draw an empty one
-        print(f"table.py: no trace_NAME_flat.json in {folder}; {out} left as it is", file=sys.stderr)
+        print(f"table.py: no trace_NAME_flat.json in {folder}; {out} kept", file=sys.stderr)
         return
     fig = Figure(figsize=(7, 4))
     ax = fig.subplots()

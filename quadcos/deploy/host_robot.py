@@ -279,7 +279,8 @@ class HostRobot:
             targets += twins.posture_offsets(
                 self.command[oscillator.RHYTHM_SIZE :], self.config.posture_bound
             )
-        return self.layout.rhythm_targets(targets)
+        ramp = twins.start_ramp(self.data.time, self.config.start_ramp_s)
+        return self.layout.rhythm_targets(ramp * targets)
 
     def _observe(self) -> tuple[np.ndarray, slope.Attitude, float]:
         """`QuadrupedEnv._observe`: (obs, attitude, slope estimate)."""

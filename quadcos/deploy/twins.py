@@ -46,6 +46,11 @@ def posture_offsets(posture: np.ndarray, bound: float) -> np.ndarray:
     return np.array([front, 0.0, front, 0.0, hind, 0.0, hind, 0.0])
 
 
+def start_ramp(time: float, ramp_seconds: float) -> float:
+    """`oscillator.start_ramp`: the share of the rhythm acting `time` s into an episode."""
+    return 1.0 if ramp_seconds <= 0 else float(np.clip(time / ramp_seconds, 0.0, 1.0))
+
+
 def advance_phase(phase: float, period: float, dt: float) -> float:
     """`oscillator.advance_phase` (Eq. 1, phase form): ψ + 2π dt/T wrapped to [0, 2π)."""
     return float(np.mod(phase + oscillator.TWO_PI * dt / period, oscillator.TWO_PI))

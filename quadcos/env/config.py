@@ -73,6 +73,10 @@ def default_config() -> ml_collections.ConfigDict:
     # behind a 0.25-s filter (2 %) — SAC explores with such noise (experiments/noise_tolerance). When
     # > 0 the filtered action is appended to the observation (it is part of the state).
     config.action_filter_tau = 0.25
+    # s: > 0 lets the rhythm (hip offsets included) in linearly over an episode's first seconds
+    # (oscillator.start_ramp), so that a robot steps off from standing gently; 0 = the paper's
+    # full rhythm from the first step. The oscillator controller only.
+    config.start_ramp_s = 0.0
     config.reset_joint_noise = 0.02  # rad: uniform noise on the initial joint angles
     # m: reset spawns each robot at x ~ U(0, spawn_x_max) (y = 0) instead of the spawn point, so
     # that training sees a whole course, not only what its robots reach within an episode.
@@ -173,6 +177,8 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         )
     if not config.action_filter_tau >= 0:
         raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")
+    if not 0.0 <= config.start_ramp_s < math.inf:
+        raise ValueError(f"start_ramp_s must be finite and >= 0 s; got {config.start_ramp_s}")
     if not 0.0 <= config.survival_min_speed < math.inf:
         raise ValueError(
             f"survival_min_speed must be finite and >= 0 m/s; got {config.survival_min_speed}"

@@ -247,10 +247,12 @@ class QuadrupedEnv(base.Env):
 
     def joint_targets(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
         """(J,) joint targets (rad; the robot's leg joints, `RobotDescription.joint_names`) that
-        `action` commands at oscillator phase ψ / time t: the home pose moved by the rhythm."""
+        `action` commands at oscillator phase ψ / time t (s since the episode's start): the home
+        pose moved by the rhythm, of which `start_ramp_s` lets in a growing share at the start."""
         if self.config.controller == "joint":
             return self.layout.home + JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
-        return self.layout.rhythm_targets(self.rhythm(action, phase, time))
+        ramp = oscillator.start_ramp(time, self.config.start_ramp_s)
+        return self.layout.rhythm_targets(ramp * self.rhythm(action, phase, time))
 
     def rhythm(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
         """(8,) Eq. 3's oscillator outputs (rad; LF hip, LF knee, ..., RB knee) that the oscillator

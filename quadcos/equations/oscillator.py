@@ -202,6 +202,16 @@ def posture_offsets(posture: jnp.ndarray, bound: float) -> jnp.ndarray:
     return posture[..., :1] * _FRONT_HIPS + posture[..., 1:2] * _HIND_HIPS
 
 
+def start_ramp(time: jnp.ndarray, ramp_seconds: float) -> jnp.ndarray:
+    """The share of the rhythm (Eq. 3's outputs, hip offsets included) that acts `time` s into an
+    episode — an extension, not §3.3: rising linearly from 0 at the start to 1 at `ramp_seconds`,
+    so that a robot steps off from standing instead of jumping to the rhythm's first targets;
+    `ramp_seconds` 0 = all of it from the start (the paper)."""
+    if ramp_seconds <= 0:
+        return jnp.ones_like(jnp.asarray(time, jnp.float32))
+    return jnp.clip(time / ramp_seconds, 0.0, 1.0)
+
+
 # A fixed trot that walks on flat ground (~0.6 m/s) with the quadcos robot: the Fig. 15 baseline
 # and the env's default action centre, found by a grid search over A_h, A_k, T with plain MuJoCo.
 FIXED_TROT = RhythmParameters(
