@@ -384,3 +384,19 @@ def test_posture_offsets_the_host_robots_hips():
     np.testing.assert_allclose(offsets, [0.2, 0, 0.2, 0, -0.4, 0, -0.4, 0], atol=1e-12)
     result = posed.step(np.r_[np.zeros(5), 1.0, 1.0])  # a step in C MuJoCo takes 7 values
     assert result.obs.shape == (14 + 7,)
+
+
+def test_the_host_robot_lets_the_rhythm_in_as_the_env_does():
+    ramped = sim2sim.HostRobot("flat", sim2sim.env_config({"start_ramp_s": 0.5}))
+    plain = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    for robot in (ramped, plain):
+        robot.reset(0)
+        robot.command = np.full(5, 0.2)
+    home = ramped.layout.home
+    full = plain._joint_targets(plain.rhythm_parameters()) - home
+    assert np.abs(full).max() > 0.05
+    np.testing.assert_allclose(ramped._joint_targets(ramped.rhythm_parameters()), home, atol=1e-12)
+    for robot in (ramped, plain):
+        robot.data.time = 0.25
+    halfway = ramped._joint_targets(ramped.rhythm_parameters()) - home
+    np.testing.assert_allclose(halfway, full / 2, atol=1e-12)
