@@ -1,7 +1,8 @@
 """Where on flat ground a policy's largest attitude error comes: the step off from standing or the
 walk after it.
 
-    python experiments/any_slope/step_off.py TRACE.json ... > seeds/step_off.txt   # from here
+    python experiments/any_slope/step_off.py TRACE.json ... \
+        > experiments/any_slope/seeds/step_off.txt
 
 Each TRACE is one flat episode of `python -m quadcos.evaluate --trace` (`any_slope_seeds` writes
 `trace_NAME_flat.json`; traces are large and stay out of git). Prints, per trace, max |pitch − θ|
