@@ -234,22 +234,24 @@ def _relaid_replay(stored: replay_lib.ReplayState, template: replay_lib.ReplaySt
 
 
 class _ReportedReads(logging.Filter):
-    """Drops asyncio's "Task exception was never retrieved" for reads of a checkpoint that
-    `restore_latest` already reported: tensorstore's other reads of it fail after orbax gave up,
-    and asyncio logs each when its task is collected, which may be long after the restore."""
+    """Drops asyncio's "Task (or Future) exception was never retrieved" for reads of a checkpoint
+    that `restore_latest` already reported: tensorstore's other reads of it fail after orbax gave
+    up, and asyncio logs each when its task or future is collected, which may be long after the
+    restore."""
 
     def __init__(self) -> None:
         super().__init__()
         self.paths: set[str] = set()
 
     def filter(self, record: logging.LogRecord) -> bool:
-        if not str(record.msg).startswith("Task exception was never retrieved"):
+        if not str(record.msg).startswith(_UNRETRIEVED):
             return True
         error = record.exc_info[1] if record.exc_info else None
         text = f"{record.getMessage()} {error}"
         return not any(f"{path}{os.sep}" in text for path in self.paths)
 
 
+_UNRETRIEVED = ("Task exception was never retrieved", "Future exception was never retrieved")
 _REPORTED_READS = _ReportedReads()
 logging.getLogger("asyncio").addFilter(_REPORTED_READS)
 
