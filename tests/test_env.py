@@ -291,6 +291,8 @@ def test_the_start_ramp_lets_the_rhythm_in_over_the_first_seconds(flat_env):
         np.testing.assert_allclose(ramped.joint_targets(action, 1.0, time), expected, atol=1e-6)
     with pytest.raises(ValueError, match="start_ramp_s"):
         quadcos.make_env("flat", start_ramp_s=-1.0)
+    with pytest.raises(ValueError, match="start_ramp_s > 0 needs controller='oscillator'"):
+        quadcos.make_env("flat", start_ramp_s=0.5, controller="joint")
 
 
 def test_the_speed_cap_limits_what_a_step_of_progress_pays():

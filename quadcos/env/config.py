@@ -197,6 +197,8 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(
             f"posture_bound must be in [0, {_POSTURE_BOUND_MAX}] rad; got {config.posture_bound}"
         )
+    if config.start_ramp_s > 0 and config.controller != "oscillator":
+        raise ValueError("start_ramp_s > 0 needs controller='oscillator' (it ramps the rhythm in)")
     if config.posture_bound > 0 and config.controller != "oscillator":
         raise ValueError("posture_bound > 0 needs controller='oscillator' (it offsets the rhythm)")
     if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:

@@ -5,7 +5,7 @@ evaluated with the rhythm let in over the first `env.start_ramp_s` seconds (0: n
 
 Each JSON is `python -m quadcos.evaluate --policy=experiments/any_slope/seeds/runs/
 any_slope_promote2_sN/policy_best --terrain=flat --num_envs=8 --seconds=3 --env.start_ramp_s=R`
-on a CPU (the README beside it has the loop).
+on a CPU (../README.md has the loop).
 """
 
 import json
