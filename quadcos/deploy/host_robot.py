@@ -279,8 +279,9 @@ class HostRobot:
             targets += twins.posture_offsets(
                 self.command[oscillator.RHYTHM_SIZE :], self.config.posture_bound
             )
-        ramp = twins.start_ramp(self.data.time, self.config.start_ramp_s)
-        return self.layout.rhythm_targets(ramp * targets)
+        if self.config.start_ramp_s > 0:
+            targets = targets * twins.start_ramp(self.data.time, self.config.start_ramp_s)
+        return self.layout.rhythm_targets(targets)
 
     def _observe(self) -> tuple[np.ndarray, slope.Attitude, float]:
         """`QuadrupedEnv._observe`: (obs, attitude, slope estimate)."""

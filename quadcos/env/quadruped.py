@@ -248,15 +248,15 @@ class QuadrupedEnv(base.Env):
     def joint_targets(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
         """(J,) joint targets (rad; the robot's leg joints, `RobotDescription.joint_names`) that
         `action` commands at oscillator phase ψ / time t (s since the episode's start): the home
-        pose moved by the rhythm, of which `start_ramp_s` lets in a growing share at the start."""
+        pose moved by the rhythm."""
         if self.config.controller == "joint":
             return self.layout.home + JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
-        ramp = oscillator.start_ramp(time, self.config.start_ramp_s)
-        return self.layout.rhythm_targets(ramp * self.rhythm(action, phase, time))
+        return self.layout.rhythm_targets(self.rhythm(action, phase, time))
 
     def rhythm(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
         """(8,) Eq. 3's oscillator outputs (rad; LF hip, LF knee, ..., RB knee) that the oscillator
-        controller's `action` commands at phase ψ / time t, hip offsets included."""
+        controller's `action` commands at phase ψ / time t (s since the episode's start), hip
+        offsets included and, with `start_ramp_s`, a growing share of it in the first seconds."""
         params = self.rhythm_parameters(action)
         phases = oscillator.trot_phases(params.phi1, params.phi3)
         if self.config.oscillator_form == "literal":
@@ -271,6 +271,8 @@ class QuadrupedEnv(base.Env):
             targets += oscillator.posture_offsets(
                 action[..., oscillator.RHYTHM_SIZE :], self.config.posture_bound
             )
+        if self.config.start_ramp_s > 0:  # a growing share in an episode's first seconds
+            targets = targets * oscillator.start_ramp(time, self.config.start_ramp_s)
         return targets
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:

@@ -79,9 +79,8 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
         "slope_estimate": state.metrics["slope_estimate"][index],
         "forward_speed": state.metrics["forward_speed"][index],
         "reward": state.reward[index],
-        "controller": (  # what acts: the rhythm, let in by the start ramp
-            oscillator.start_ramp(time_now, env.config.start_ramp_s)
-            * env.rhythm(command, phase, time_now)
+        "controller": (
+            env.rhythm(command, phase, time_now)
             if env.config.controller == "oscillator"
             else env.joint_targets(command, phase, time_now)
         ),
