@@ -13,15 +13,15 @@ if [ "${SCALING:-1}" = 1 ]; then
 fi
 # BOTH: experiments that take both GPUs, after the bench (default: the any-slope recipe on both,
 # one curriculum lane a success as committed in experiments/scaling).
-eval "${BOTH:-ANY_FLAGS=--config.sac.curriculum.promote_lanes=1 bash experiments/run_gpu.sh any_slope_gpus}"
+eval "${BOTH:-ANY_FLAGS='--config.sac.curriculum.promote_lanes=1 --config.env.start_ramp_s=0' bash experiments/run_gpu.sh any_slope_gpus}"
 QUEUE0=${QUEUE0:-"ANYMAL_S=300 ANYMAL_SLOPES=0 bash experiments/run_gpu.sh anymal
   bash experiments/run_gpu.sh robust_scratch"}
 # A lever of the any-slope recipe on one GPU, 4x the envs (and replay) at about the same updates a
 # second (16 of 8192 a step), then the recipe itself on the same machine (its baseline); both with
 # one curriculum lane a success, as committed in experiments/any_slope/levers.
-QUEUE1=${QUEUE1:-"export LEVER_FLAGS='--num_envs=16384 --config.sac.replay_size=16000000 --config.sac.eval_interval=20000000 --config.sac.updates_per_step=16 --config.sac.curriculum.promote_lanes=1'
+QUEUE1=${QUEUE1:-"export LEVER_FLAGS='--num_envs=16384 --config.sac.replay_size=16000000 --config.sac.eval_interval=20000000 --config.sac.updates_per_step=16 --config.sac.curriculum.promote_lanes=1 --config.env.start_ramp_s=0'
   LEVER=envs16k_updates16 bash experiments/run_gpu.sh any_slope_lever
-  LEVER=preset LEVER_FLAGS=--config.sac.curriculum.promote_lanes=1 bash experiments/run_gpu.sh any_slope_lever"}
+  LEVER=preset LEVER_FLAGS='--config.sac.curriculum.promote_lanes=1 --config.env.start_ramp_s=0' bash experiments/run_gpu.sh any_slope_lever"}
 (export CUDA_VISIBLE_DEVICES=0; eval "$QUEUE0") &
 (export CUDA_VISIBLE_DEVICES=1; eval "$QUEUE1") &
 wait

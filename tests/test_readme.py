@@ -123,7 +123,7 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
     built = {}
 
     def fake_train(env, config, run_dir, **kwargs):
-        built.update(terrain=env.terrain, config=config, centre=env.config.action_centre)
+        built.update(terrain=env.terrain, config=config, env_config=env.config)
         return mock.Mock(env_steps=0)
 
     def fake_search(config):  # the from-scratch preset's gait search, on the same terrain
@@ -140,4 +140,5 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
     assert built["config"].episode_length == 400
     assert built["search_terrain"] == "random:max_deg=12,sections=3-5,len=1-3,seed=0"
     assert built["search"]["num_candidates"] * built["search"]["robots_per_candidate"] == 4096
-    assert built["centre"] == "0.3,0.15,0.5,1.8,-1.3"
+    assert built["env_config"].action_centre == "0.3,0.15,0.5,1.8,-1.3"
+    assert built["env_config"].start_ramp_s == 0.25

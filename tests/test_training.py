@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from quadcos import training
-from quadcos.training import best_policy, checkpoint, host
+from quadcos.training import best_policy, checkpoint, host, loop
 from quadcos.training import policy as policy_lib
 from tests.toy_env import CHUNK, PointEnv, toy_config
 
@@ -311,6 +311,13 @@ def test_a_spent_time_budget_ends_the_run_as_its_last_step_would(tmp_path):
     with checkpoint.CheckpointStore(tmp_path / "checkpoints", 3) as store:
         assert store.steps() == [result.env_steps]
     assert (tmp_path / "policy" / "policy.json").is_file()
+
+
+def test_a_time_budget_keeps_room_for_another_chunk_and_the_final_evaluation():
+    # a budget ending at 100 s; a chunk and an evaluation take 3 s together
+    assert not loop._budget_spent(100.0, 96.9, 3.0)  # another chunk and the evaluation fit
+    assert loop._budget_spent(100.0, 97.0, 3.0)  # they would end at 100 s: evaluate now
+    assert not loop._budget_spent(None, 1e9, 3.0)  # no budget
 
 
 # --- Failures ---------------------------------------------------------------

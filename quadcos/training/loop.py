@@ -234,6 +234,13 @@ def _deadline(max_seconds: float, started_at: float | None) -> float | None:
     return (time.monotonic() if started_at is None else started_at) + max_seconds
 
 
+def _budget_spent(deadline: float | None, now: float, reserve_s: float) -> bool:
+    """Whether a run with a time budget ending at `deadline` (None: no budget) stops now: when
+    another chunk and the final evaluation (`reserve_s`: the last chunk's and evaluation's
+    seconds) would end past it, so that the final evaluation and `policy_best` come within it."""
+    return deadline is not None and now + reserve_s >= deadline
+
+
 @dataclasses.dataclass(frozen=True)
 class Chunk:
     """One compiled chunk, as the host loop sees it.
@@ -342,9 +349,15 @@ def _train_loop(
         if best is not None and best.offer(state, row):
             logger.info("best evaluation so far (%.0f): saved to %s", best.reward, best.directory)
 
+    evaluation_s = 0.0  # the last evaluation's wall time (the first one's includes compiling)
+
     def evaluate(state: sac.TrainingState) -> dict[str, float]:
+        nonlocal evaluation_s
+        started = time.monotonic()
         metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
-        return {name: float(value) for name, value in jax.device_get(metrics).items()}
+        metrics = {name: float(value) for name, value in jax.device_get(metrics).items()}
+        evaluation_s = time.monotonic() - started
+        return metrics
 
     def on_start(state: sac.TrainingState) -> None:
         record({"step": 0, "wall_time_s": clock(), **evaluate(state)}, state)
@@ -357,7 +370,7 @@ def _train_loop(
 
         # Read once: a signal arriving later is served after the next chunk.
         stopping = stop.signal_name is not None
-        out_of_time = deadline is not None and time.monotonic() >= deadline
+        out_of_time = _budget_spent(deadline, time.monotonic(), chunk.seconds + evaluation_s)
         finished = step >= config.num_timesteps or out_of_time
         if out_of_time:
             logger.info("time budget of %g s spent at env step %d", config.max_seconds, step)

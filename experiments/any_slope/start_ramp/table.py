@@ -3,7 +3,7 @@ evaluated with the rhythm let in over the first `env.start_ramp_s` seconds (0: n
 
     python experiments/any_slope/start_ramp/table.py   # reads s{1,2}_r*.json beside it
 
-Each JSON is `python -m quadcos.evaluate --policy=experiments/any_slope/seeds/runs/
+Each JSON is `python -m quadcos.evaluate --policy=experiments/any_slope/seeds_no_ramp/runs/
 any_slope_promote2_sN/policy_best --terrain=flat --num_envs=8 --seconds=3 --env.start_ramp_s=R`
 on a CPU (../README.md has the loop).
 """
