@@ -2,8 +2,9 @@
 # Runs one experiment on a GPU machine, from the repository root:
 #   bash experiments/run_gpu.sh EXPERIMENT
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
-#   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone | anymal_search10 | anymal | anymal_slope5 |
-#   profile | launch_levers | xla_levers | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
+#   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone |
+#   anymal_search10 | anymal | anymal_slope5 | anymal_any_slope | profile | launch_levers |
+#   xla_levers | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
 #   needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
@@ -290,6 +291,23 @@ anymal_slope5)  # ANYmal C from nothing on slope5's sections (10-m run-out, spaw
   evaluate "$best" ${name}_slope5 slope5 1024 40 --trace="$OUT/trace_${name}_slope5.json"
   evaluate "$best" ${name}_s4 s4 1024 30
   evaluate "$best" ${name}_flat flat 1024 20
+  wait ;;
+anymal_any_slope)  # ANYmal C with --preset=any_slope (hip offsets, slope and phase observed,
+  # the course curriculum) and a longer budget (ANYMAL_S, default 1200 s: ANYmal trains at a
+  # quarter of Go1's rate); slope5, S-4, flat, the held-out test set, slope5 in C MuJoCo
+  : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
+  export MENAGERIE_ROOT
+  name=anybotics_anymal_c_any_slope_s0
+  # shellcheck disable=SC2086  # ANYMAL_FLAGS: several flags
+  train $((${ANYMAL_S:-1200} + 60)) $name --preset=any_slope --robot=menagerie:anybotics_anymal_c \
+    --seed=0 --max_seconds=${ANYMAL_S:-1200} ${ANYMAL_FLAGS:-}
+  best=$OUT/runs/$name/policy_best
+  JAX_PLATFORMS=cpu python3 -m quadcos.sim2sim --no_progress --policy="$best" --terrain=slope5 \
+    --episodes=64 --seconds=40 --out="$OUT/sim2sim_${name}_slope5.json" > "$OUT/sim2sim_${name}_slope5.log" 2>&1 &
+  evaluate "$best" ${name}_slope5 slope5 1024 40
+  evaluate "$best" ${name}_s4 s4 1024 30
+  evaluate "$best" ${name}_flat flat 1024 20
+  evaluate "$best" ${name}_testset testset:2026 4288 40
   wait ;;
 anymal_search10)  # ANYmal C with a gait search of 10-s episodes, 4 robots a candidate
   : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
