@@ -1,6 +1,7 @@
 """`quadcos.runs`: every committed run config migrates, and `--resume` and `quadcos.evaluate`
 rebuild the same env from it (the env the run was trained in)."""
 
+import importlib.util
 import json
 import pathlib
 import subprocess
@@ -81,6 +82,20 @@ def test_the_committed_any_slope_tables_are_what_their_runs_and_evaluations_say(
     for row in committed:  # each kept policy is the one of a run's own evaluation
         assert row["env_steps"] <= row["last_env_steps"] and row["train_seconds"] > 0
         assert row["command"].startswith("python -m quadcos.train --preset=any_slope --seed=")
+
+
+def test_the_committed_falls_table_is_what_the_kept_episodes_say(capsys):
+    folder = ROOT / "experiments" / "any_slope" / "seeds"
+    spec = importlib.util.spec_from_file_location("falls", folder.parent / "falls.py")
+    falls_py = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(falls_py)
+    falls_py.main([str(path) for path in sorted(folder.glob("*.episodes.json.gz"))])
+    table = capsys.readouterr().out
+    assert table == (folder / "falls.md").read_text()
+    for line in table.splitlines()[2:]:  # each row's falls are those of its evaluation's summary
+        name, falls = line.split(" | ")[0].strip("| "), int(line.split(" | ")[1])
+        summary = json.loads((folder / f"{name}.json").read_text())
+        assert falls == round(summary["fall_rate"] * summary["num_episodes"]) > 0
 
 
 def test_the_committed_success_by_slope_is_what_the_evaluations_say():
