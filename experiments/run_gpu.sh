@@ -113,7 +113,9 @@ any_slope_seeds)  # --preset=any_slope as it ships, one run per seed with a time
       evaluate "$OUT/runs/$name/policy_best" ${name}_testset$set testset:$set 4288 40
     done
   done
-  python3 experiments/any_slope/seeds.py "$OUT" --runs "any_slope${ANY_NAME:-}_s[0-9]+" --out "$OUT/seeds.json" ;;
+  python3 experiments/any_slope/seeds.py "$OUT" --runs "any_slope${ANY_NAME:-}_s[0-9]+" --out "$OUT/seeds.json"
+  python3 experiments/any_slope/falls.py "$OUT"/eval_any_slope${ANY_NAME:-}_s*_testset2026.json \
+    --keep "$OUT" > "$OUT/falls.md" ;;  # where they fall; the kept episodes: *.episodes.json.gz
 any_slope_gpus)  # --preset=any_slope over every GPU of the host at equal per-GPU work (4096 envs,
   # batch 8192 and a 4 M replay a GPU; evaluations as often per GPU), against any_slope_seeds' one GPU
   gpus=$(nvidia-smi -L | wc -l)
