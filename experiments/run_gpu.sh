@@ -4,8 +4,9 @@
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone |
 #   anymal_search10 | anymal | anymal_slope5 | anymal_any_slope | profile | launch_levers |
-#   xla_levers | startup_and_randomized | any_slope_gpus | any_slope_lever | robust_scratch (scaling
-#   needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
+#   xla_levers | precision_levers | startup_and_randomized | any_slope_gpus | any_slope_lever |
+#   robust_scratch (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
+#   Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
 # and traces, status (one line per step). Copy the summaries into experiments/EXPERIMENT.
@@ -370,6 +371,19 @@ xla_levers)  # XLA's command buffers (CUDA graphs of its own kernels) against th
       --env_counts=4096 --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
       --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
     note "$name ($flags): exit $? $(grep -o 'train 4096x8192x1: [^,]*' "$OUT/$name.log")"
+  done ;;
+precision_levers)  # the networks' matmul precision against the 8-update row's update time: the
+  # launch_levers rows (flat, Warp, 4096 envs) under JAX_DEFAULT_MATMUL_PRECISION, one bench
+  # process each (PRECISIONS: values separated by ";", "default": unset); Warp's physics kernels
+  # do not take it, so the raw physics rate stays the baseline
+  IFS=';' read -r -a sets <<< "${PRECISIONS:-default;float32;tensorfloat32;bfloat16}"
+  for set in "${sets[@]}"; do
+    name=bench_precision_$set
+    ( [ "$set" = default ] || export JAX_DEFAULT_MATMUL_PRECISION=$set
+      python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
+        --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
+        --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1 )
+    note "$name: exit $? $(grep -o 'train 4096x8192x[18]: [^,]*' "$OUT/$name.log" | tr '\n' ' ')"
   done ;;
 startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
   # with and without domain randomisation, flat, 4096 envs, 1 update per env step
