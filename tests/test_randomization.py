@@ -45,6 +45,7 @@ def test_a_draw_changes_only_the_model_fields_it_names():
         latency_steps=jnp.int32(2),
         push=jnp.zeros(3),
         push_left_s=jnp.float32(0.0),
+        level=jnp.float32(1.0),
     )
     torso = env.mj_model.body(constants.TORSO_BODY).id
     model = randomization.apply(env.model, physics, torso)
@@ -81,6 +82,61 @@ def test_torque_motors_keep_their_gains():
     )
 
 
+def test_a_draw_acts_at_its_level_from_the_nominal_robot():
+    env = quadcos.make_env("flat")
+    config = _config(latency_s=(0.04, 0.04), com_offset_m=0.02)
+    drawn = randomization.sample(jax.random.PRNGKey(3), config, 0.005)
+    assert float(drawn.level) == 1.0  # a fresh draw acts fully
+    drawn = drawn._replace(push=jnp.array([50.0, 0.0, 0.0]), friction=jnp.float32(0.5))
+    torso = env.mj_model.body(constants.TORSO_BODY).id
+    fields = ("geom_friction", "body_mass", "body_ipos", "actuator_gainprm", "actuator_biasprm")
+    fields += ("dof_damping", "actuator_forcerange")
+    nominal = randomization.apply(env.model, drawn._replace(level=jnp.float32(0.0)), torso)
+    full = randomization.apply(env.model, drawn, torso)
+    half = randomization.apply(env.model, drawn._replace(level=jnp.float32(0.5)), torso)
+    for field in fields:
+        np.testing.assert_allclose(getattr(nominal, field), getattr(env.model, field), rtol=1e-6)
+        expected = (np.asarray(getattr(env.model, field)) + np.asarray(getattr(full, field))) / 2
+        np.testing.assert_allclose(getattr(half, field), expected, rtol=1e-5, atol=1e-7)
+    assert int(randomization.latency_steps(drawn)) == 8
+    assert int(randomization.latency_steps(drawn._replace(level=jnp.float32(0.5)))) == 4
+    np.testing.assert_allclose(randomization.push_force(drawn._replace(level=0.25)), [12.5, 0, 0])
+
+
+def test_the_ramp_raises_each_training_robots_level_with_its_steps_and_keeps_it_at_reset():
+    from brax import envs
+
+    from quadcos.training import randomization_ramp
+
+    physics = randomization.sample(jax.random.PRNGKey(0), _config(), 0.005)
+    physics = jax.tree.map(lambda value: jnp.stack([value, value]), physics)  # two envs
+
+    class Inner(envs.Env):  # what the ramp sees of the batched training env: levels passed on
+        def reset(self, rng):
+            info = {"physics": physics}
+            return envs.State(None, jnp.zeros((2, 1)), jnp.zeros(2), jnp.zeros(2), {}, info)
+
+        def step(self, state, action):
+            return state.replace(obs=state.info["physics"].level[:, None])
+
+        observation_size = action_size = 1
+        backend = "mjx"
+
+    ramp = randomization_ramp.RandomizationRamp(Inner(), dt=0.05, ramp_s=0.1)
+    state = ramp.reset(jax.random.split(jax.random.PRNGKey(1), 2))
+    np.testing.assert_array_equal(state.info["physics"].level, [0.0, 0.0])
+    seen = []
+    for _ in range(4):
+        state = ramp.step(state, jnp.zeros((2, 1)))
+        seen.append(float(state.obs[0, 0]))
+    assert seen == pytest.approx([0.0, 0.5, 1.0, 1.0])  # min(1, steps · dt / ramp_s)
+    env = quadcos.make_env("flat", **{"randomization.enabled": True})
+    one = jax.tree.map(lambda value: value[0], physics)._replace(level=jnp.float32(0.3))
+    info = {"physics": one, "rng": jax.random.PRNGKey(2)}
+    redrawn = env._perturb(info | {"action": jnp.zeros(env.action_size)}, jnp.bool_(True))
+    assert float(redrawn["physics"].level) == pytest.approx(0.3)  # the auto-reset's new draw
+
+
 def test_pushes_start_run_for_their_duration_and_stop():
     config = _config(push_interval_s=1e-9, push_force_n=50.0, push_duration_s=0.1)
     physics = randomization.sample(jax.random.PRNGKey(0), config, 0.005)
@@ -103,6 +159,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
         ("randomization.latency_s", (-0.01, 0.0), "randomization.latency_s must be"),
         ("randomization.push_force_n", -1.0, "randomization.push_force_n must be finite and >= 0"),
         ("randomization.obs_noise", -0.1, "randomization.obs_noise must be finite and >= 0"),
+        ("randomization.ramp_s", -1.0, "randomization.ramp_s must be finite and >= 0"),
     ],
 )
 def test_bad_ranges_are_named(key, value, message):

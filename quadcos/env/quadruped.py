@@ -185,7 +185,8 @@ class QuadrupedEnv(base.Env):
         mean_speed = jnp.where(just_reset, 0.0, state.info["mean_speed"])
         info = self._perturb(state.info, just_reset)
         if self.randomized:
-            torso_force = before.xfrc_applied.at[self._torso_body, :3].set(info["physics"].push)
+            push = randomization.push_force(info["physics"])
+            torso_force = before.xfrc_applied.at[self._torso_body, :3].set(push)
             before = before.replace(xfrc_applied=torso_force)
         data, phase, command = self._actuate(before, phase, command, action, info)
         if self.randomized:
@@ -289,6 +290,7 @@ class QuadrupedEnv(base.Env):
         config = self.config.randomization
         rng, draw_key, push_key = jax.random.split(info["rng"], 3)
         fresh = randomization.sample(draw_key, config, self.config.physics_dt)
+        fresh = fresh._replace(level=info["physics"].level)  # a level is the trainer's to set
         physics = jax.tree.map(lambda a, b: jnp.where(just_reset, a, b), fresh, info["physics"])
         physics = randomization.next_push(push_key, physics, config, self.dt)
         action = jnp.where(just_reset, 0.0, info["action"])  # what acts during the latency
@@ -324,7 +326,8 @@ class QuadrupedEnv(base.Env):
             data, phase, command = carry
             target = action
             if self.randomized:  # the previous action acts for the first latency_steps
-                target = jnp.where(index < info["physics"].latency_steps, info["action"], action)
+                late = index < randomization.latency_steps(info["physics"])
+                target = jnp.where(late, info["action"], action)
             command = command + blend * (target - command)
             targets = self.joint_targets(command, phase, data.time)
             data = data.replace(ctrl=self.layout.controls(targets, data))

@@ -31,6 +31,11 @@ friction U(0.4, 1.0), body masses ×U(0.9, 1.1), base mass ±1 kg, joint frictio
 Every range is (low, high) in SI units; equal ends fix a value, which is how an evaluation applies
 one perturbation (`quadcos.evaluate --env.randomization.enabled=True
 --env.randomization.friction='(0.4, 0.4)'`).
+
+A draw acts at its `level` (1, the default: fully): at level ℓ each drawn value is the nominal
+robot's moved a share ℓ of the way towards the draw (friction from each geom's own, scales from 1,
+CoM offset, latency and push force from 0). Training can ramp ℓ from 0 to 1 over each robot's
+first `ramp_s` seconds (`quadcos.training.randomization_ramp`); evaluations draw at level 1.
 """
 
 from typing import NamedTuple
@@ -64,6 +69,7 @@ def default_config() -> ml_collections.ConfigDict:
     config.push_duration_s = 0.1
     config.push_interval_s = 5.0  # mean time between pushes; 0: no pushes
     config.obs_noise = 0.0  # std on each observation value the policy sees
+    config.ramp_s = 0.0  # training only: level 0 → 1 over each robot's first ramp_s s; 0: none
     return config
 
 
@@ -77,8 +83,9 @@ class Physics(NamedTuple):
     damping_scale: jax.Array  # ()
     strength_scale: jax.Array  # ()
     latency_steps: jax.Array  # () int32, physics steps
-    push: jax.Array  # (3,) N on the torso now (zero between pushes)
+    push: jax.Array  # (3,) N on the torso now (zero between pushes), as drawn
     push_left_s: jax.Array  # () s
+    level: jax.Array  # () in [0, 1]: the share of the way from the nominal robot to the draw
 
 
 def validate(config: ml_collections.ConfigDict) -> None:
@@ -89,7 +96,8 @@ def validate(config: ml_collections.ConfigDict) -> None:
             raise ValueError(
                 f"randomization.{name} must be (low, high) with 0 <= low <= high; got {config[name]}"
             )
-    for name in ("com_offset_m", "push_force_n", "push_duration_s", "push_interval_s", "obs_noise"):
+    names = ("com_offset_m", "push_force_n", "push_duration_s", "push_interval_s", "obs_noise")
+    for name in (*names, "ramp_s"):
         if not 0 <= config[name] < np.inf:
             raise ValueError(f"randomization.{name} must be finite and >= 0; got {config[name]}")
 
@@ -112,24 +120,43 @@ def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float)
         latency_steps=jnp.round(drawn["latency_s"] / physics_dt).astype(jnp.int32),
         push=jnp.zeros(3),
         push_left_s=jnp.zeros(()),
+        level=jnp.ones(()),
     )
+
+
+def _scale(physics: Physics, name: str) -> jax.Array:
+    """A drawn scale at the draw's level: 1 at level 0, as drawn at level 1."""
+    return 1.0 + physics.level * (getattr(physics, name) - 1.0)
 
 
 def apply(model, physics: Physics, torso_body: int):
-    """The MJX model with one robot's draw (under `jax.vmap`, a per-robot model)."""
+    """The MJX model with one robot's draw at its level (under `jax.vmap`, a per-robot model)."""
     gain = model.actuator_gainprm[:, 0]
     servo = model.actuator_biasprm[:, 1] < 0  # a position servo's bias is −kp·q; a motor's 0
-    kp = jnp.where(servo, gain * physics.kp_scale, gain)
+    kp = jnp.where(servo, gain * _scale(physics, "kp_scale"), gain)
     bias = jnp.where(servo, -kp, model.actuator_biasprm[:, 1])
+    friction = model.geom_friction[:, 0]
     return model.replace(
-        geom_friction=model.geom_friction.at[:, 0].set(physics.friction),
-        body_mass=model.body_mass.at[torso_body].multiply(physics.torso_mass_scale),
-        body_ipos=model.body_ipos.at[torso_body].add(physics.com_offset),
+        geom_friction=model.geom_friction.at[:, 0].set(
+            friction + physics.level * (physics.friction - friction)
+        ),
+        body_mass=model.body_mass.at[torso_body].multiply(_scale(physics, "torso_mass_scale")),
+        body_ipos=model.body_ipos.at[torso_body].add(physics.level * physics.com_offset),
         actuator_gainprm=model.actuator_gainprm.at[:, 0].set(kp),
         actuator_biasprm=model.actuator_biasprm.at[:, 1].set(bias),
-        dof_damping=model.dof_damping * physics.damping_scale,
-        actuator_forcerange=model.actuator_forcerange * physics.strength_scale,
+        dof_damping=model.dof_damping * _scale(physics, "damping_scale"),
+        actuator_forcerange=model.actuator_forcerange * _scale(physics, "strength_scale"),
     )
+
+
+def latency_steps(physics: Physics) -> jax.Array:
+    """The physics steps a new action waits, at the draw's level."""
+    return jnp.round(physics.level * physics.latency_steps).astype(jnp.int32)
+
+
+def push_force(physics: Physics) -> jax.Array:
+    """(3,) N on the torso now, at the draw's level."""
+    return physics.level * physics.push
 
 
 def next_push(

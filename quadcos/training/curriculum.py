@@ -24,17 +24,25 @@ import ml_collections
 from brax import envs
 from brax.envs.wrappers import training as training_wrappers
 
+from quadcos.training import randomization_ramp
+
 
 def wrap(env: envs.Env, episode_length: int, config: ml_collections.ConfigDict) -> envs.Env:
     """The training wrappers of `env`: Brax's (Vmap, Episode, AutoReset), with `CourseCurriculum`
-    in AutoReset's place on a lane terrain when `config.enabled`."""
+    in AutoReset's place on a lane terrain when `config.enabled`, and around them the
+    randomisation ramp where the env's config asks for one (`env.randomization.ramp_s`)."""
     lanes = getattr(getattr(env, "terrain", None), "num_lanes", 1)
     if lanes == 1 or not config.enabled:
-        return training_wrappers.wrap(env, episode_length=episode_length)
-    batched = training_wrappers.EpisodeWrapper(
-        training_wrappers.VmapWrapper(env), episode_length, action_repeat=1
-    )
-    return CourseCurriculum(batched, env, config)
+        wrapped = training_wrappers.wrap(env, episode_length=episode_length)
+    else:
+        batched = training_wrappers.EpisodeWrapper(
+            training_wrappers.VmapWrapper(env), episode_length, action_repeat=1
+        )
+        wrapped = CourseCurriculum(batched, env, config)
+    randomization = getattr(getattr(env, "config", None), "randomization", None)
+    if getattr(env, "randomized", False) and randomization.ramp_s > 0:
+        return randomization_ramp.RandomizationRamp(wrapped, env.dt, randomization.ramp_s)
+    return wrapped
 
 
 def next_level(
