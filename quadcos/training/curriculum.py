@@ -39,9 +39,10 @@ def wrap(env: envs.Env, episode_length: int, config: ml_collections.ConfigDict) 
             training_wrappers.VmapWrapper(env), episode_length, action_repeat=1
         )
         wrapped = CourseCurriculum(batched, env, config)
-    randomization = getattr(getattr(env, "config", None), "randomization", None)
-    if getattr(env, "randomized", False) and randomization.ramp_s > 0:
-        return randomization_ramp.RandomizationRamp(wrapped, env.dt, randomization.ramp_s)
+    if getattr(env, "randomized", False) and env.config.randomization.ramp_s > 0:
+        return randomization_ramp.RandomizationRamp(
+            wrapped, env.dt, env.config.randomization.ramp_s
+        )
     return wrapped
 
 
