@@ -149,10 +149,13 @@ robust_scratch)  # a flat policy from nothing (--preset=scratch) trained with ra
   train $((${ROBUST_S:-300} + 60)) $name --preset=scratch --terrain=flat --seed=${SEEDS:-0} \
     --max_seconds=${ROBUST_S:-300} --config.env.randomization.enabled=True \
     --config.env.randomization.obs_noise=0.02 ${ROBUST_FLAGS:-}
-  python3 experiments/robustness/measure.py --policy="$OUT/runs/$name/policy_best" --num_envs=1024 \
-    --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" "friction 0.4" \
-    --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
-  note "measured $name: exit $? $(tail -n 6 "$OUT/$name.log" | tr '\n' ' ')" ;;
+  for kept in policy_best policy; do  # the kept policy, then the last one (file name _last)
+    label=$name; [ $kept = policy ] && label=${name}_last
+    python3 experiments/robustness/measure.py --policy="$OUT/runs/$name/$kept" --num_envs=1024 \
+      --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" "friction 0.4" \
+      --out="$OUT/$label.json" > "$OUT/$label.log" 2>&1
+    note "measured $label: exit $? $(tail -n 6 "$OUT/$label.log" | tr '\n' ' ')"
+  done ;;
 robustness)  # trained with domain randomisation vs without, under fixed perturbations
   train 330 flat_randomized_s0 --terrain=flat --seed=0 --config.env.impl=jax \
     --config.env.randomization.enabled=True
@@ -297,10 +300,11 @@ anymal_slope5)  # ANYmal C from nothing on slope5's sections (10-m run-out, spaw
   wait ;;
 anymal_any_slope)  # ANYmal C with --preset=any_slope (hip offsets, slope and phase observed,
   # the course curriculum) and a longer budget (ANYMAL_S, default 1200 s: ANYmal trains at a
-  # quarter of Go1's rate); slope5, S-4, flat, the held-out test set, slope5 in C MuJoCo
+  # quarter of Go1's rate); slope5, S-4, flat, the held-out test set, slope5 in C MuJoCo;
+  # ANYMAL_NAME / ANYMAL_FLAGS as anymal_slope's
   : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
   export MENAGERIE_ROOT
-  name=anybotics_anymal_c_any_slope_s0
+  name=anybotics_anymal_c_any_slope${ANYMAL_NAME:-}_s0
   # shellcheck disable=SC2086  # ANYMAL_FLAGS: several flags
   train $((${ANYMAL_S:-1200} + 60)) $name --preset=any_slope --robot=menagerie:anybotics_anymal_c \
     --seed=0 --max_seconds=${ANYMAL_S:-1200} ${ANYMAL_FLAGS:-}

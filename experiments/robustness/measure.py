@@ -3,6 +3,7 @@
     python experiments/robustness/measure.py --policy=experiments/policies/flat --num_envs=256 \
         --out=experiments/robustness/flat_trained_without.json
     python experiments/robustness/measure.py --table experiments/robustness/*.json   # Markdown
+    python experiments/robustness/measure.py --rows experiments/robustness/levers_gpu/*.json
 
 Each condition is `quadcos.evaluate`'s deterministic evaluation (flat, 20-s episodes, the same
 seeds) with `env.randomization` enabled and every range fixed to one value: the nominal robot
@@ -47,6 +48,9 @@ CONDITIONS = {
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--table", nargs="+", help="print the Markdown table of these outputs")
+    parser.add_argument(
+        "--rows", nargs="+", help="print these outputs as Markdown rows (one a policy)"
+    )
     parser.add_argument("--policy")
     parser.add_argument("--num_envs", type=int, default=256)
     parser.add_argument("--seconds", type=float, default=20.0)
@@ -58,6 +62,9 @@ def main() -> None:
     args = parser.parse_args()
     if args.table:
         print(table([json.loads(Path(path).read_text()) for path in args.table]))
+        return
+    if args.rows:
+        print(rows_table({path: json.loads(Path(path).read_text()) for path in args.rows}))
         return
     if not (args.policy and args.out):
         parser.error("--policy and --out are needed to measure")
@@ -104,6 +111,20 @@ def table(results: list[dict]) -> str:
             row = result["conditions"].get(name)
             cells.append("—" if row is None else f"{row['success_rate']:.3f}, {row['mean_forward_speed']:.3f}")
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def rows_table(results: dict[str, dict]) -> str:
+    """One row per output file (its name), one column per condition measured in any of them:
+    success / speed (m/s); "—" where a file lacks the condition."""
+    names = [name for name in CONDITIONS if any(name in r["conditions"] for r in results.values())]
+    lines = ["| output | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+    for path, result in results.items():
+        cells = []
+        for name in names:
+            row = result["conditions"].get(name)
+            cells.append("—" if row is None else f"{row['success_rate']:.3f}, {row['mean_forward_speed']:.3f}")
+        lines.append(f"| {Path(path).stem} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
