@@ -5,6 +5,7 @@ import pytest
 
 from quadcos import env as env_lib
 from quadcos.env import backends
+from quadcos.robot import presets
 
 
 def test_auto_is_jax_on_the_cpu():
@@ -40,20 +41,31 @@ def test_warp_buffers_scale_with_the_batch_and_the_robots_contacts():
     assert backends.warp_sizes(config, model)["njmax"] == 40
 
 
-def test_a_heightfield_gets_rows_for_the_contacts_it_makes():
-    plane = env_lib.make_env("flat", robot="quad12", impl="jax").mj_model
-    ramp = env_lib.make_env("slope5", robot="quad12", impl="jax").mj_model
-    limited = int(ramp.jnt_limited.sum())
+def test_a_heightfield_gets_rows_for_the_contacts_it_makes(monkeypatch):
+    plane = env_lib.make_env("flat", robot="quad12", impl="jax")
+    ramp = env_lib.make_env("slope5", robot="quad12", impl="jax")
+    limited = int(ramp.mj_model.jnt_limited.sum())
     per_contact = 6  # quad12: condim-6 feet, elliptic cones
-    assert backends.constraint_rows(plane, 8) == 8 * per_contact + limited
-    assert backends.constraint_rows(ramp, 8) == backends.HFIELD_CONTACTS * per_contact + limited
-    assert backends.constraint_rows(ramp, 20) == 20 * per_contact + limited
+    assert backends.constraint_rows(plane.mj_model, 8, 24) == 8 * per_contact + limited
+    assert backends.constraint_rows(ramp.mj_model, 8, 24) == 24 * per_contact + limited
+    assert backends.constraint_rows(ramp.mj_model, 30, 24) == 30 * per_contact + limited
+    # The env's resolved config carries the robot preset's heightfield contacts ...
+    assert ramp.config.warp.hfield_contacts == presets.HFIELD_CONTACTS
+    assert backends.warp_sizes(ramp.config, ramp.mj_model)["njmax"] == (
+        presets.HFIELD_CONTACTS * per_contact + limited
+    )
+    # ... unless the config gives its own.
+    more = env_lib.make_env("slope5", robot="quad12", impl="jax", **{"warp.hfield_contacts": 30})
+    assert backends.warp_sizes(more.config, more.mj_model)["njmax"] == 30 * per_contact + limited
     # The paper's robot keeps the 64 rows its results were measured with.
-    paper = env_lib.make_env("slope5", impl="jax").mj_model
-    assert backends.warp_sizes(env_lib.default_config(), paper)["njmax"] == 64
+    paper = env_lib.make_env("slope5", impl="jax")
+    assert backends.warp_sizes(paper.config, paper.mj_model)["njmax"] == 64
+    assert presets.PRESETS["anybotics_anymal_c"].hfield_contacts == 24
 
 
-@pytest.mark.parametrize("key, value", [("max_envs", 0), ("contacts_per_env", -1)])
+@pytest.mark.parametrize(
+    "key, value", [("max_envs", 0), ("contacts_per_env", -1), ("hfield_contacts", -2)]
+)
 def test_bad_warp_sizes_are_refused(key, value):
     config = env_lib.default_config()
     config.warp[key] = value

@@ -552,6 +552,8 @@ def test_a_presets_joint_frictionloss_replaces_the_mjcfs(monkeypatch):
 
     with pytest.raises(ValueError, match="joint_frictionloss must be >= 0"):
         presets.RobotPreset(joint_frictionloss=-0.1)
+    with pytest.raises(ValueError, match="hfield_contacts must be a whole number >= 1"):
+        presets.RobotPreset(hfield_contacts=0)
     monkeypatch.setitem(
         presets.PRESETS,
         "quad12",

@@ -62,30 +62,27 @@ def resolve_impl(impl: str, gpu_physics: str = "warp") -> str:
 def warp_sizes(config: ml_collections.ConfigDict, mj_model=None) -> dict[str, int]:
     """Warp's buffer sizes for an env config: `naconmax` (contacts, all worlds of the largest
     batch together) and `njmax` (constraint rows per world: `constraints_per_env`, or with 0 as
-    many as the robot can need, `constraint_rows(mj_model, contacts_per_env)`, and at least the
-    64 the paper's robot's results were measured with)."""
-    rows = config.warp.constraints_per_env or max(
-        _PAPER_ROWS, constraint_rows(mj_model, config.warp.contacts_per_env)
+    many as the robot can need, `constraint_rows` with the config's contact counts, and at least
+    the 64 the paper's robot's results were measured with)."""
+    warp = config.warp
+    rows = warp.constraints_per_env or max(
+        _PAPER_ROWS, constraint_rows(mj_model, warp.contacts_per_env, warp.hfield_contacts)
     )
-    return {"naconmax": config.warp.max_envs * config.warp.contacts_per_env, "njmax": rows}
+    return {"naconmax": warp.max_envs * warp.contacts_per_env, "njmax": rows}
 
 
 _PAPER_ROWS = 64
-# Contacts a world can make on a heightfield: a foot sphere touches up to 3-4 of its triangles at
-# once. Measured in C MuJoCo (same collision as MJX-Warp): Menagerie's Go1 walking 12° random
-# courses made up to 13 contacts, 8 on slope5, 4 on a plane; the paper's 64 rows (condim 3,
-# pyramidal) hold 14 contacts and never overflowed on its courses.
-HFIELD_CONTACTS = 14
 
 
-def constraint_rows(mj_model, contacts: int) -> int:
+def constraint_rows(mj_model, contacts: int, hfield_contacts: int = 0) -> int:
     """Constraint rows a world of `mj_model` can need: `contacts` contacts (at least
-    HFIELD_CONTACTS where the ground is a heightfield) of its largest condim (a pyramidal cone
-    takes 2 (condim − 1) rows a contact, an elliptic one condim), a row per limited joint, and its
-    equality constraints (6 rows each, at most). Menagerie's Go1 has condim-6 feet: 10 rows a
-    contact."""
+    `hfield_contacts` where the ground is a heightfield: a foot sphere touches several of its
+    triangles at once; the robot preset's, `quadcos.robot.presets`) of its largest condim (a
+    pyramidal cone takes 2 (condim − 1) rows a contact, an elliptic one condim), a row per limited
+    joint, and its equality constraints (6 rows each, at most). Menagerie's Go1 has condim-6
+    feet: 10 rows a contact."""
     if (mj_model.geom_type == mujoco.mjtGeom.mjGEOM_HFIELD).any():
-        contacts = max(contacts, HFIELD_CONTACTS)
+        contacts = max(contacts, hfield_contacts)
     colliding = mj_model.geom_contype | mj_model.geom_conaffinity
     condim = int(mj_model.geom_condim[colliding > 0].max(initial=3))
     pyramidal = mj_model.opt.cone == 0  # mjCONE_PYRAMIDAL
@@ -101,6 +98,8 @@ def default_warp_config() -> ml_collections.ConfigDict:
     config.max_envs = 16384  # the largest batch stepped at once; the trainer raises it as needed
     config.contacts_per_env = 8
     config.constraints_per_env = 0  # 0: what the robot can need (constraint_rows)
+    # Contacts a world can make on a heightfield (sizes the rows); 0: the robot preset's.
+    config.hfield_contacts = 0
     # CUDA graph capture of MJX-Warp's calls (warp.JaxCallableGraphMode): "auto" is MJX's choice
     # (Warp captures and replays a graph per call on a GPU), or one of GRAPH_MODES by name.
     config.graph_mode = "auto"

@@ -115,6 +115,8 @@ def resolve(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
         resolved.solver_iterations = robot.preset.solver_iterations
     if not resolved.ls_iterations:
         resolved.ls_iterations = robot.preset.ls_iterations
+    if not resolved.warp.hfield_contacts:
+        resolved.warp.hfield_contacts = robot.preset.hfield_contacts
     return resolved
 
 
@@ -133,7 +135,12 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
     config = resolve(config)
     if config.impl not in backends.IMPLS:
         raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
-    for key, least in (("max_envs", 1), ("contacts_per_env", 1), ("constraints_per_env", 0)):
+    for key, least in (
+        ("max_envs", 1),
+        ("contacts_per_env", 1),
+        ("constraints_per_env", 0),
+        ("hfield_contacts", 1),
+    ):
         value = config.warp[key]
         if not (isinstance(value, int) and value >= least):
             raise ValueError(f"warp.{key} must be a whole number >= {least}; got {value!r}")

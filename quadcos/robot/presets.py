@@ -13,6 +13,11 @@ from collections.abc import Mapping, Sequence
 # The paper's robot falls below 0.35 m of its 0.67 m standing height: others, at the same fraction.
 FALL_HEIGHT_FRACTION = 0.35 / 0.67
 COLLISION_PROFILES = ("feet", "all", "asis")
+# Contacts a world can make on a heightfield (a foot sphere touches several of its triangles at
+# once) unless a preset says: enough for the paper's robot (12 at most) and Go1 (18 at most, over 14
+# in 2 of 2600 physics steps); more rows cost MJX-Warp time (Go1 on slope5 with rows for 24
+# contacts: 154 k instead of 241 k env steps/s, benchmarks/h100/hfield_contacts).
+HFIELD_CONTACTS = 14
 
 
 @dataclasses.dataclass(frozen=True)
@@ -31,6 +36,10 @@ class RobotPreset:
     joint_frictionloss: N m, every hinge's dry friction; None keeps the MJCF's.
     gpu_physics: what `impl="auto"` runs on a GPU: "warp" or "jax", whichever steps the robot
       faster (measured with `python -m quadcos.bench --only=physics --robot=...`).
+    hfield_contacts: contacts a world can make on a heightfield, which sizes MJX-Warp's
+      constraint rows (`quadcos.env.backends.constraint_rows`; beyond them Warp drops
+      constraints: "nefc overflow"). Measured in C MuJoCo (experiments/robots/contacts): ANYmal C
+      up to 23 on a 12° random course, Go1 18, the paper's robot 12.
     """
 
     home: str | Mapping[str, float] | Sequence[float] | None = None
@@ -44,6 +53,7 @@ class RobotPreset:
     cone: str = ""
     joint_frictionloss: float | None = None
     gpu_physics: str = "warp"
+    hfield_contacts: int = HFIELD_CONTACTS
 
     def __post_init__(self):
         if self.collision not in COLLISION_PROFILES:
@@ -56,6 +66,10 @@ class RobotPreset:
             raise ValueError(f"unknown gpu_physics {self.gpu_physics!r}; known: warp, jax")
         if self.cone not in ("", "pyramidal", "elliptic"):
             raise ValueError(f"unknown cone {self.cone!r}; known: pyramidal, elliptic")
+        if not (isinstance(self.hfield_contacts, int) and self.hfield_contacts >= 1):
+            raise ValueError(
+                f"hfield_contacts must be a whole number >= 1; got {self.hfield_contacts!r}"
+            )
         if self.joint_frictionloss is not None and not self.joint_frictionloss >= 0:
             raise ValueError(f"joint_frictionloss must be >= 0 N m; got {self.joint_frictionloss}")
 
@@ -100,6 +114,9 @@ PRESETS: dict[str, RobotPreset] = {
         solver_iterations=4,
         ls_iterations=8,
         joint_frictionloss=0.0,
+        # Up to 23 contacts on a 12° random course, over 14 in 7 % of its physics steps
+        # (experiments/robots/contacts): rows for 24.
+        hfield_contacts=24,
     ),
 }
 
