@@ -345,3 +345,42 @@ def test_learning_curve_band_is_the_t_interval_across_seeds():
     np.testing.assert_allclose(curve["high"][0] - curve["mean"][0], half_width, rtol=1e-6)
     with pytest.raises(ValueError, match="has no 'other'"):
         plots.learning_curve(runs, "other")
+
+
+def test_a_diverged_episode_is_counted_and_left_out_of_the_means():
+    from quadcos.evaluation import metrics
+    from quadcos.evaluation.rollout import EpisodeStats
+
+    def column(*values):
+        return np.asarray(values, dtype=float)
+
+    nan = float("nan")
+    stats = EpisodeStats(
+        lane=np.zeros(3, np.int32),
+        fell=np.array([False, False, True]),
+        finished=np.zeros(3, bool),
+        running=np.zeros(3, bool),
+        steps=np.array([10, 10, 4], np.int32),
+        start_x=column(0, 0, 0),
+        start_y=column(0, 0, 0),
+        x=column(5, 3, nan),
+        y=column(0.1, 0.3, nan),
+        max_lateral_deviation=column(0.1, 0.3, nan),
+        max_abs_roll=column(0.1, 0.2, nan),
+        max_abs_yaw=column(0.1, 0.2, 0.3),
+        max_abs_pitch_error=column(0.1, 0.2, nan),
+        slope_sq_error=column(0.1, 0.3, nan),
+        episode_reward=column(100, 50, nan),
+        reward_terms={name: column(1, 2, nan) for name in metrics.reward.TERM_NAMES},
+    )
+    episodes = metrics.episode_values(stats, dt=1.0, num_steps=10)
+    for episode in episodes:
+        episode["success"] = not episode["fell"]
+    summary = metrics.aggregate(episodes, stats)
+    assert summary["diverged_rate"] == pytest.approx(1 / 3)
+    assert summary["fall_rate"] == pytest.approx(1 / 3)
+    assert summary["success_rate"] == pytest.approx(2 / 3)
+    assert summary["mean_forward_speed"] == pytest.approx(0.4)  # (0.5 + 0.3) / 2
+    assert summary["mean_max_abs_yaw"] == pytest.approx(0.2)  # finite everywhere: all three
+    assert summary["slope_error_rms"] == pytest.approx(math.sqrt(0.4 / 20))
+    assert summary["mean_reward_terms"]["survival"] == pytest.approx(1.5)

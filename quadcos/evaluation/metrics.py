@@ -53,21 +53,34 @@ def episode_values(stats: EpisodeStats, dt: float, num_steps: int) -> list[dict[
 def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dict[str, Any]:
     """Aggregates over episodes (means of per-episode values unless said otherwise).
 
-    `slope_error_rms` pools every step of every episode: sqrt(Σ squared errors / Σ steps).
+    An episode whose physics diverged (a non-finite position: the env ended it as a fall) is
+    counted in `diverged_rate` and in the rates, and left out of the means of values it made
+    non-finite, so that one blown-up robot does not turn a thousand episodes' speed into NaN.
+    `slope_error_rms` pools every step of every episode with a finite error: sqrt(Σ squared errors
+    / Σ steps). A mean over no finite value is NaN (null in JSON).
     """
 
-    def mean(key: str) -> float:
-        return float(np.mean([float(e[key]) for e in episodes]))
+    def finite_mean(values: Sequence[float]) -> float:
+        values = np.asarray(values, dtype=float)
+        values = values[np.isfinite(values)]
+        return float(values.mean()) if values.size else math.nan
 
-    total_steps = int(np.sum(stats.steps))
-    speeds = np.array([e["forward_speed"] for e in episodes])
+    def mean(key: str) -> float:
+        return finite_mean([float(e[key]) for e in episodes])
+
+    speeds = np.array([e["forward_speed"] for e in episodes], dtype=float)
+    finite_speeds = speeds[np.isfinite(speeds)]
+    squared = np.asarray(stats.slope_sq_error, dtype=float)
+    pooled = np.isfinite(squared)
+    total_steps = int(np.sum(np.asarray(stats.steps)[pooled]))
     return {
         "num_episodes": len(episodes),
         "success_rate": mean("success"),
         "fall_rate": mean("fell"),
+        "diverged_rate": float(np.mean([not math.isfinite(e["distance"]) for e in episodes])),
         "course_completion_rate": mean("finished_course"),
-        "mean_forward_speed": float(speeds.mean()),
-        "std_forward_speed": float(speeds.std()),
+        "mean_forward_speed": mean("forward_speed"),
+        "std_forward_speed": float(finite_speeds.std()) if finite_speeds.size else math.nan,
         "mean_distance": mean("distance"),
         "mean_seconds": mean("seconds"),
         "mean_max_abs_roll": mean("max_abs_roll"),
@@ -75,12 +88,12 @@ def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dic
         "mean_max_abs_pitch_error": mean("max_abs_pitch_error"),
         "mean_lateral_drift": mean("lateral_drift"),
         "mean_max_lateral_deviation": mean("max_lateral_deviation"),
-        "slope_error_rms": math.sqrt(float(np.sum(stats.slope_sq_error)) / total_steps)
+        "slope_error_rms": math.sqrt(float(np.sum(squared[pooled])) / total_steps)
         if total_steps
         else None,
         "mean_episode_reward": mean("episode_reward"),
         "mean_reward_terms": {
-            term: float(np.mean([e["reward_terms"][term] for e in episodes]))
+            term: finite_mean([e["reward_terms"][term] for e in episodes])
             for term in reward.TERM_NAMES
         },
     }
