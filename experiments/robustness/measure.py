@@ -106,10 +106,7 @@ def table(results: list[dict]) -> str:
     header += " |"
     lines = [header, "|---" * (len(results) + 1) + "|"]
     for name in CONDITIONS:
-        cells = []
-        for result in results:
-            row = result["conditions"].get(name)
-            cells.append("—" if row is None else f"{row['success_rate']:.3f}, {row['mean_forward_speed']:.3f}")
+        cells = [_cell(result, name) for result in results]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -120,12 +117,15 @@ def rows_table(results: dict[str, dict]) -> str:
     names = [name for name in CONDITIONS if any(name in r["conditions"] for r in results.values())]
     lines = ["| output | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
     for path, result in results.items():
-        cells = []
-        for name in names:
-            row = result["conditions"].get(name)
-            cells.append("—" if row is None else f"{row['success_rate']:.3f}, {row['mean_forward_speed']:.3f}")
+        cells = [_cell(result, name) for name in names]
         lines.append(f"| {Path(path).stem} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _cell(result: dict, condition: str) -> str:
+    """"success, speed" of one condition of a measure.py output; "—" where it was not measured."""
+    row = result["conditions"].get(condition)
+    return "—" if row is None else f"{row['success_rate']:.3f}, {row['mean_forward_speed']:.3f}"
 
 
 def _label(policy: str) -> str:
