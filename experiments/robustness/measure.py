@@ -59,6 +59,10 @@ def main() -> None:
         "--conditions", nargs="+", choices=list(CONDITIONS), default=list(CONDITIONS),
         help="measure only these (default: all)",
     )
+    parser.add_argument(
+        "--env", action="append", default=[], metavar="KEY=VALUE",
+        help="an env config override under every condition (repeatable), e.g. action_centre=...",
+    )
     args = parser.parse_args()
     if args.table:
         print(table([json.loads(Path(path).read_text()) for path in args.table]))
@@ -72,6 +76,7 @@ def main() -> None:
     from quadcos import caches, evaluation
 
     caches.enable()
+    extra = env_overrides(args.env)
     rows = {}
     for name in args.conditions:
         overrides = CONDITIONS[name]
@@ -81,7 +86,7 @@ def main() -> None:
             "flat",
             num_envs=args.num_envs,
             seconds=args.seconds,
-            env_overrides={**NOMINAL, **overrides},
+            env_overrides={**NOMINAL, **extra, **overrides},
         )
         summary = result.summary
         rows[name] = {
@@ -94,10 +99,26 @@ def main() -> None:
         }
         print(f"{name}: success {summary['success_rate']:.3f}, speed"
               f" {summary['mean_forward_speed']:.3f} m/s", flush=True)
-    Path(args.out).write_text(
-        json.dumps({"policy": args.policy, "seconds": args.seconds, "conditions": rows}, indent=1)
-        + "\n"
-    )
+    output = {"policy": args.policy, "seconds": args.seconds, "conditions": rows}
+    if extra:
+        output["env"] = extra
+    Path(args.out).write_text(json.dumps(output, indent=1) + "\n")
+
+
+def env_overrides(pairs: list[str]) -> dict:
+    """{key: value} of --env KEY=VALUE pairs: the value as its config field's type (a string
+    field keeps the text, e.g. an action centre "0.5,0.1,0.2,-6,-2.9"), else a Python literal."""
+    from quadcos import env as env_lib
+    from quadcos._util.overrides import flatten, parse_value
+
+    defaults = flatten(env_lib.default_config().to_dict())
+    overrides = {}
+    for pair in pairs:
+        key, sep, text = pair.partition("=")
+        if not sep or key not in defaults:
+            raise SystemExit(f"measure.py: --env {pair!r}: give KEY=VALUE with an env config key")
+        overrides[key] = text if isinstance(defaults[key], str) else parse_value(text)
+    return overrides
 
 
 def table(results: list[dict]) -> str:
