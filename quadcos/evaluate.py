@@ -87,6 +87,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--num_candidates", type=int, default=256, help="search: per round")
     parser.add_argument("--robots_per_candidate", type=int, default=4, help="search")
+    parser.add_argument(
+        "--min_speed", type=float, default=0.0, help="search: m/s a ranked gait reaches (0: any)"
+    )
     parser.add_argument("--rounds", type=int, default=3, help="search: rounds of refinement")
     parser.add_argument(
         "--engine",
@@ -210,6 +213,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 rounds=args.rounds,
                 seconds=args.seconds,
                 seed=args.seed,
+                min_speed=args.min_speed,
                 env_overrides=overrides,
                 progress=_Progress("search", not args.no_progress),
             )

@@ -234,6 +234,14 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
     # Every candidate can be an action centre: strictly inside §3.3's box, never on an end.
     for entry in ranking:
         oscillator.action_centre(oscillator.centre_spec(entry["parameters"].values()), oscillator.PERIOD_MIN)
+    # A speed floor ranks only the gaits that reach it: at 2 m/s none of these.
+    floored = tmp_path / "floored.json"
+    args[-2] = f"--out={floored}"
+    assert evaluate.main([*args, "--min_speed=2"]) == 0
+    floored_result = json.loads(floored.read_text())
+    assert floored_result["setup"]["min_speed"] == 2.0
+    assert [e["score"] for e in floored_result["ranking"]] == [None] * 4
+    assert all(e["mean_forward_speed"] < 2 for e in floored_result["ranking"])
 
 
 @pytest.mark.parametrize(

@@ -28,6 +28,7 @@ def search_fixed(
     top: int = 10,
     include_trot: bool = True,
     symmetric: bool = False,
+    min_speed: float = 0.0,
     env_overrides: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_round: Callable[[dict[str, Any]], None] | None = None,
@@ -41,8 +42,9 @@ def search_fixed(
     candidate on φ3 = φ1 − π (wrapped into its range), where the two diagonal leg pairs move
     alike half a cycle apart — mirror-symmetric gaits, which do not turn by construction. Each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
     10 % of each range in round 2, halved every round after). A candidate's score is its robots'
-    mean episode reward (Eq. 13 summed over the episode) when none of them fell, else −inf: the
-    ranking is the paper's reward among gaits with zero falls. On a lane terrain every candidate
+    mean episode reward (Eq. 13 summed over the episode) when none of them fell and their mean
+    forward speed reaches `min_speed` (m/s; 0: any), else −inf: the ranking is the paper's reward
+    among gaits with zero falls (and that speed). On a lane terrain every candidate
     runs on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
     steepest), so that no candidate is ranked up for the easier course it was given.
 
@@ -58,6 +60,8 @@ def search_fixed(
         raise ValueError("num_candidates, robots_per_candidate and rounds must be >= 1")
     if not (math.isfinite(seconds) and seconds > 0):
         raise ValueError(f"seconds must be finite and > 0; got {seconds}")
+    if not (math.isfinite(min_speed) and min_speed >= 0):
+        raise ValueError(f"min_speed must be finite and >= 0 m/s; got {min_speed}")
     source = fixed_source(oscillator.FIXED_TROT, name="search")
     env = build_env(source, terrain, env_overrides)
     num_steps = math.ceil(seconds / env.dt - 1e-9)
@@ -109,16 +113,18 @@ def search_fixed(
             group = episodes[c * robots_per_candidate : (c + 1) * robots_per_candidate]
             fall_rate = float(np.mean([e["fell"] for e in group]))
             mean_reward = float(np.mean([e["episode_reward"] for e in group]))
+            speed = float(np.mean([e["forward_speed"] for e in group]))
+            eligible = fall_rate == 0.0 and (min_speed == 0 or speed >= min_speed)
             evaluated.append(
                 {
                     "round": round_index + 1,
                     "parameters": dict(zip(PARAMETER_NAMES, map(float, params))),
                     "parameters_array": params,
                     "policy": FIXED_PREFIX + ",".join(f"{float(p):.6g}" for p in params),
-                    "score": mean_reward if fall_rate == 0.0 else -math.inf,
+                    "score": mean_reward if eligible else -math.inf,
                     "mean_episode_reward": mean_reward,
                     "fall_rate": fall_rate,
-                    "mean_forward_speed": float(np.mean([e["forward_speed"] for e in group])),
+                    "mean_forward_speed": speed,
                     "mean_max_abs_yaw": float(np.mean([e["max_abs_yaw"] for e in group])),
                     "mean_max_abs_roll": float(np.mean([e["max_abs_roll"] for e in group])),
                     "mean_lateral_drift": float(np.mean([e["lateral_drift"] for e in group])),
@@ -162,6 +168,7 @@ def search_fixed(
             "seed": seed,
             "include_trot": include_trot,
             "symmetric": symmetric,
+            "min_speed": min_speed,
             "env": env.config.to_dict() | {"terrain": env.terrain.spec},
             "wall_time_s": time.monotonic() - started,
         },

@@ -91,14 +91,17 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         seed=config.sac.seed,
         include_trot=False,
         symmetric=bool(search.symmetric),
+        min_speed=float(search.min_speed),
         env_overrides=overrides,
         on_round=report,
     )
     best = result["ranking"][0]
     if best["score"] is None or not math.isfinite(best["score"]):
+        floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
         raise NoGaitFound(
-            f"the gait search found no candidate without falls in {search.rounds} rounds of"
-            f" {search.num_candidates}; raise config.sac.gait_search.rounds or .num_candidates"
+            f"the gait search found no candidate without falls{floor} in {search.rounds} rounds"
+            f" of {search.num_candidates}; raise config.sac.gait_search.rounds or .num_candidates"
+            + (" or lower .min_speed" if floor else "")
         )
     centre = oscillator.centre_spec(best["parameters"].values())
     logger.info(
