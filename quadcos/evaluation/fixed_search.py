@@ -44,7 +44,8 @@ def search_fixed(
     10 % of each range in round 2, halved every round after). A candidate's score is its robots'
     mean episode reward (Eq. 13 summed over the episode) when none of them fell and their mean
     forward speed reaches `min_speed` (m/s; 0: any), else −inf: the ranking is the paper's reward
-    among gaits with zero falls (and that speed). On a lane terrain every candidate
+    among gaits with zero falls (and that speed); with a floor, the gaits it rules out rank after
+    them by fewer falls, then by speed up to the floor, so that the elite breed towards it. On a lane terrain every candidate
     runs on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
     steepest), so that no candidate is ranked up for the easier course it was given.
 
@@ -70,6 +71,15 @@ def search_fixed(
     # best can be an action centre (`env.action_centre` needs a span on both sides).
     inner = 1e-3 * (upper - lower)
     rng = np.random.default_rng(seed)
+
+    def rank_key(candidate: dict[str, Any]) -> tuple[float, ...]:
+        """Score first; with a speed floor, the candidates it rules out follow by fewer falls,
+        then speed up to the floor, so that the next round breeds towards it."""
+        if min_speed == 0:
+            return (candidate["score"],)
+        speed = min(candidate["mean_forward_speed"], min_speed)
+        return candidate["score"], -candidate["fall_rate"], speed
+
     num_envs = num_candidates * robots_per_candidate
     lanes = np.tile(candidate_lanes(env.terrain.num_lanes, robots_per_candidate), num_candidates)
     evaluated: list[dict[str, Any]] = []
@@ -81,7 +91,7 @@ def search_fixed(
             if include_trot:
                 candidates[0] = np.asarray(oscillator.FIXED_TROT)
         else:
-            ranked = sorted(evaluated, key=lambda c: c["score"], reverse=True)
+            ranked = sorted(evaluated, key=rank_key, reverse=True)
             elites = np.array([c["parameters_array"] for c in ranked[: min(elite, num_candidates)]])
             std = 0.1 * (upper - lower) / 2 ** (round_index - 1)
             parents = elites[rng.integers(len(elites), size=num_candidates)]
@@ -131,7 +141,7 @@ def search_fixed(
                 }
             )
         this_round = evaluated[-len(candidates) :]
-        best = max(this_round, key=lambda c: c["score"])
+        best = max(this_round, key=rank_key)
         rounds_log.append(
             {
                 "round": round_index + 1,
@@ -144,7 +154,7 @@ def search_fixed(
         )
         if on_round is not None:
             on_round(rounds_log[-1])
-    ranked = sorted(evaluated, key=lambda c: c["score"], reverse=True)
+    ranked = sorted(evaluated, key=rank_key, reverse=True)
     ranking = [
         {key: value for key, value in c.items() if key != "parameters_array"}
         | {"score": c["score"] if math.isfinite(c["score"]) else None}

@@ -68,15 +68,18 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         config.env.terrain,
     )
 
+    floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
+
     def report(entry: dict[str, Any]) -> None:
         best = entry["best_score"]
         logger.info(
-            "gait search round %d/%d (%.0f s): %d of %d candidates never fell; best %s at %.2f m/s",
+            "gait search round %d/%d (%.0f s): %d of %d candidates never fell%s; best %s at %.2f m/s",
             entry["round"],
             search.rounds,
             entry["wall_time_s"],
             entry["num_without_falls"],
             search.num_candidates,
+            floor,
             "none" if best is None else f"{best:,.0f}",
             entry["best_forward_speed"],
         )
@@ -97,7 +100,6 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     )
     best = result["ranking"][0]
     if best["score"] is None or not math.isfinite(best["score"]):
-        floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
         raise NoGaitFound(
             f"the gait search found no candidate without falls{floor} in {search.rounds} rounds"
             f" of {search.num_candidates}; raise config.sac.gait_search.rounds or .num_candidates"
