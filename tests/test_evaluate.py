@@ -392,3 +392,26 @@ def test_a_diverged_episode_is_counted_and_left_out_of_the_means():
     assert summary["mean_max_abs_yaw"] == pytest.approx(0.2)  # finite everywhere: all three
     assert summary["slope_error_rms"] == pytest.approx(math.sqrt(0.4 / 20))
     assert summary["mean_reward_terms"]["survival"] == pytest.approx(1.5)
+
+
+def test_a_speed_floor_orders_the_gaits_it_rules_out_towards_it():
+    from quadcos.evaluation.fixed_search import ranking_key
+
+    inf = float("inf")
+    candidates = {
+        "eligible, low reward": {"score": 10.0, "fall_rate": 0.0, "mean_forward_speed": 0.9},
+        "eligible, high reward": {"score": 50.0, "fall_rate": 0.0, "mean_forward_speed": 0.85},
+        "no falls, too slow": {"score": -inf, "fall_rate": 0.0, "mean_forward_speed": 0.6},
+        "no falls, slower": {"score": -inf, "fall_rate": 0.0, "mean_forward_speed": 0.3},
+        "falls, fast": {"score": -inf, "fall_rate": 0.5, "mean_forward_speed": 1.5},
+    }
+    ordered = sorted(candidates, key=lambda n: ranking_key(candidates[n], 0.8), reverse=True)
+    assert ordered == [
+        "eligible, high reward",
+        "eligible, low reward",
+        "no falls, too slow",
+        "no falls, slower",
+        "falls, fast",
+    ]
+    # Without a floor only the score counts (ties keep their order, as before the floor).
+    assert ranking_key(candidates["falls, fast"]) == ranking_key(candidates["no falls, slower"])

@@ -73,12 +73,7 @@ def search_fixed(
     rng = np.random.default_rng(seed)
 
     def rank_key(candidate: dict[str, Any]) -> tuple[float, ...]:
-        """Score first; with a speed floor, the candidates it rules out follow by fewer falls,
-        then speed up to the floor, so that the next round breeds towards it."""
-        if min_speed == 0:
-            return (candidate["score"],)
-        speed = min(candidate["mean_forward_speed"], min_speed)
-        return candidate["score"], -candidate["fall_rate"], speed
+        return ranking_key(candidate, min_speed)
 
     num_envs = num_candidates * robots_per_candidate
     lanes = np.tile(candidate_lanes(env.terrain.num_lanes, robots_per_candidate), num_candidates)
@@ -183,6 +178,16 @@ def search_fixed(
             "wall_time_s": time.monotonic() - started,
         },
     }
+
+
+def ranking_key(candidate: Mapping[str, Any], min_speed: float = 0.0) -> tuple[float, ...]:
+    """How a search orders its candidates (descending): by score; with a speed floor, the
+    candidates it rules out (score −inf) follow by fewer falls, then by speed up to the floor, so
+    that the next round's elite breed towards it."""
+    if min_speed == 0:
+        return (candidate["score"],)
+    speed = min(candidate["mean_forward_speed"], min_speed)
+    return candidate["score"], -candidate["fall_rate"], speed
 
 
 def candidate_lanes(num_lanes: int, robots_per_candidate: int) -> np.ndarray:
