@@ -1,5 +1,6 @@
 """The best fixed rhythm parameters (Fig. 15's baseline): a search over (A_k, A_h, T, φ1, φ3)."""
 
+import functools
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -44,9 +45,8 @@ def search_fixed(
     10 % of each range in round 2, halved every round after). A candidate's score is its robots'
     mean episode reward (Eq. 13 summed over the episode) when none of them fell and their mean
     forward speed reaches `min_speed` (m/s; 0: any), else −inf: the ranking is the paper's reward
-    among gaits with zero falls (and that speed); with a floor, the gaits it rules out rank after
-    them by fewer falls, then by speed up to the floor, so that the elite breed towards it. On a lane terrain every candidate
-    runs on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
+    among gaits with zero falls (and that speed); `ranking_key` orders the rest. On a lane
+    terrain every candidate runs on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
     steepest), so that no candidate is ranked up for the easier course it was given.
 
     `on_round` is called after each round with its entry of "rounds".
@@ -71,10 +71,7 @@ def search_fixed(
     # best can be an action centre (`env.action_centre` needs a span on both sides).
     inner = 1e-3 * (upper - lower)
     rng = np.random.default_rng(seed)
-
-    def rank_key(candidate: dict[str, Any]) -> tuple[float, ...]:
-        return ranking_key(candidate, min_speed)
-
+    rank_key = functools.partial(ranking_key, min_speed=min_speed)
     num_envs = num_candidates * robots_per_candidate
     lanes = np.tile(candidate_lanes(env.terrain.num_lanes, robots_per_candidate), num_candidates)
     evaluated: list[dict[str, Any]] = []
