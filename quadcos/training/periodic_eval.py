@@ -20,6 +20,7 @@ class EvalTotals:
     length: jax.Array
     metrics: dict[str, jax.Array]
     alive: jax.Array
+    diverged: jax.Array
 
 
 def evaluate(
@@ -32,12 +33,15 @@ def evaluate(
     """Runs one episode per key of `keys` of `policy` (batched obs → actions) on the batched
     `eval_env` for `episode_length` steps each, from the initial states the keys draw (the same
     keys, the same episodes). An episode is alive until the env reports done; steps after that
-    are ignored.
+    are ignored. An episode whose physics diverged (a non-finite reward: the env ends it as a
+    fall) counts in `eval/fall_rate` and `eval/diverged_rate`, and its non-finite step is left
+    out of the sums, so that one blown-up robot does not turn the mean reward into NaN (as
+    `quadcos.evaluation.metrics.aggregate` does for quadcos.evaluate).
 
     Returns:
       Averages over the episodes of: `eval/episode_reward` (sum of rewards),
       `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode ended with done
-      before the time limit), and for each key of the env's `state.metrics`, `eval/<key>`: the
+      before the time limit), `eval/diverged_rate` (1 if it ended non-finite), and for each key of the env's `state.metrics`, `eval/<key>`: the
       per-episode sum for keys starting with `reward/`, else the per-episode mean over alive
       steps.
     """
@@ -48,16 +52,22 @@ def evaluate(
         length=zeros,
         metrics={name: zeros for name in env_state.metrics},
         alive=jnp.ones((keys.shape[0],), bool),
+        diverged=jnp.zeros((keys.shape[0],), bool),
     )
 
     def update(totals: EvalTotals, next_env_state: envs.State, _) -> EvalTotals:
+        blown_up = ~jnp.isfinite(next_env_state.reward)
+        counted = totals.alive & ~blown_up
         # `where`, not multiplication: a fallen env may produce NaN.
-        alive_sum = lambda total, value: total + jnp.where(totals.alive, value, 0.0)
+        alive_sum = lambda total, value: total + jnp.where(
+            counted & jnp.isfinite(value), value, 0.0
+        )
         return EvalTotals(
             reward=alive_sum(totals.reward, next_env_state.reward),
             length=alive_sum(totals.length, 1.0),
             metrics=jax.tree.map(alive_sum, totals.metrics, next_env_state.metrics),
-            alive=totals.alive & (next_env_state.done == 0),
+            alive=totals.alive & (next_env_state.done == 0) & ~blown_up,
+            diverged=totals.diverged | (totals.alive & blown_up),
         )
 
     _, totals, _ = episodes.run_episodes(
@@ -67,6 +77,7 @@ def evaluate(
         "eval/episode_reward": jnp.mean(totals.reward),
         "eval/episode_length": jnp.mean(totals.length),
         "eval/fall_rate": jnp.mean(~totals.alive),
+        "eval/diverged_rate": jnp.mean(totals.diverged),
     }
     for name, per_episode in totals.metrics.items():
         if not name.startswith("reward/"):

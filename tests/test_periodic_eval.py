@@ -1,0 +1,55 @@
+"""Training-time evaluation (quadcos.training.periodic_eval): sums over alive steps, and a robot
+whose physics blows up counts as a fall without turning the means into NaN."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from brax import envs
+
+from quadcos.training import periodic_eval
+
+NAN = float("nan")
+
+
+class ScriptedEnv:
+    """Three robots, one control step a call: robot 0's physics blows up at its 3rd step (NaN
+    reward and speed, done), robot 1 falls at its 4th (finite), robot 2 walks on. Reward 1 a step,
+    speed 0.5."""
+
+    def reset(self, keys):
+        n = keys.shape[0]
+        return envs.State(
+            pipeline_state=None,
+            obs=jnp.zeros((n, 1)),
+            reward=jnp.zeros(n),
+            done=jnp.zeros(n),
+            metrics={"forward_speed": jnp.zeros(n), "reward/forward": jnp.zeros(n)},
+        )
+
+    def step(self, state, action):
+        t = state.obs[:, 0] + 1.0  # this step's number, from 1
+        blown = (jnp.arange(3) == 0) & (t == 3)
+        fell = (jnp.arange(3) == 1) & (t == 4)
+        reward = jnp.where(blown, NAN, 1.0)
+        speed = jnp.where(blown, NAN, 0.5)
+        return state.replace(
+            obs=t[:, None],
+            reward=reward,
+            done=(blown | fell).astype(jnp.float32),
+            metrics={"forward_speed": speed, "reward/forward": reward},
+        )
+
+
+def test_a_diverged_robot_counts_as_a_fall_and_leaves_the_means_finite():
+    metrics = periodic_eval.evaluate(
+        ScriptedEnv(), lambda obs: jnp.zeros((obs.shape[0], 1)), jnp.zeros((3, 2)), episode_length=6
+    )
+    metrics = {key: float(value) for key, value in metrics.items()}
+    # Alive-step rewards: robot 0 its 2 finite steps, robot 1 its 4 (the fall's step counts), 2 all 6.
+    assert metrics["eval/episode_reward"] == pytest.approx((2 + 4 + 6) / 3)
+    assert metrics["eval/episode_length"] == pytest.approx((2 + 4 + 6) / 3)
+    assert metrics["eval/reward/forward"] == pytest.approx((2 + 4 + 6) / 3)
+    assert metrics["eval/forward_speed"] == pytest.approx(0.5)
+    assert metrics["eval/fall_rate"] == pytest.approx(2 / 3)
+    assert metrics["eval/diverged_rate"] == pytest.approx(1 / 3)
+    assert all(np.isfinite(value) for value in metrics.values())
