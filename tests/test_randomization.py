@@ -157,6 +157,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
     [
         ("randomization.friction", (1.0, 0.5), "randomization.friction must be (low, high)"),
         ("randomization.latency_s", (-0.01, 0.0), "randomization.latency_s must be"),
+        ("randomization.latency_s", (0.0, 0.06), "randomization.latency_s reaches 0.06 s, beyond"),
         ("randomization.push_force_n", -1.0, "randomization.push_force_n must be finite and >= 0"),
         ("randomization.obs_noise", -0.1, "randomization.obs_noise must be finite and >= 0"),
         ("randomization.ramp_s", -1.0, "randomization.ramp_s must be finite and >= 0"),

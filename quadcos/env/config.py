@@ -182,6 +182,12 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(
             f"control_dt {config.control_dt} must be a whole multiple of physics_dt {config.physics_dt}"
         )
+    latency_max = float(config.randomization.latency_s[1])
+    if latency_max > config.control_dt + 1e-9:  # an action acts for one control step at most
+        raise ValueError(
+            f"randomization.latency_s reaches {latency_max} s, beyond control_dt "
+            f"{config.control_dt} s: an action is late by at most one control step"
+        )
     if not config.action_filter_tau >= 0:
         raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")
     if not 0.0 <= config.start_ramp_s < math.inf:
