@@ -4,7 +4,7 @@
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone |
 #   anymal_search10 | anymal | anymal_slope5 | anymal_any_slope | profile | launch_levers |
-#   xla_levers | precision_levers | startup_and_randomized | any_slope_gpus | any_slope_lever |
+#   xla_levers | precision_levers | imports | startup_and_randomized | any_slope_gpus | any_slope_lever |
 #   robust_scratch (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
 #   Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
@@ -389,6 +389,22 @@ precision_levers)  # the networks' matmul precision against the 8-update row's u
         --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1 )
     note "$name: exit $? $(grep -o 'train 4096x8192x[18]: [^,]*' "$OUT/$name.log" | tr '\n' ' ')"
   done ;;
+imports)  # where the import seconds go: `python3 -X importtime` of quadcos.train (twice: the second
+  # with a warm file cache), then the first calls that start JAX's and Warp's GPU back ends
+  for k in 1 2; do
+    python3 -X importtime -c "import quadcos.train" 2> "$OUT/importtime_$k.txt"
+  done
+  python3 - > "$OUT/init_times.txt" 2>&1 <<'PY'
+import time
+t = time.time()
+import jax; t1 = time.time(); print("import jax", round(t1 - t, 2))
+jax.devices(); t2 = time.time(); print("jax.devices()", round(t2 - t1, 2))
+import mujoco; t3 = time.time(); print("import mujoco", round(t3 - t2, 2))
+from mujoco import mjx; t4 = time.time(); print("import mujoco.mjx", round(t4 - t3, 2))
+import warp; t5 = time.time(); print("import warp", round(t5 - t4, 2))
+warp.init(); t6 = time.time(); print("warp.init()", round(t6 - t5, 2))
+PY
+  python3 benchmarks/import_table.py "$OUT/importtime_2.txt" > "$OUT/imports.md" ;;
 startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
   # with and without domain randomisation, flat, 4096 envs, 1 update per env step
   for cache in cold warm; do

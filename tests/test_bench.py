@@ -380,3 +380,25 @@ def test_env_overrides_reach_the_env_and_keep_their_rows_apart():
         results_lib.merge_results(plain, unrolled)
     assert results_lib._row_key(plain["train"][0]) != results_lib._row_key(unrolled["train"][0])
     assert text == "substep_unroll=2,warp.graph_mode=none"
+
+
+def test_import_table_splits_the_import_by_what_quadcos_imports_first():
+    import importlib.util
+    import pathlib
+
+    path = pathlib.Path(__file__).parents[1] / "benchmarks" / "import_table.py"
+    spec = importlib.util.spec_from_file_location("import_table", path)
+    import_table = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(import_table)
+    text = """import time: self [us] | cumulative | imported package
+import time:       100 |        100 |       numpy
+import time:       200 |        300 |     jax
+import time:       400 |        400 |       trimesh
+import time:       500 |        900 |     mujoco.mjx
+import time:        50 |       1250 |   quadcos.env
+import time:        30 |       1280 | quadcos.train
+"""
+    totals = import_table.by_first_import(import_table.parse(text))
+    assert totals == pytest.approx({"jax": 3e-4, "mujoco.mjx": 9e-4, "quadcos": 8e-5})
+    assert sum(totals.values()) == pytest.approx(1280e-6)
+    assert "| **all** | **0.00** |" in import_table.table(totals, top=1)
