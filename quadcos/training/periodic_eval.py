@@ -59,8 +59,8 @@ def evaluate(
         blown_up = ~jnp.isfinite(next_env_state.reward)
         counted = totals.alive & ~blown_up
         # `where`, not multiplication: a fallen env may produce NaN.
-        alive_sum = lambda total, value: total + jnp.where(
-            counted & jnp.isfinite(value), value, 0.0
+        alive_sum = lambda total, value: (
+            total + jnp.where(counted & jnp.isfinite(value), value, 0.0)
         )
         return EvalTotals(
             reward=alive_sum(totals.reward, next_env_state.reward),
