@@ -157,7 +157,6 @@ def test_pushes_start_run_for_their_duration_and_stop():
     [
         ("randomization.friction", (1.0, 0.5), "randomization.friction must be (low, high)"),
         ("randomization.latency_s", (-0.01, 0.0), "randomization.latency_s must be"),
-        ("randomization.latency_s", (0.0, 0.06), "randomization.latency_s reaches 0.06 s, beyond"),
         ("randomization.push_force_n", -1.0, "randomization.push_force_n must be finite and >= 0"),
         ("randomization.obs_noise", -0.1, "randomization.obs_noise must be finite and >= 0"),
         ("randomization.ramp_s", -1.0, "randomization.ramp_s must be finite and >= 0"),
@@ -166,6 +165,17 @@ def test_pushes_start_run_for_their_duration_and_stop():
 def test_bad_ranges_are_named(key, value, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
         quadcos.env.validate_config(apply_overrides(quadcos.env.default_config(), {key: value}))
+
+
+def test_a_latency_beyond_the_control_step_is_refused_when_randomising():
+    late = {"randomization.latency_s": (0.0, 0.06), "control_dt": 0.05}
+    config = apply_overrides(quadcos.env.default_config(), late)
+    quadcos.env.validate_config(config)  # not randomised: the range is not drawn from
+    config.randomization.enabled = True
+    with pytest.raises(
+        ValueError, match=r"randomization.latency_s reaches 0.06 s, beyond control_dt"
+    ):
+        quadcos.env.validate_config(config)
 
 
 @pytest.mark.slow

@@ -183,7 +183,8 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
             f"control_dt {config.control_dt} must be a whole multiple of physics_dt {config.physics_dt}"
         )
     latency_max = float(config.randomization.latency_s[1])
-    if latency_max > config.control_dt + 1e-9:  # an action acts for one control step at most
+    # An action acts for one control step at most (quadcos.env.randomization).
+    if config.randomization.enabled and latency_max > config.control_dt + 1e-9:
         raise ValueError(
             f"randomization.latency_s reaches {latency_max} s, beyond control_dt "
             f"{config.control_dt} s: an action is late by at most one control step"
