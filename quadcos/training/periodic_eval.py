@@ -41,9 +41,9 @@ def evaluate(
     Returns:
       Averages over the episodes of: `eval/episode_reward` (sum of rewards),
       `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode ended with done
-      before the time limit), `eval/diverged_rate` (1 if it ended non-finite), and for each key of the env's `state.metrics`, `eval/<key>`: the
-      per-episode sum for keys starting with `reward/`, else the per-episode mean over alive
-      steps.
+      before the time limit), `eval/diverged_rate` (1 if it ended non-finite), and for each key
+      of the env's `state.metrics`, `eval/<key>`: the per-episode sum for keys starting with
+      `reward/`, else the per-episode mean over alive steps.
     """
     env_state = eval_env.reset(keys)
     zeros = jnp.zeros((keys.shape[0],))
