@@ -13,8 +13,8 @@ sees; `--latency_ms` delays each action by that many ms, rounded to whole physic
 control step: the previous action for the first round(latency / physics_dt) substeps of each
 control step, as the MJX env's randomised latency). Both are recorded in the setup.
 `--physics=reference` (default) solves contacts with the MJCF's own solver iterations (converged:
-the physics a policy must transfer to); `--physics=training` with the iterations it trained with. `--out` is an
-evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
+the physics a policy must transfer to); `--physics=training` with the iterations it trained with;
+`--physics=N/M` with N solver and M line-search iterations. `--out` is an evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
 per-episode values), so the two compare key by key. The robot loop: `quadcos.deploy.host_robot`.
 """
 

@@ -188,6 +188,12 @@ def test_reference_physics_converges_where_training_takes_the_presets_shortcut(t
     }
     with pytest.raises(ValueError, match="unknown physics 'fast'"):
         sim2sim.HostRobot("flat", config, physics="fast")
+    for bad in ("0/8", "4/", "4/8/2"):
+        with pytest.raises(ValueError, match="N/M"):
+            sim2sim.HostRobot("flat", config, physics=bad)
+    chosen = sim2sim.HostRobot("flat", config, physics="12/20")
+    assert (chosen.model.opt.iterations, chosen.model.opt.ls_iterations) == (12, 20)
+    assert chosen.physics["solver"] == "12/20"
     out = tmp_path / "q.json"
     args = ["--policy=fixed:trot", "--robot=quad12", "--episodes=1", "--seconds=0.5"]
     assert sim2sim.main([*args, "--physics=training", f"--out={out}", "--no_progress"]) == 0
@@ -214,6 +220,7 @@ def test_policy_walks_and_a_course_ends_at_its_end():
         (["--policy=fixed:trot", "--latency_ms=nan"], "--latency_ms"),
         (["--policy=fixed:trot", "--latency_ms=ten"], "--latency_ms"),
         (["--policy=fixed:trot", "--physics=fast"], "--physics"),
+        (["--policy=fixed:trot", "--physics=4/0"], "--physics"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):

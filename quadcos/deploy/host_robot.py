@@ -21,7 +21,9 @@ The constraint solver: `physics="reference"` (the default) runs the MJCF's own s
 contacts: the converged physics a policy has to transfer to. `physics="training"` runs the
 iterations the env trained with (the robot preset's shortcut, e.g. Go1's 4 / 8): C MuJoCo's solver
 stopped that early is not MJX-Warp's and can blow up under a fast gait (experiments/robots). For
-the paper's robot, whose preset keeps the MJCF's iterations, the two are the same.
+the paper's robot, whose preset keeps the MJCF's iterations, the two are the same. `physics="N/M"`
+runs N solver and M line-search iterations (the same step, cone and contacts), to find where the
+solver a policy trained with stops transferring.
 
 Episodes end and succeed as in `quadcos.evaluation` (no fall within the time limit; on a course,
 the torso past `course_end_x` first). `evaluate_mujoco` returns an evaluation JSON in
@@ -45,7 +47,7 @@ from quadcos import evaluation, robot
 from quadcos import terrain as terrain_lib
 from quadcos._util import cli
 from quadcos._util import overrides as config_lib
-from quadcos.deploy import export, twins
+from quadcos.deploy import export, solver, twins
 from quadcos.deploy.numpy_policy import NumpyPolicy
 from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.env.layout import Layout
@@ -53,7 +55,8 @@ from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import report, rollout, sources
 
 ENGINE = "mujoco"
-PHYSICS = ("reference", "training")  # HostRobot's solver choices (module docstring)
+
+
 # Per-episode maxima of evaluation.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
 _MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
@@ -136,8 +139,8 @@ class StepResult(NamedTuple):
 
 class HostRobot:
     """One robot on a terrain in C MuJoCo under the env's controller path (`QuadrupedEnv.step`);
-    `latency_s`: the control latency, s; `physics`: "reference" or "training" solver iterations
-    (module docstring).
+    `latency_s`: the control latency, s; `physics`: "reference", "training" or "N/M" solver
+    iterations (module docstring).
 
     Raises:
       ValueError: a latency that is negative or not finite, or an unknown `physics`.
@@ -152,19 +155,17 @@ class HostRobot:
     ):
         if not (math.isfinite(latency_s) and latency_s >= 0):
             raise ValueError(f"the latency must be >= 0 s and finite; got {latency_s}")
-        if physics not in PHYSICS:
-            raise ValueError(f"unknown physics {physics!r}; known: {', '.join(PHYSICS)}")
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.robot = robot.load(config.robot)
         config = env_lib.resolve(config)
         self.config = config
-        training = physics == "training"
+        iterations, ls_iterations = solver.iterations(physics, config)
         self.model = robot.build_model(
             self.terrain,
             self.robot,
             timestep=config.physics_dt,
-            solver_iterations=config.solver_iterations if training else 0,
-            ls_iterations=config.ls_iterations if training else 0,
+            solver_iterations=iterations,
+            ls_iterations=ls_iterations,
         )
         self.physics = {
             "solver": physics,
@@ -475,9 +476,9 @@ def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
     parser.add_argument(
         "--physics",
-        choices=PHYSICS,
+        type=solver.physics_choice,
         default="reference",
-        help="C MuJoCo's solver: the MJCF's iterations (reference, converged) or the training"
-        " shortcut's",
+        help="C MuJoCo's solver: the MJCF's iterations (reference, converged), the training"
+        " shortcut's (training), or N/M solver / line-search iterations",
     )
     return cli.raising(parser)
