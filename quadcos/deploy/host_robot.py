@@ -55,8 +55,6 @@ from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import report, rollout, sources
 
 ENGINE = "mujoco"
-
-
 # Per-episode maxima of evaluation.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
 _MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
