@@ -134,3 +134,9 @@ def test_print_config_resolves_presets_and_overrides(capsys):
     config = json.loads(capsys.readouterr().out)
     assert config["sac"]["batch_size"] == 1024 and config["sac"]["num_envs"] == 4096
     assert config["env"]["terrain"] == "s4"
+
+
+def test_booleans_read_in_any_case(capsys):
+    for text, value in (("true", True), ("False", False), ("TRUE", True)):
+        assert train.main([f"--config.sac.keep_best_policy={text}", "--print_config"]) == 0
+        assert json.loads(capsys.readouterr().out)["sac"]["keep_best_policy"] is value

@@ -131,7 +131,10 @@ def test_best_policy_is_that_of_the_best_evaluation(learned):
     best_row = max(rows, key=lambda row: row["eval/episode_reward"])
     assert best_row["eval/episode_reward"] > rows[0]["eval/episode_reward"]  # it learned
     best = training.load_policy(learned.run_dir / "policy_best")
-    assert best.config["best_of_run"] == {
+    best_of_run = dict(best.config["best_of_run"])
+    # written after its evaluation, which starts at the row's wall time
+    assert best_of_run.pop("written_at_s") >= best_row["wall_time_s"]
+    assert best_of_run == {
         "step": best_row["step"],
         "eval/episode_reward": pytest.approx(best_row["eval/episode_reward"]),
         "eval/fall_rate": pytest.approx(best_row.get("eval/fall_rate", 0.0)),
@@ -313,11 +316,27 @@ def test_a_spent_time_budget_ends_the_run_as_its_last_step_would(tmp_path):
     assert (tmp_path / "policy" / "policy.json").is_file()
 
 
-def test_a_time_budget_keeps_room_for_another_chunk_and_the_final_evaluation():
-    # a budget ending at 100 s; a chunk and an evaluation take 3 s together
-    assert not loop._budget_spent(100.0, 96.9, 3.0)  # another chunk and the evaluation fit
-    assert loop._budget_spent(100.0, 97.0, 3.0)  # they would end at 100 s: evaluate now
-    assert not loop._budget_spent(None, 1e9, 3.0)  # no budget
+def test_a_time_budget_keeps_room_for_what_is_due_another_chunk_and_the_final_evaluation():
+    # a budget ending at 100 s; a chunk takes 1 s, an evaluation 2 s, a checkpoint 0.5 s
+    def spent(now, evaluating_now=False, saving_now=False, deadline=100.0):
+        return loop._budget_spent(
+            deadline,
+            now,
+            chunk_s=1.0,
+            evaluation_s=2.0,
+            save_s=0.5,
+            evaluating_now=evaluating_now,
+            saving_now=saving_now,
+        )
+
+    assert not spent(96.4)  # another chunk, then the final evaluation and checkpoint fit
+    assert spent(96.5)  # they would end at 100 s: evaluate now
+    # this chunk's own evaluation and checkpoint come first
+    assert not spent(93.9, evaluating_now=True, saving_now=True)
+    assert spent(94.0, evaluating_now=True, saving_now=True)
+    assert not spent(94.4, evaluating_now=True)
+    assert spent(94.5, evaluating_now=True)
+    assert not spent(1e9, deadline=None)  # no budget
 
 
 # --- Failures ---------------------------------------------------------------

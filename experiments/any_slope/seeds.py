@@ -5,10 +5,11 @@ r"""seeds.json from the `any_slope_seeds` runs: one row per seed of `--preset=an
 DIR holds what `bash experiments/run_gpu.sh any_slope_seeds` (or `any_slope_lever`,
 `any_slope_gpus`) wrote: runs/NAME/ (config.json, metrics.jsonl) and eval_NAME_{testset2026,
 testset2027,testset4242,slope5,s4,flat}.json, for the run names REGEX matches (default
-`any_slope_s\d+`); evaluations not there are null. `train_seconds` is the process's wall time at
-the evaluation whose policy `policy_best` keeps (the trainer's rule: `best_policy_max_fall_rate`,
-then the evaluation reward), which is when that policy was written; `command` is the run's own
-command line. Prints the rows as a Markdown table.
+`any_slope_s\d+`); evaluations not there are null. `train_seconds` is the process's wall time
+when `policy_best` was written (its `best_of_run.written_at_s`; runs from before the trainer
+recorded it: the start of the evaluation whose policy it keeps, by the trainer's rule:
+`best_policy_max_fall_rate`, then the evaluation reward); `command` is the run's own command line.
+Prints the rows as a Markdown table.
 """
 
 import argparse
@@ -32,6 +33,14 @@ def _kept(metrics: list[dict], max_fall_rate: float) -> dict:
     rows = [row for row in metrics if math.isfinite(row.get("eval/episode_reward", math.nan))]
     ranks = [(*best_policy.rank(row, max_fall_rate), -index) for index, row in enumerate(rows)]
     return rows[-max(ranks)[2]]
+
+
+def _written_at(run: pathlib.Path, kept: dict) -> float:
+    """The run's wall time when `policy_best` was written (older runs: its evaluation's start)."""
+    best = _read(run / "policy_best" / "policy.json")
+    return ((best or {}).get("config", {}).get("best_of_run") or {}).get(
+        "written_at_s", kept["wall_time_s"]
+    )
 
 
 def _command(argv: list[str]) -> str:
@@ -68,7 +77,7 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
     return {
         "run": name,
         "seed": seed,
-        "train_seconds": round(kept["wall_time_s"], 1),
+        "train_seconds": round(_written_at(run, kept), 1),
         "env_steps": int(kept["step"]),
         "last_env_steps": int(metrics[-1]["step"]),
         # The course curriculum's mean lane at the end (of 64, in order of slope) and the episodes

@@ -11,8 +11,10 @@ import ml_collections
 
 
 def parse_value(text: str) -> Any:
-    """A command-line value as a Python literal when it is one (1e-3, (64, 64), True), a float for
-    nan and inf, else a string."""
+    """A command-line value as a Python literal when it is one (1e-3, (64, 64), True), a bool for
+    true / false in any case, a float for nan and inf, else a string."""
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
     try:
         return ast.literal_eval(text)
     except (ValueError, SyntaxError):

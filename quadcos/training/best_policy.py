@@ -25,7 +25,7 @@ class BestPolicy:
     evaluations on the same side, the higher episode reward wins (`max_fall_rate` 1: reward alone).
     `offer` saves the state's policy to `directory` when its evaluation beats every earlier one of
     the run (rows before a resume included), its step, reward and fall rate added to the saved
-    config under "best_of_run".
+    config under "best_of_run" (with `written_at_s`, the run's wall time at the write, if given).
     """
 
     def __init__(
@@ -48,7 +48,9 @@ class BestPolicy:
     def reward(self) -> float:
         return -math.inf if self.rank is None else self.rank[1]
 
-    def offer(self, state: sac.TrainingState, row: dict[str, Any]) -> bool:
+    def offer(
+        self, state: sac.TrainingState, row: dict[str, Any], written_at_s: float | None = None
+    ) -> bool:
         """Saves the policy if `row` (its evaluation) is the best so far; True if it did."""
         if not math.isfinite(row.get(_BEST_BY, math.nan)):
             return False
@@ -61,6 +63,8 @@ class BestPolicy:
             _BEST_BY: float(row[_BEST_BY]),
             _FALLS: float(row.get(_FALLS, 0.0)),
         }
+        if written_at_s is not None:
+            best_of_run["written_at_s"] = round(written_at_s, 3)
         config = {**self._run_info, "best_of_run": best_of_run}
         policy_lib.save_policy(
             self.directory, policy_lib.Policy.from_training_state(state, self._spec, config)

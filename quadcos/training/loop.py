@@ -234,11 +234,26 @@ def _deadline(max_seconds: float, started_at: float | None) -> float | None:
     return (time.monotonic() if started_at is None else started_at) + max_seconds
 
 
-def _budget_spent(deadline: float | None, now: float, reserve_s: float) -> bool:
-    """Whether a run with a time budget ending at `deadline` (None: no budget) stops now: when
-    another chunk and the final evaluation (`reserve_s`: the last chunk's and evaluation's
-    seconds) would end past it, so that the final evaluation and `policy_best` come within it."""
-    return deadline is not None and now + reserve_s >= deadline
+def _budget_spent(
+    deadline: float | None,
+    now: float,
+    *,
+    chunk_s: float,
+    evaluation_s: float,
+    save_s: float,
+    evaluating_now: bool,
+    saving_now: bool,
+) -> bool:
+    """Whether a run with a time budget ending at `deadline` (None: no budget) ends with the chunk
+    that just ended: when what is due now (this chunk's evaluation, `evaluating_now`, and
+    checkpoint, `saving_now`), another chunk and then the final evaluation and checkpoint would
+    end past it, so that the final evaluation, `policy_best` and the checkpoint come within it.
+    Each part counts as long as it last took: `chunk_s`, `evaluation_s` (with writing
+    `policy_best`), `save_s`."""
+    if deadline is None:
+        return False
+    due_now = evaluating_now * evaluation_s + saving_now * save_s
+    return now + due_now + chunk_s + evaluation_s + save_s >= deadline
 
 
 @dataclasses.dataclass(frozen=True)
@@ -341,26 +356,34 @@ def _train_loop(
     history = list(log.rows) if log is not None else []
     window = host.Window()
 
+    # The last evaluation's wall time with its row and `policy_best` written (the first one's
+    # includes compiling), and the last checkpoint's: what the time budget keeps room for.
+    evaluation_s = save_s = 0.0
+
     def record(row: dict[str, Any], state: sac.TrainingState) -> None:
         history.append(row)
         if log is not None:
             log.append(row)
         progress.log_row(row)
-        if best is not None and best.offer(state, row):
+        if best is not None and best.offer(state, row, written_at_s=clock()):
             logger.info("best evaluation so far (%.0f): saved to %s", best.reward, best.directory)
 
-    evaluation_s = 0.0  # the last evaluation's wall time (the first one's includes compiling)
-
-    def evaluate(state: sac.TrainingState) -> dict[str, float]:
+    def record_evaluation(row: dict[str, Any], state: sac.TrainingState) -> None:
         nonlocal evaluation_s
         started = time.monotonic()
         metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
         metrics = {name: float(value) for name, value in jax.device_get(metrics).items()}
+        record({**row, **metrics}, state)
         evaluation_s = time.monotonic() - started
-        return metrics
+
+    def save(step: int, state: sac.TrainingState) -> None:
+        nonlocal save_s
+        started = time.monotonic()
+        store.save(step, state, {"wall_time_s": clock()}, config.save_replay)
+        save_s = time.monotonic() - started
 
     def on_start(state: sac.TrainingState) -> None:
-        record({"step": 0, "wall_time_s": clock(), **evaluate(state)}, state)
+        record_evaluation({"step": 0, "wall_time_s": clock()}, state)
 
     def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
         nonlocal window
@@ -370,12 +393,22 @@ def _train_loop(
 
         # Read once: a signal arriving later is served after the next chunk.
         stopping = stop.signal_name is not None
-        out_of_time = _budget_spent(deadline, time.monotonic(), chunk.seconds + evaluation_s)
+        evaluating = _crossed(previous_step, step, config.eval_interval)
+        saving = store is not None and _crossed(previous_step, step, config.checkpoint_interval)
+        out_of_time = _budget_spent(
+            deadline,
+            time.monotonic(),
+            chunk_s=chunk.seconds,
+            evaluation_s=evaluation_s,
+            save_s=save_s,
+            evaluating_now=evaluating,
+            saving_now=saving,
+        )
         finished = step >= config.num_timesteps or out_of_time
         if out_of_time:
             logger.info("time budget of %g s spent at env step %d", config.max_seconds, step)
-        if finished or _crossed(previous_step, step, config.eval_interval):
-            record(
+        if finished or evaluating:
+            record_evaluation(
                 {
                     "step": step,
                     "wall_time_s": clock(),
@@ -384,15 +417,12 @@ def _train_loop(
                     "train/nan_resets": int(state.nan_resets),
                     "train/gradient_steps": int(state.gradient_steps),
                     "train/replay_size": trainer.replay_size(state),
-                    **evaluate(state),
                 },
                 state,
             )
             window = host.Window()
-        if store is not None and (
-            finished or stopping or _crossed(previous_step, step, config.checkpoint_interval)
-        ):
-            store.save(step, state, {"wall_time_s": clock()}, config.save_replay)
+        if store is not None and (finished or stopping or saving):
+            save(step, state)
         progress.update(step, (step - previous_step) / chunk.seconds, history)
         if stopping:
             logger.warning(
