@@ -135,6 +135,11 @@ def test_next_level_moves_up_on_success_and_down_on_failure():
         jnp.zeros(4000), jax.random.PRNGKey(1), 4, 4.0,
     )
     assert set(np.unique(tops)) == {0, 1, 2, 3}
+    upper = curriculum.next_level(
+        jnp.full(4000, 3, jnp.int32), jnp.zeros(4000, bool), jnp.ones(4000, bool),
+        jnp.zeros(4000), jax.random.PRNGKey(1), 4, 4.0, restart_from=2,
+    )
+    assert set(np.unique(upper)) == {2, 3}  # restart_from: only the upper lanes
     # promote_lanes: a success climbs that many lanes, a failure still goes down one
     faster = curriculum.next_level(level, fell, crossed, walked, jax.random.PRNGKey(0), 8, 4.0, 3)
     np.testing.assert_array_equal(faster, [0, 1, 5, 5, 2, 2, 6])
@@ -146,6 +151,7 @@ def test_next_level_moves_up_on_success_and_down_on_failure():
         ("promote_lanes", 0, "promote_lanes must be a whole number >= 1, got 0"),
         ("start_fraction", 0.0, "start_fraction must be in (0, 1]"),
         ("promote_m", -1.0, "promote_m finite and > 0"),
+        ("restart_fraction", 0.0, "restart_fraction must be in (0, 1], got 0.0"),
     ],
 )
 def test_a_bad_curriculum_value_is_named(key, value, message):

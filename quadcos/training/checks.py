@@ -70,6 +70,10 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 "config.curriculum.start_fraction must be in (0, 1] and promote_m finite and > 0,"
                 f" got {lessons.start_fraction} and {lessons.promote_m}"
             )
+        if not 0 < lessons.restart_fraction <= 1:
+            raise ValueError(
+                f"config.curriculum.restart_fraction must be in (0, 1], got {lessons.restart_fraction}"
+            )
         if not -(2**63) <= config.seed < 2**63:
             raise ValueError(f"config.seed must fit in 64 bits, got {config.seed}")
         if not (0 <= config.discount <= 1 and 0 < config.tau <= 1):

@@ -108,10 +108,13 @@ def default_config() -> ml_collections.ConfigDict:
     # (quadcos.training.curriculum). A lane is climbed at most once an episode, so the pace is
     # episodes per env: with one lane a success 300-s any-slope runs reach lane 25-34 of 64, with
     # two (--preset=any_slope) lane 48-56 by 50 M env steps. Envs start on the
-    # lowest start_fraction of the lanes. enabled=False: each env keeps the lane and spawn point
-    # of its first reset (Brax's auto-reset).
+    # lowest start_fraction of the lanes; past the top lane an env restarts on a lane drawn
+    # uniformly from the top restart_fraction of them. enabled=False: each env keeps the lane and
+    # spawn point of its first reset (Brax's auto-reset).
     config.curriculum = ml_collections.ConfigDict(
-        dict(enabled=True, start_fraction=0.25, promote_m=4.0, promote_lanes=1)
+        dict(
+            enabled=True, start_fraction=0.25, promote_m=4.0, promote_lanes=1, restart_fraction=1.0
+        )
     )
 
     # --- Host loop -------------------------------------------------------------

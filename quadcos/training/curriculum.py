@@ -7,8 +7,8 @@ on lane terrains: each env keeps a level, the lane it runs on (the lanes of a `r
 in order of slope), and an env whose episode ends restarts on the lane its new level names:
 
 - up `promote_lanes` lanes (default one) when the episode ended without a fall, having crossed its
-  course or walked `promote_m` m; past the top lane to a lane drawn uniformly (so no lane is
-  forgotten);
+  course or walked `promote_m` m; past the top lane to a lane drawn uniformly from the top
+  `restart_fraction` of the lanes (default all of them, so that no lane is forgotten);
 - down one lane when it fell, or timed out having walked less than promote_m / 2 m;
 - otherwise on the same lane, at a new spawn point.
 
@@ -55,6 +55,7 @@ def next_level(
     num_levels: int,
     promote_m: float,
     promote_lanes: int = 1,
+    restart_from: int = 0,
 ) -> jax.Array:
     """The level (lane) of an env's next episode after one that ended (see the module doc).
 
@@ -67,11 +68,12 @@ def next_level(
       num_levels: number of lanes.
       promote_m: m walked that count as success where the course was not crossed.
       promote_lanes: lanes climbed after a success.
+      restart_from: the lowest lane an env that leaves the top lane restarts on.
     """
     up = ~fell & (crossed | (walked >= promote_m))
     down = fell | (~up & (walked < promote_m / 2))
     level = jnp.where(up, level + promote_lanes, jnp.where(down, level - 1, level))
-    anywhere = jax.random.randint(key, level.shape, 0, num_levels, dtype=level.dtype)
+    anywhere = jax.random.randint(key, level.shape, restart_from, num_levels, dtype=level.dtype)
     return jnp.clip(jnp.where(level >= num_levels, anywhere, level), 0, num_levels - 1)
 
 
@@ -91,6 +93,9 @@ class CourseCurriculum(envs.Wrapper):
         self._promote_m = float(config.promote_m)
         self._promote_lanes = int(config.promote_lanes)
         self._start_levels = max(1, round(config.start_fraction * self._num_levels))
+        self._restart_from = min(
+            round((1 - config.restart_fraction) * self._num_levels), self._num_levels - 1
+        )
 
     def reset(self, rng: jax.Array) -> envs.State:
         state = self.env.reset(rng)
@@ -118,6 +123,7 @@ class CourseCurriculum(envs.Wrapper):
             num_levels=self._num_levels,
             promote_m=self._promote_m,
             promote_lanes=self._promote_lanes,
+            restart_from=self._restart_from,
         )
         level = jnp.where(done, new_level, level)
         # A reset costs about an MJX step: skip it in the steps where no episode ended.
