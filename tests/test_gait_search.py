@@ -60,7 +60,7 @@ def test_the_any_slope_preset_is_the_generalists_recipe_with_a_time_budget():
     assert config.env.posture_bound == 0.6 and config.env.forward_speed_cap == 0.8
     assert config.env.action_centre == "search" and config.sac.keep_best_policy
     assert config.sac.max_seconds == 300.0 and config.sac.curriculum.promote_lanes == 2
-    assert config.env.start_ramp_s == 0.25
+    assert config.env.start_ramp_s == 0.25 and config.sac.curriculum.restart_fraction == 0.5
     flagged = train.build_config(train.PRESETS["any_slope"], {"sac.max_seconds": 870.0})
     assert flagged.sac.max_seconds == 870.0
 

@@ -61,7 +61,8 @@ def test_a_config_from_a_newer_quadcos_is_refused():
 @pytest.mark.parametrize(
     ("name", "runs", "seeds"),
     [
-        ("seeds", r"any_slope_ramp_s\d+", [0, 1, 2]),
+        ("seeds", r"any_slope_top50_s\d+", [0, 1, 2]),
+        ("seeds_restart_all", r"any_slope_ramp_s\d+", [0, 1, 2]),
         ("seeds_no_ramp", r"any_slope_promote2_s\d+", [0, 1, 2, 3]),
         ("seeds_promote1", None, [0, 1, 2]),
         ("levers", ".*", [0, 0, 0, 0, 0]),
@@ -114,7 +115,7 @@ def test_the_committed_success_by_slope_is_what_the_evaluations_say():
     two_lanes = {
         name: value
         for name, value in steepest.items()
-        if "promote2" in name or name.startswith("eval_any_slope_ramp_s")
+        if "promote2" in name or name.startswith(("eval_any_slope_ramp_s", "eval_any_slope_top50"))
     }
     three_lanes = {name: value for name, value in steepest.items() if "promote3" in name}
     one_lane = {
@@ -122,6 +123,6 @@ def test_the_committed_success_by_slope_is_what_the_evaluations_say():
         for name, value in steepest.items()
         if name not in two_lanes | three_lanes and "posture" not in name
     }
-    assert len(two_lanes) == 8 and len(three_lanes) == 1 and len(one_lane) == 6
+    assert len(two_lanes) == 11 and len(three_lanes) == 1 and len(one_lane) == 6
     assert min(two_lanes.values()) > max(*one_lane.values(), *three_lanes.values())
     assert steepest["eval_posture_cap_s0_testset"] > max(one_lane.values())
