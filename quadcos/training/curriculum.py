@@ -73,8 +73,8 @@ def next_level(
     up = ~fell & (crossed | (walked >= promote_m))
     down = fell | (~up & (walked < promote_m / 2))
     level = jnp.where(up, level + promote_lanes, jnp.where(down, level - 1, level))
-    anywhere = jax.random.randint(key, level.shape, restart_from, num_levels, dtype=level.dtype)
-    return jnp.clip(jnp.where(level >= num_levels, anywhere, level), 0, num_levels - 1)
+    restart = jax.random.randint(key, level.shape, restart_from, num_levels, dtype=level.dtype)
+    return jnp.clip(jnp.where(level >= num_levels, restart, level), 0, num_levels - 1)
 
 
 class CourseCurriculum(envs.Wrapper):
