@@ -34,7 +34,8 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
     assert (smoke_run / "metrics.csv").is_file()
     assert any((smoke_run / "checkpoints").iterdir())
     # Where the seconds to the first training step went, in the order it happened.
-    startup = json.loads((smoke_run / "startup.json").read_text())
+    record = json.loads((smoke_run / "startup.json").read_text())
+    startup = record["seconds"]
     assert list(startup) == [
         "imports",
         "envs_built",
@@ -45,6 +46,11 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
         "first_chunk",
     ]
     assert 0 < startup["imports"] and list(startup.values()) == sorted(startup.values())
+    # ... and of each event's seconds, JAX's compiling: the smoke run compiles its programs.
+    assert list(record["compile"]) == list(startup)
+    compiled = record["compile"]["state_initialised"]
+    assert compiled["trace_s"] > 0 and compiled["cache_hits"] + compiled["cache_misses"] >= 1
+    assert sum(c["compile_s"] for c in record["compile"].values()) <= startup["first_chunk"]
     policy = quadcos.load_policy(smoke_run)
     # The paper's 14-d state and the filtered command (env.action_filter_tau > 0).
     assert policy.spec.observation_size == 14 + 5

@@ -43,9 +43,12 @@ def main() -> None:
     for path in args.inputs:
         merged = results_lib.merge_results(merged, train_rows(path))
     for cache, path in zip(("cold", "warm"), args.startup or (), strict=False):
-        events = json.loads(path.read_text())
+        record = json.loads(path.read_text())
+        events = record.get("seconds", record)  # older files: the events alone
         merged[f"startup_{cache}_s"] = events["first_chunk"]
         merged[f"startup_{cache}"] = events
+        if "compile" in record:
+            merged[f"startup_{cache}_compile"] = record["compile"]
     args.into.write_text(json.dumps(merged, indent=1) + "\n")
     for row in merged["train"]:
         physics = row.get("physics_env_steps_per_s")

@@ -11,7 +11,7 @@ import threading
 import time
 from typing import Any, TextIO
 
-from quadcos._util import files
+from quadcos._util import compile_clock, files
 
 logger = logging.getLogger(__name__)
 
@@ -52,22 +52,29 @@ class Clock:
 class StartUp:
     """Seconds from a run's start (`started_at`, a `time.monotonic()`; None: now) to each event
     of its start-up, in the order they happened: where the time to the first training step goes
-    (imports, gait search, env, compiled programs, prefill). `save` writes them to `path`, if
-    one is set."""
+    (imports, gait search, env, compiled programs, prefill), and of each event's share how much
+    JAX spent tracing, lowering and compiling or loading programs (`compile_clock`). `save`
+    writes both to `path`, if one is set: {"seconds": {event: s}, "compile": {event: {...}}}."""
 
     FILE = "startup.json"
 
     def __init__(self, started_at: float | None = None):
         self._start = time.monotonic() if started_at is None else started_at
         self.seconds: dict[str, float] = {}
+        self.compile: dict[str, dict[str, float]] = {}
         self.path: pathlib.Path | None = None
+        compile_clock.start()
+        self._compile_before = compile_clock.totals()
 
     def mark(self, event: str) -> None:
         self.seconds[event] = round(time.monotonic() - self._start, 3)
+        self.compile[event] = compile_clock.since(self._compile_before)
+        self._compile_before = compile_clock.totals()
 
     def save(self) -> None:
         if self.path is not None:
-            files.atomic_write_text(self.path, json.dumps(self.seconds, indent=1) + "\n")
+            record = {"seconds": self.seconds, "compile": self.compile}
+            files.atomic_write_text(self.path, json.dumps(record, indent=1) + "\n")
 
 
 class SignalStop:
