@@ -164,8 +164,11 @@ def time_to_success(
             return True
         return False
 
+    def on_start(state: training.TrainingState) -> None:
+        evaluate_now(state)
+
     loop.run_chunks(
-        trainer, trainer.init(), on_start=evaluate_now, on_chunk=on_chunk, num_timesteps=None
+        trainer, trainer.init(), on_start=on_start, on_chunk=on_chunk, num_timesteps=None
     )
     return {
         **result,

@@ -49,7 +49,10 @@ class BestPolicy:
         return -math.inf if self.rank is None else self.rank[1]
 
     def offer(
-        self, state: sac.TrainingState, row: dict[str, Any], written_at_s: float | None = None
+        self,
+        state: sac.TrainingState | policy_lib.PolicyPart,
+        row: dict[str, Any],
+        written_at_s: float | None = None,
     ) -> bool:
         """Saves the policy if `row` (its evaluation) is the best so far; True if it did."""
         if not math.isfinite(row.get(_BEST_BY, math.nan)):

@@ -276,7 +276,7 @@ def run_chunks(
     trainer: sac.SACTrainer,
     state: sac.TrainingState,
     *,
-    on_start: Callable[[sac.TrainingState], None],
+    on_start: Callable[[sac.TrainingState], Callable[[], None] | None],
     on_chunk: Callable[[sac.TrainingState, Chunk], bool],
     num_timesteps: int | None,
     startup: host.StartUp | None = None,
@@ -285,28 +285,42 @@ def run_chunks(
 
     Calls `on_start` on a state that has not taken a step (the untrained policy), prefills the
     replay buffer if it holds less than `min_replay_size`, then runs compiled chunks until
-    `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True. `startup`
-    (optional) is marked after the first evaluation, the prefill and the first chunk, and saved
-    after the first chunk.
+    `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True. `on_start` may
+    return what finishes its work (e.g. an evaluation dispatched, not awaited): it is called once
+    the first chunk is dispatched, so that the host prepares the prefill and the first chunk
+    (tracing, compiling or loading them, at once: `SACTrainer.compile_ahead`) while the device
+    runs what `on_start` started. `startup` (optional) is marked as each program is dispatched,
+    when the first evaluation is finished and when the first chunk is done, and saved after the
+    first chunk.
     """
     startup = host.StartUp() if startup is None else startup
     step = int(state.env_steps)
-    if step == 0:
-        on_start(state)
-        startup.mark("first_evaluation")
     # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
     unfinished = num_timesteps is None or step < num_timesteps
+    # Read before anything is dispatched: a read waits for what runs before it.
     prefill = trainer.replay_size(state) < trainer.config.min_replay_size and unfinished
+    finish_start = None
+    if step == 0:
+        finish_start = on_start(state)
+        startup.mark("first_evaluation_dispatched")
+    if unfinished:
+        trainer.compile_ahead(state, prefill=prefill)
+        startup.mark("programs_lowered")
     if num_timesteps is not None:
         first_chunk_step = step + prefill * trainer.num_prefill_steps * trainer.config.num_envs
         _log_final_step(trainer.config, num_timesteps, first_chunk_step)
     if prefill:
         state = trainer.prefill(state)
-        step = int(state.env_steps)
-        startup.mark("prefilled")
+        step += trainer.num_prefill_steps * trainer.config.num_envs
+        startup.mark("prefill_dispatched")
     while num_timesteps is None or step < num_timesteps:
         start = time.monotonic()
         state, chunk_metrics = trainer.train_chunk(state)
+        if finish_start is not None:
+            startup.mark("first_chunk_dispatched")
+            finish_start()
+            finish_start = None
+            startup.mark("first_evaluation")
         chunk_metrics = jax.device_get(chunk_metrics)
         if "first_chunk" not in startup.seconds:
             startup.mark("first_chunk")
@@ -315,6 +329,8 @@ def run_chunks(
         step = chunk.step
         if on_chunk(state, chunk):
             break
+    if finish_start is not None:  # no chunk ran (e.g. num_timesteps=0)
+        finish_start()
     return state
 
 
@@ -360,7 +376,7 @@ def _train_loop(
     # includes compiling), and the last checkpoint's: what the time budget keeps room for.
     evaluation_s = save_s = 0.0
 
-    def record(row: dict[str, Any], state: sac.TrainingState) -> None:
+    def record(row: dict[str, Any], state: sac.TrainingState | policy_lib.PolicyPart) -> None:
         history.append(row)
         if log is not None:
             log.append(row)
@@ -372,8 +388,7 @@ def _train_loop(
         nonlocal evaluation_s
         started = time.monotonic()
         metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
-        metrics = {name: float(value) for name, value in jax.device_get(metrics).items()}
-        record({**row, **metrics}, state)
+        record({**row, **_host_floats(metrics)}, state)
         evaluation_s = time.monotonic() - started
 
     def save(step: int, state: sac.TrainingState) -> None:
@@ -382,8 +397,19 @@ def _train_loop(
         store.save(step, state, {"wall_time_s": clock()}, config.save_replay)
         save_s = time.monotonic() - started
 
-    def on_start(state: sac.TrainingState) -> None:
-        record_evaluation({"step": 0, "wall_time_s": clock()}, state)
+    def on_start(state: sac.TrainingState) -> Callable[[], None]:
+        # Dispatched, not awaited: the device evaluates while the host prepares the first chunk.
+        started = time.monotonic()
+        row = {"step": 0, "wall_time_s": clock()}
+        metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
+        policy = policy_lib.PolicyPart.copy_of(state)  # the prefill is donated the state
+
+        def finish() -> None:
+            nonlocal evaluation_s
+            record({**row, **_host_floats(metrics)}, policy)
+            evaluation_s = time.monotonic() - started
+
+        return finish
 
     def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
         nonlocal window
@@ -442,6 +468,11 @@ def _train_loop(
     finally:
         progress.close()
     return state, history
+
+
+def _host_floats(metrics: dict[str, jax.Array]) -> dict[str, float]:
+    """An evaluation's metrics on the host (waits for the evaluation)."""
+    return {name: float(value) for name, value in jax.device_get(metrics).items()}
 
 
 def _crossed(previous_step: int, step: int, interval: int) -> bool:

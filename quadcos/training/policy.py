@@ -10,7 +10,7 @@ import functools
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import flax.serialization
 import jax
@@ -26,6 +26,20 @@ _FORMAT = "quadcos.sac_policy"
 _FORMAT_VERSION = 1
 _PARAMS_FILE = "params.msgpack"
 _SPEC_FILE = "policy.json"
+
+
+class PolicyPart(NamedTuple):
+    """The part of a training state a policy is made of; `Policy.from_training_state` takes it
+    as it takes the whole state."""
+
+    normalizer_params: running_statistics.RunningStatisticsState
+    policy_params: Any
+
+    @classmethod
+    def copy_of(cls, state: sac.TrainingState) -> "PolicyPart":
+        """A copy on the device (dispatched, not awaited) that outlives `state` when the state
+        is donated to a compiled program."""
+        return jax.tree.map(jnp.copy, cls(state.normalizer_params, state.policy_params))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,11 +89,11 @@ class Policy:
     @classmethod
     def from_training_state(
         cls,
-        state: sac.TrainingState,
+        state: sac.TrainingState | PolicyPart,
         spec: PolicySpec,
         config: dict[str, Any] | None = None,
     ) -> "Policy":
-        """Copies the policy part of a training state to the host."""
+        """Copies the policy part of a training state (or a `PolicyPart`) to the host."""
         params = jax.device_get(
             {
                 "normalizer": {

@@ -13,6 +13,8 @@ transitions into the replay buffer, update the observation statistics, then
 `updates_per_step` SAC updates (Haarnoja et al. 2018, arXiv:1812.05905).
 """
 
+import concurrent.futures
+from collections.abc import Callable
 from typing import Any
 
 import flax
@@ -247,6 +249,21 @@ class SACTrainer:
             return jax.device_put(self._init(self._key_init), jax.devices()[0])
         return self._init(self._key_init)
 
+    def compile_ahead(self, state: TrainingState, *, prefill: bool) -> None:
+        """Traces `train_chunk` (and `prefill`, if it will run) for `state` now and compiles
+        them (or loads them from the persistent cache) at once, each in a thread of its own: XLA
+        compiles without holding the GIL, so a cold start waits for the longest program, not for
+        their sum, and the host can dispatch other work meanwhile. A later call of either waits
+        for its program and runs it; `state`'s shapes and placement must not change after this
+        (they do not: a chunk returns the state as it took it)."""
+        lowered = {"train_chunk": self.train_chunk.lower(state)}
+        if prefill:
+            lowered["prefill"] = self.prefill.lower(state)
+        pool = concurrent.futures.ThreadPoolExecutor(len(lowered), "quadcos-compile")
+        for name, program in lowered.items():
+            setattr(self, name, _Compiling(pool.submit(program.compile)))
+        pool.shutdown(wait=False)
+
     def replay_size(self, state: TrainingState) -> int:
         """Transitions in the replay buffer, over all devices."""
         return int(jnp.sum(state.replay.size))
@@ -452,3 +469,14 @@ class SACTrainer:
             keys,
             episode_length=self.config.eval_episode_length,
         )
+
+
+class _Compiling:
+    """A program compiling in another thread (`SACTrainer.compile_ahead`): a call waits for it,
+    then runs it."""
+
+    def __init__(self, compiled: concurrent.futures.Future[Callable[..., Any]]):
+        self._compiled = compiled
+
+    def __call__(self, *args: Any) -> Any:
+        return self._compiled.result()(*args)
