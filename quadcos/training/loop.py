@@ -10,6 +10,7 @@ Run directory layout:
   policy/         the final policy (see `quadcos.training.policy`)
 """
 
+import concurrent.futures
 import dataclasses
 import json
 import logging
@@ -398,15 +399,20 @@ def _train_loop(
         save_s = time.monotonic() - started
 
     def on_start(state: sac.TrainingState) -> Callable[[], None]:
-        # Dispatched, not awaited: the device evaluates while the host prepares the first chunk.
+        # In a thread of its own: a program that steps MJX-Warp holds its calling thread until it
+        # has run, and the host has the prefill and the first chunk to prepare meanwhile.
         started = time.monotonic()
         row = {"step": 0, "wall_time_s": clock()}
-        metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
         policy = policy_lib.PolicyPart.copy_of(state)  # the prefill is donated the state
+        pool = concurrent.futures.ThreadPoolExecutor(1, "quadcos-evaluation")
+        metrics = pool.submit(
+            lambda: _host_floats(trainer.evaluate(policy.normalizer_params, policy.policy_params))
+        )
+        pool.shutdown(wait=False)
 
         def finish() -> None:
             nonlocal evaluation_s
-            record({**row, **_host_floats(metrics)}, policy)
+            record({**row, **metrics.result()}, policy)
             evaluation_s = time.monotonic() - started
 
         return finish
