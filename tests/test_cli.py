@@ -41,20 +41,19 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
         "envs_built",
         "trainer_built",
         "state_initialised",
-        "first_evaluation_dispatched",
-        "programs_lowered",
+        "run_dir_ready",
+        "programs_traced",
         "prefill_dispatched",
-        "first_chunk_dispatched",
-        "first_evaluation",
         "first_chunk",
+        "first_evaluation",
     ]
     assert 0 < startup["imports"] and list(startup.values()) == sorted(startup.values())
     # ... and of each event's seconds, JAX's compiling: the smoke run compiles its programs.
     assert list(record["compile"]) == list(startup)
     compiled = record["compile"]["state_initialised"]
     assert compiled["trace_s"] > 0 and compiled["cache_hits"] + compiled["cache_misses"] >= 1
-    # The chunk and the prefill were traced together (compiled in threads of their own).
-    assert record["compile"]["programs_lowered"]["trace_s"] > 0
+    # The chunk, the prefill and the evaluation were traced together (compiled in threads).
+    assert record["compile"]["programs_traced"]["trace_s"] > 0
     policy = quadcos.load_policy(smoke_run)
     # The paper's 14-d state and the filtered command (env.action_filter_tau > 0).
     assert policy.spec.observation_size == 14 + 5

@@ -10,7 +10,6 @@ Run directory layout:
   policy/         the final policy (see `quadcos.training.policy`)
 """
 
-import concurrent.futures
 import dataclasses
 import json
 import logging
@@ -192,6 +191,7 @@ def train(
             log.rows if log else [],
             config.best_policy_max_fall_rate,
         )
+    startup.mark("run_dir_ready")
     try:
         with host.SignalStop() as stop:
             state, history = _train_loop(
@@ -287,26 +287,21 @@ def run_chunks(
     Calls `on_start` on a state that has not taken a step (the untrained policy), prefills the
     replay buffer if it holds less than `min_replay_size`, then runs compiled chunks until
     `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True. `on_start` may
-    return what finishes its work (e.g. an evaluation dispatched, not awaited): it is called once
-    the first chunk is dispatched, so that the host prepares the prefill and the first chunk
-    (tracing, compiling or loading them, at once: `SACTrainer.compile_ahead`) while the device
-    runs what `on_start` started. `startup` (optional) is marked as each program is dispatched,
-    when the first evaluation is finished and when the first chunk is done, and saved after the
-    first chunk.
+    return work to do later (the untrained policy's evaluation, from a copy of it): it is called
+    once the first chunk is done, so that training starts without waiting for it. The prefill
+    and the chunk (and the evaluation) compile at once (`SACTrainer.compile_ahead`). `startup`
+    (optional) is marked when the programs are traced, the prefill dispatched, the first chunk
+    done and the first evaluation done, and saved then.
     """
     startup = host.StartUp() if startup is None else startup
     step = int(state.env_steps)
     # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
     unfinished = num_timesteps is None or step < num_timesteps
-    # Read before anything is dispatched: a read waits for what runs before it.
     prefill = trainer.replay_size(state) < trainer.config.min_replay_size and unfinished
-    finish_start = None
-    if step == 0:
-        finish_start = on_start(state)
-        startup.mark("first_evaluation_dispatched")
     if unfinished:
         trainer.compile_ahead(state, prefill=prefill)
-        startup.mark("programs_lowered")
+        startup.mark("programs_traced")
+    finish_start = on_start(state) if step == 0 else None
     if num_timesteps is not None:
         first_chunk_step = step + prefill * trainer.num_prefill_steps * trainer.config.num_envs
         _log_final_step(trainer.config, num_timesteps, first_chunk_step)
@@ -317,16 +312,16 @@ def run_chunks(
     while num_timesteps is None or step < num_timesteps:
         start = time.monotonic()
         state, chunk_metrics = trainer.train_chunk(state)
+        chunk_metrics = jax.device_get(chunk_metrics)
+        seconds = time.monotonic() - start
+        if "first_chunk" not in startup.seconds:
+            startup.mark("first_chunk")
         if finish_start is not None:
-            startup.mark("first_chunk_dispatched")
             finish_start()
             finish_start = None
             startup.mark("first_evaluation")
-        chunk_metrics = jax.device_get(chunk_metrics)
-        if "first_chunk" not in startup.seconds:
-            startup.mark("first_chunk")
             startup.save()
-        chunk = Chunk(chunk_metrics, step, int(state.env_steps), time.monotonic() - start)
+        chunk = Chunk(chunk_metrics, step, int(state.env_steps), seconds)
         step = chunk.step
         if on_chunk(state, chunk):
             break
@@ -385,7 +380,9 @@ def _train_loop(
         if best is not None and best.offer(state, row, written_at_s=clock()):
             logger.info("best evaluation so far (%.0f): saved to %s", best.reward, best.directory)
 
-    def record_evaluation(row: dict[str, Any], state: sac.TrainingState) -> None:
+    def record_evaluation(
+        row: dict[str, Any], state: sac.TrainingState | policy_lib.PolicyPart
+    ) -> None:
         nonlocal evaluation_s
         started = time.monotonic()
         metrics = trainer.evaluate(state.normalizer_params, state.policy_params)
@@ -399,23 +396,10 @@ def _train_loop(
         save_s = time.monotonic() - started
 
     def on_start(state: sac.TrainingState) -> Callable[[], None]:
-        # In a thread of its own: a program that steps MJX-Warp holds its calling thread until it
-        # has run, and the host has the prefill and the first chunk to prepare meanwhile.
-        started = time.monotonic()
+        # Evaluated once the first chunk is done, from a copy (the prefill is donated the state).
         row = {"step": 0, "wall_time_s": clock()}
-        policy = policy_lib.PolicyPart.copy_of(state)  # the prefill is donated the state
-        pool = concurrent.futures.ThreadPoolExecutor(1, "quadcos-evaluation")
-        metrics = pool.submit(
-            lambda: _host_floats(trainer.evaluate(policy.normalizer_params, policy.policy_params))
-        )
-        pool.shutdown(wait=False)
-
-        def finish() -> None:
-            nonlocal evaluation_s
-            record({**row, **metrics.result()}, policy)
-            evaluation_s = time.monotonic() - started
-
-        return finish
+        policy = policy_lib.PolicyPart.copy_of(state)
+        return lambda: record_evaluation(row, policy)
 
     def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
         nonlocal window
