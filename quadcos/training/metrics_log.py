@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from quadcos._util import files
+from quadcos._util import files, tensorboard
 
 logger = logging.getLogger(__name__)
 
@@ -37,8 +37,7 @@ class MetricsLog:
 
     metrics.jsonl gets each row as one line in a single flushed write;
     metrics.csv is rewritten atomically from all rows (columns may be added
-    as new metric names appear); TensorBoard events go to `tensorboard/` when
-    tensorboardX is importable.
+    as new metric names appear); TensorBoard scalars go to `tensorboard/`.
     """
 
     def __init__(self, run_dir: str | os.PathLike[str], keep_up_to: int | None):
@@ -57,7 +56,7 @@ class MetricsLog:
             self.rows = [row for row in read_rows(self._jsonl) if row["step"] <= keep_up_to]
         files.atomic_write_text(self._jsonl, "".join(map(_json_line, self.rows)))
         self._write_csv()
-        self._tensorboard = _tensorboard_writer(
+        self._tensorboard = tensorboard.ScalarWriter(
             run_dir / "tensorboard",
             purge_step=None if keep_up_to is None else keep_up_to + 1,
         )
@@ -72,15 +71,13 @@ class MetricsLog:
             file.flush()
             os.fsync(file.fileno())
         self._write_csv()
-        if self._tensorboard is not None:
-            for name, value in row.items():
-                if name != "step" and isinstance(value, (int, float)):
-                    self._tensorboard.add_scalar(name, value, global_step=row["step"])
-            self._tensorboard.flush()
+        for name, value in row.items():
+            if name != "step" and isinstance(value, (int, float)):
+                self._tensorboard.add_scalar(name, value, row["step"])
+        self._tensorboard.flush()
 
     def close(self) -> None:
-        if self._tensorboard is not None:
-            self._tensorboard.close()
+        self._tensorboard.close()
 
     def _write_csv(self) -> None:
         columns = list(_LEADING_COLUMNS)
@@ -100,11 +97,3 @@ def _json_line(row: Row) -> str:
         for name, value in row.items()
     }
     return json.dumps(clean) + "\n"
-
-
-def _tensorboard_writer(directory: Path, purge_step: int | None) -> Any:
-    try:
-        import tensorboardX  # pylint: disable=g-import-not-at-top
-    except ImportError:
-        return None
-    return tensorboardX.SummaryWriter(str(directory), purge_step=purge_step)

@@ -250,22 +250,31 @@ class SACTrainer:
         return self._init(self._key_init)
 
     def compile_ahead(self, state: TrainingState, *, prefill: bool) -> None:
-        """Traces `train_chunk` (and `prefill`, if it will run) and `evaluate` for `state` now
-        and compiles them (or loads them from the persistent cache) at once, each in a thread of
-        its own: XLA compiles without holding the GIL, so a cold start waits for the longest
-        program, not for their sum, and the evaluation is traced while the others compile. A
-        later call of either waits for its program and runs it; `state`'s shapes and placement
-        must not change after this (they do not: a chunk returns the state as it took it)."""
+        """Traces `train_chunk` (and `prefill`, if it will run) for `state` now and compiles them
+        (or loads them from the persistent cache) at once, each in a thread of its own, with
+        `evaluate` traced and compiled in a third: XLA compiles without holding the GIL, so a
+        cold start waits for the longest program, not for their sum, and the evaluation is
+        traced while the host waits for the others. A later call of either waits for its
+        program and runs it; `state`'s shapes and placement must not change after this (they do
+        not: a chunk returns the state as it took it)."""
         lowered = {"train_chunk": self.train_chunk.lower(state)}
         if prefill:
             lowered["prefill"] = self.prefill.lower(state)
         pool = concurrent.futures.ThreadPoolExecutor(len(lowered) + 1, "quadcos-compile")
         for name, program in lowered.items():
             setattr(self, name, _Compiling(pool.submit(program.compile)))
-        evaluation = self._evaluate_compiled.lower(
-            state.normalizer_params, state.policy_params, self._eval_keys
+        evaluate = self._evaluate_compiled
+        # Shapes and placements only (`state` is donated to the prefill meanwhile); an array not
+        # committed to a device (the keys) goes where the others are, as in a call.
+        args = jax.tree.map(
+            lambda x: jax.ShapeDtypeStruct(
+                x.shape, x.dtype, sharding=x.sharding if x.committed else None
+            ),
+            (state.normalizer_params, state.policy_params, self._eval_keys),
         )
-        self._evaluate_compiled = _Compiling(pool.submit(evaluation.compile))
+        self._evaluate_compiled = _Compiling(
+            pool.submit(lambda: evaluate.lower(*args).compile())
+        )
         pool.shutdown(wait=False)
 
     def replay_size(self, state: TrainingState) -> int:
