@@ -4,7 +4,7 @@
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone |
 #   anymal_search10 | anymal | anymal_slope5 | anymal_any_slope | profile | launch_levers |
-#   xla_levers | precision_levers | imports | startup_and_randomized | any_slope_gpus | any_slope_lever |
+#   xla_levers | precision_levers | imports | startup | randomized | any_slope_gpus | any_slope_lever |
 #   robust_scratch (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
 #   Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
@@ -405,16 +405,10 @@ import warp; t5 = time.time(); print("import warp", round(t5 - t4, 2))
 warp.init(); t6 = time.time(); print("warp.init()", round(t6 - t5, 2))
 PY
   python3 benchmarks/import_table.py "$OUT/importtime_2.txt" > "$OUT/imports.md" ;;
-startup_and_randomized)  # start-up seconds (startup.json, cold and warm caches) and the Warp rows
-  # with and without domain randomisation, flat, 4096 envs, 1 update per env step
-  for cache in cold warm; do
-    [ $cache = cold ] && rm -rf /tmp/qcache_startup
-    QUADCOS_CACHE_DIR=/tmp/qcache_startup python3 -m quadcos.train --preset=gpu --terrain=flat \
-      --num_timesteps=100000 --no_progress --output_dir="/tmp/quadcos_runs/startup_$cache" \
-      > "$OUT/startup_$cache.log" 2>&1
-    cp "/tmp/quadcos_runs/startup_$cache/startup.json" "$OUT/startup_$cache.json"
-    note "startup $cache: $(tr -d '\n ' < "$OUT/startup_$cache.json")"
-  done
+startup)  # start-up seconds, whole processes, the tree against BASE_TREE (another revision's
+  # `git archive REV quadcos models pyproject.toml`): benchmarks/h100/startup/before_after.sh
+  bash benchmarks/h100/startup/before_after.sh ;;
+randomized)  # the Warp rows with and without domain randomisation, flat, 4096 envs, 1 update a step
   for randomize in "" --randomize; do
     python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
       --train_rows=4096x8192x1 --train_seconds=8 --steps=20 $randomize \

@@ -2,7 +2,8 @@
 
     python benchmarks/h100/merge.py benchmarks/h100/robots/bench_*_train.json \
         benchmarks/h100/randomized/bench_warp_flat*.json --into benchmarks/h100.json \
-        --startup benchmarks/h100/startup/startup_cold.json benchmarks/h100/startup/startup_warm.json
+        --startup benchmarks/h100/startup/runs/cold_new2.startup.json \
+        benchmarks/h100/startup/runs/warm_new2.startup.json
 
 Each input is one `python -m quadcos.bench ... --only physics,train` process; its train rows (named
 by robot, impl, terrain, cache and randomisation) are merged with
@@ -11,7 +12,8 @@ physics rate its own process measured at the row's envs, over the robot's physic
 step. The top-level physics and env rates are left out: they are keyed by env count alone and
 would mix robots. `--startup COLD WARM`: two runs' `startup.json` (`quadcos.train`'s, empty and
 warm caches); their `first_chunk` (process start → the first compiled training chunk done)
-becomes `startup_cold_s` / `startup_warm_s`, and each file's events `startup_cold` / `startup_warm`.
+becomes `startup_cold_s` / `startup_warm_s`, each file's events `startup_cold` / `startup_warm` and
+their compile breakdown `startup_cold_compile` / `startup_warm_compile`.
 """
 
 import argparse
@@ -35,7 +37,7 @@ def train_rows(path: pathlib.Path) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("inputs", nargs="+", type=pathlib.Path)
+    parser.add_argument("inputs", nargs="*", type=pathlib.Path)
     parser.add_argument("--into", type=pathlib.Path, required=True)
     parser.add_argument("--startup", nargs=2, type=pathlib.Path, metavar=("COLD", "WARM"))
     args = parser.parse_args()
