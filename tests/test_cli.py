@@ -77,6 +77,9 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
     assert steps[-1] >= 2048 and steps == sorted(steps), (steps, result.stderr[-3000:])
     config = json.loads((run_dir / "config.json").read_text())
     assert config["config"]["num_envs"] == 4  # the run's own preset survived the resume
+    # The resumed process's start-up is written too, without a step-0 evaluation.
+    startup = json.loads((run_dir / "startup.json").read_text())["seconds"]
+    assert "first_chunk" in startup and "first_evaluation" not in startup, startup
 
 
 @pytest.mark.parametrize(

@@ -118,8 +118,9 @@ def train(
       started_at: `time.monotonic()` at the run's start (quadcos.train: the process's start, so
         a from-scratch run's gait search and every compilation count); None: this call.
       startup: the start-up times so far (quadcos.train: imports, gait search, env), counted
-        from `started_at`; this call adds the trainer, its initial state, the first evaluation,
-        the prefill and the first chunk, and writes them to `run_dir/startup.json`.
+        from `started_at`; this call adds the trainer, its initial state, the run directory, the
+        programs traced, the prefill, the first chunk and the first evaluation (`run_chunks`),
+        and writes them to `run_dir/startup.json`.
 
     Returns:
       The final policy, state and metrics.
@@ -316,10 +317,10 @@ def run_chunks(
         seconds = time.monotonic() - start
         if "first_chunk" not in startup.seconds:
             startup.mark("first_chunk")
-        if finish_start is not None:
-            finish_start()
-            finish_start = None
-            startup.mark("first_evaluation")
+            if finish_start is not None:
+                finish_start()
+                finish_start = None
+                startup.mark("first_evaluation")
             startup.save()
         chunk = Chunk(chunk_metrics, step, int(state.env_steps), seconds)
         step = chunk.step
