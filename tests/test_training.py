@@ -453,3 +453,38 @@ def test_actor_waits_for_the_critic_warmup(warmup, actor_moves):
     assert not _trees_equal(q, state.q_params)
     assert _trees_equal(policy, state.policy_params) is not actor_moves
     assert bool(jnp.array_equal(log_alpha, state.log_alpha)) is not actor_moves
+
+
+def test_the_untrained_policy_is_evaluated_after_the_first_chunk_from_a_copy():
+    """`run_chunks` trains first and then finishes `on_start`'s work, whose copy of the untrained
+    policy outlives the state the prefill and the chunk were donated; the compiled evaluation
+    (`compile_ahead`) gives what the jitted one gives."""
+    trainer = training.SACTrainer(PointEnv(), toy_config(actor_warmup_steps=0))
+    state = trainer.init()
+    initial = jax.device_get(state.policy_params)
+    expected = jax.device_get(trainer.evaluate(state.normalizer_params, state.policy_params))
+    events = []
+
+    def on_start(state):
+        policy = policy_lib.PolicyPart.copy_of(state)
+
+        def finish():
+            events.append("finish")
+            metrics = trainer.evaluate(policy.normalizer_params, policy.policy_params)
+            events.append((jax.device_get(policy.policy_params), jax.device_get(metrics)))
+
+        return finish
+
+    def on_chunk(state, chunk):
+        events.append(("chunk", chunk.step))
+        return True
+
+    final = loop.run_chunks(
+        trainer, state, on_start=on_start, on_chunk=on_chunk, num_timesteps=None
+    )
+    assert events[0] == "finish" and events[2][0] == "chunk" and len(events) == 3
+    params, metrics = events[1]
+    assert _trees_equal(params, initial) and not _trees_equal(params, final.policy_params)
+    assert metrics.keys() == expected.keys()
+    for name, value in expected.items():
+        np.testing.assert_allclose(metrics[name], value, rtol=1e-5, atol=1e-6, err_msg=name)
