@@ -287,4 +287,4 @@ def _evaluate_in_mujoco(args: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    cli.exit_process(main())

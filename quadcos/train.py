@@ -302,4 +302,4 @@ def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    cli.exit_process(main())
