@@ -3,7 +3,7 @@
     python benchmarks/h100/merge.py benchmarks/h100/robots/bench_*_train.json \
         benchmarks/h100/randomized/bench_warp_flat*.json --into benchmarks/h100.json \
         --startup benchmarks/h100/startup/runs/cold_new2.startup.json \
-        benchmarks/h100/startup/runs/warm_new2.startup.json
+        benchmarks/h100/startup/runs/warm_new4.startup.json
 
 Each input is one `python -m quadcos.bench ... --only physics,train` process; its train rows (named
 by robot, impl, terrain, cache and randomisation) are merged with
