@@ -488,3 +488,10 @@ def test_the_untrained_policy_is_evaluated_after_the_first_chunk_from_a_copy():
     assert metrics.keys() == expected.keys()
     for name, value in expected.items():
         np.testing.assert_allclose(metrics[name], value, rtol=1e-5, atol=1e-6, err_msg=name)
+    # The same trainer goes on from there (its programs compiled once, no step-0 evaluation).
+    final_steps = int(final.env_steps)  # read now: the next chunk is donated `final`
+    later = loop.run_chunks(
+        trainer, final, on_start=on_start, on_chunk=on_chunk, num_timesteps=None
+    )
+    assert events[-1] == ("chunk", int(later.env_steps)) and int(later.env_steps) > final_steps
+    assert trainer.chunk_traces == 1

@@ -256,7 +256,9 @@ class SACTrainer:
         cold start waits for the longest program, not for their sum, and the evaluation is
         traced while the host waits for the others. A later call of either waits for its
         program and runs it; `state`'s shapes and placement must not change after this (they do
-        not: a chunk returns the state as it took it)."""
+        not: a chunk returns the state as it took it). A second call does nothing."""
+        if isinstance(self.train_chunk, _Compiling):
+            return
         lowered = {"train_chunk": self.train_chunk.lower(state)}
         if prefill:
             lowered["prefill"] = self.prefill.lower(state)
