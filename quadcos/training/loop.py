@@ -287,12 +287,10 @@ def run_chunks(
 
     Calls `on_start` on a state that has not taken a step (the untrained policy), prefills the
     replay buffer if it holds less than `min_replay_size`, then runs compiled chunks until
-    `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True. `on_start` may
-    return work to do later (the untrained policy's evaluation, from a copy of it): it is called
-    once the first chunk is done, so that training starts without waiting for it. The prefill
-    and the chunk (and the evaluation) compile at once (`SACTrainer.compile_ahead`). `startup`
-    (optional) is marked when the programs are traced, the prefill dispatched, the first chunk
-    done and the first evaluation done, and saved then.
+    `num_timesteps` env steps (None: no limit) or until `on_chunk` returns True. What `on_start`
+    returns (e.g. the untrained policy's evaluation, from a copy) is called once the first chunk
+    is done: training does not wait for it. The programs compile at once (`compile_ahead`).
+    `startup` (optional) is marked at each of these steps and saved after the first chunk.
     """
     startup = host.StartUp() if startup is None else startup
     step = int(state.env_steps)
