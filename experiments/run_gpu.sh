@@ -5,7 +5,7 @@
 #   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone |
 #   anymal_search10 | anymal | anymal_slope5 | anymal_any_slope | profile | launch_levers |
 #   xla_levers | precision_levers | imports | startup | randomized | any_slope_gpus | any_slope_lever |
-#   robust_scratch (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
+#   robust_scratch | overlap_levers (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
 #   Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
@@ -375,6 +375,24 @@ xla_levers)  # XLA's command buffers (CUDA graphs of its own kernels) against th
       --env_counts=4096 --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
       --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
     note "$name ($flags): exit $? $(grep -o 'train 4096x8192x1: [^,]*' "$OUT/$name.log")"
+  done ;;
+overlap_levers)  # trainer settings (--sac KEY=VALUE) against the physics, flat and slope5, Warp, 4096
+  # envs, one bench process per setting, each with its own raw physics rate. OVERLAP_SETS:
+  # NAME:SAC_FLAGS:EXTRA_XLA_FLAGS entries separated by ";" (run per terrain in OVERLAP_TERRAINS, rows
+  # OVERLAP_ROWS). The updates on a stream of their own need benchmarks/h200/overlap_levers/
+  # overlap_updates.patch applied and e.g. "overlap_stream:overlap_updates=True:--xla_gpu_experimental_stream_annotation=true".
+  IFS=';' read -r -a sets <<< "${OVERLAP_SETS:-inline::;inline_spc8:steps_per_chunk=8:}"
+  for terrain in ${OVERLAP_TERRAINS:-flat slope5}; do
+    rows=4096x8192x1,4096x8192x8; [ "$terrain" = flat ] || rows=4096x8192x1
+    rows=${OVERLAP_ROWS:-$rows}
+    for set in "${sets[@]}"; do
+      IFS=: read -r label sac extra <<< "$set"
+      name=bench_${terrain}_$label
+      XLA_FLAGS="--xla_gpu_triton_gemm_any=true $extra" python3 -m quadcos.bench --impl=warp \
+        --terrain=$terrain --only=physics,train --env_counts=4096 --train_rows=$rows \
+        --train_seconds=8 --steps=20 ${sac:+--sac=$sac} --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
+      note "$name: exit $? $(grep -o 'train 4096x8192x[18]: [^,]*' "$OUT/$name.log" | tr '\n' ' ')"
+    done
   done ;;
 precision_levers)  # the networks' matmul precision against the 8-update row's update time: the
   # launch_levers rows (flat, Warp, 4096 envs) under JAX_DEFAULT_MATMUL_PRECISION, one bench

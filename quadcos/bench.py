@@ -118,6 +118,14 @@ def _parser() -> argparse.ArgumentParser:
         " e.g. substep_unroll=10 or warp.graph_mode=jax",
     )
     parser.add_argument(
+        "--sac",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="trainer config override of the train section's rows (repeatable),"
+        " e.g. steps_per_chunk=8",
+    )
+    parser.add_argument(
         "--randomize",
         action="store_true",
         help="env, train and stock sections with domain randomisation (its default ranges;"
@@ -216,6 +224,7 @@ def run(
             settings.randomize,
             settings.profile_dir and f"{settings.profile_dir}/{row}",
             dict(settings.env),
+            dict(settings.sac),
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
@@ -339,7 +348,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise cli.UsageError("--out is required (or --table to print results)")
         settings = settings_from_args(args)
         for row in settings.train_rows + settings.stock_rows:
-            trainer_config(settings.training_preset, row)
+            trainer_config(settings.training_preset, row, **dict(settings.sac))
         out = pathlib.Path(args.out)
         previous = json.loads(out.read_text()) if args.merge and out.exists() else None
 

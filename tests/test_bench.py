@@ -382,6 +382,19 @@ def test_env_overrides_reach_the_env_and_keep_their_rows_apart():
     assert text == "substep_unroll=2,warp.graph_mode=none"
 
 
+def test_trainer_overrides_reach_the_rows_config_and_keep_their_rows_apart():
+    args = bench._parser().parse_args(["--preset=cpu", "--sac=steps_per_chunk=8"])
+    chosen = settings.settings_from_args(args).sac
+    assert chosen == (("steps_per_chunk", 8),)
+    row = settings.TrainRow.parse("32x256x4")
+    assert settings.trainer_config("cpu", row, **dict(chosen)).steps_per_chunk == 8
+    with pytest.raises(ValueError, match="steps_per_chunks"):
+        settings.settings_from_args(bench._parser().parse_args(["--sac", "steps_per_chunks=8"]))
+    plain = {"device": "cpu", "train": [{"num_envs": 32, "batch_size": 256, "updates_per_step": 4}]}
+    short = {"device": "cpu", "train": [{**plain["train"][0], "sac": "steps_per_chunk=8"}]}
+    assert len(results_lib.merge_results(plain, short)["train"]) == 2
+
+
 def test_import_table_splits_the_import_by_what_quadcos_imports_first():
     import importlib.util
     import pathlib

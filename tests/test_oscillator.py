@@ -155,6 +155,21 @@ def test_centred_action_map_keeps_the_bounds():
     np.testing.assert_allclose(back, action, atol=1e-5)
 
 
+def test_scaled_action_map_reaches_its_share_of_each_span():
+    centre = oscillator.FIXED_TROT
+    lower, upper = oscillator.parameter_bounds()
+    top = oscillator.action_to_parameters(np.ones(5), centre=centre, scale=0.3)
+    bottom = oscillator.action_to_parameters(-np.ones(5), centre=centre, scale=0.3)
+    np.testing.assert_allclose(top, np.add(centre, 0.3 * np.subtract(upper, centre)), rtol=1e-5)
+    np.testing.assert_allclose(bottom, np.add(centre, 0.3 * np.subtract(lower, centre)), rtol=1e-5)
+    action = np.random.default_rng(3).uniform(-1, 1, (32, 5))
+    params = oscillator.action_to_parameters(action, centre=centre, scale=0.3)
+    back = oscillator.parameters_to_action(params, centre=centre, scale=0.3)
+    np.testing.assert_allclose(back, action, atol=1e-5)
+    # The bounds themselves are out of reach: their action lies beyond ±1.
+    assert float(np.abs(oscillator.parameters_to_action(upper, centre=centre, scale=0.3)).min()) > 3
+
+
 def test_centre_on_a_bound_is_refused():
     with pytest.raises(ValueError, match="strictly inside"):
         oscillator.action_to_parameters(

@@ -20,13 +20,16 @@ RNG = np.random.default_rng(16)
 # --- the twins -----------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("centre", [oscillator.FIXED_TROT, None])
-def test_oscillator_twins(centre):
+@pytest.mark.parametrize("centre, scale", [(oscillator.FIXED_TROT, 1.0), (None, 1.0), (None, 0.4)])
+def test_oscillator_twins(centre, scale):
     for _ in range(20):
         action = RNG.uniform(-1.3, 1.3, 5)
-        params = twins.action_to_parameters(action, 0.2, centre)
+        params = twins.action_to_parameters(action, 0.2, centre, scale)
         np.testing.assert_allclose(
-            params, oscillator.action_to_parameters(action, 0.2, centre), rtol=1e-6, atol=1e-6
+            params,
+            oscillator.action_to_parameters(action, 0.2, centre, scale),
+            rtol=1e-6,
+            atol=1e-6,
         )
         phases = twins.trot_phases(params.phi1, params.phi3)
         expected = oscillator.trot_phases(params.phi1, params.phi3)

@@ -53,6 +53,7 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "robot": settings.robot,
         "randomized": settings.randomize,
         "env": env_text(settings.env),
+        "sac": env_text(settings.sac),
         "impl": backends.resolve_impl(
             settings.impl, robot_lib.load(settings.robot).preset.gpu_physics
         ),
@@ -103,13 +104,14 @@ def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
 
 
 def env_text(env: Sequence[tuple[str, Any]]) -> str:
-    """`--env` overrides as one string ("substep_unroll=10,warp.graph_mode=jax"; "" for none)."""
+    """`--env` / `--sac` overrides as one string ("substep_unroll=10,warp.graph_mode=jax"; ""
+    for none)."""
     return ",".join(f"{key}={value}" for key, value in env)
 
 
 def _row_key(row: dict[str, Any]) -> tuple[Any, ...]:
-    # Rows measured before robot, terrain, impl, cache, randomisation and env overrides were
-    # recorded: the paper's robot on flat, JAX, no cache, nominal physics, no overrides.
+    # Rows measured before robot, terrain, impl, cache, randomisation and env / trainer overrides
+    # were recorded: the paper's robot on flat, JAX, no cache, nominal physics, no overrides.
     context = (
         row.get("robot", "quadcos"),
         row.get("terrain", "flat"),
@@ -117,6 +119,7 @@ def _row_key(row: dict[str, Any]) -> tuple[Any, ...]:
         row.get("cache", "cold"),
         row.get("randomized", False),
         row.get("env", ""),
+        row.get("sac", ""),
     )
     return row["num_envs"], row["batch_size"], row["updates_per_step"], *context
 
@@ -137,6 +140,7 @@ def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
             results["cache"],
             results.get("randomized", False),
             results.get("env", ""),
+            results.get("sac", ""),
         )
         if _row_key(entry) == (row.num_envs, row.batch_size, row.updates_per_step, *context):
             return entry
@@ -150,6 +154,7 @@ def train_row(results: dict[str, Any], row: TrainRow) -> dict[str, Any]:
         "cache": results["cache"],
         "randomized": results.get("randomized", False),
         "env": results.get("env", ""),
+        "sac": results.get("sac", ""),
         "quadcos_env_steps_per_s": None,
         "stock_brax_env_steps_per_s": None,
     }
@@ -209,9 +214,9 @@ def markdown_table(results: dict[str, Any]) -> str:
         ratio = f"{ours / stock:.2f}" if ours and stock else "—"
         physics = row.get("physics_env_steps_per_s")
         of_physics = f"{ours / physics:.2f}" if ours and physics else "—"
-        robot, terrain, impl, cache, randomized, env = _row_key(row)[3:]
+        robot, terrain, impl, cache, randomized, env, sac = _row_key(row)[3:]
         context = f"{robot} | {terrain} | {impl}{', randomised' if randomized else ''}"
-        context += f", {env}" if env else ""
+        context += "".join(f", {overrides}" for overrides in (env, sac) if overrides)
         sizes = f"{row['num_envs']:,} | {row['batch_size']:,} | {row['updates_per_step']}"
         start = row.get("quadcos_start_to_first_step_s")
         start = f"{format_seconds(start)} ({cache} cache)" if start is not None else "—"

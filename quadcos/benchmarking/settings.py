@@ -100,6 +100,7 @@ class Settings:
         (`env.randomization`, its default ranges).
       env: env config overrides ((dotted key, value), ...) of the physics, env, train and stock
         sections (`--env substep_unroll=10`).
+      sac: trainer config overrides of the train section's rows (`--sac steps_per_chunk=8`).
       num_devices: devices the train, walk and slope5 sections' trainers spread over
         (data-parallel; rows stay global: per-device envs = num_envs / num_devices).
     """
@@ -124,6 +125,7 @@ class Settings:
     randomize: bool = False
     profile_dir: str | None = None
     env: tuple[tuple[str, Any], ...] = ()
+    sac: tuple[tuple[str, Any], ...] = ()
 
 
 _GPU_ROWS = "4096x8192x1,4096x8192x8,16384x16384x4"
@@ -170,19 +172,21 @@ def _preset_overrides(preset: str, prefix: str) -> dict[str, Any]:
     }
 
 
-def _env_overrides(items: list[str]) -> tuple[tuple[str, Any], ...]:
-    """`--env KEY=VALUE` flags as (key, value) pairs, checked against the env config.
+def _overrides(
+    flag: str, items: list[str], config: ml_collections.ConfigDict
+) -> tuple[tuple[str, Any], ...]:
+    """`--FLAG KEY=VALUE` flags as (key, value) pairs, checked against `config`.
 
     Raises:
-      ValueError: a flag without "=", or a key or value the env config does not take.
+      ValueError: a flag without "=", or a key or value the config does not take.
     """
     pairs = []
     for item in items:
         key, equals, text = item.partition("=")
         if not equals or not key:
-            raise ValueError(f"--env takes KEY=VALUE, got {item!r}")
+            raise ValueError(f"--{flag} takes KEY=VALUE, got {item!r}")
         pairs.append((key, parse_value(text)))
-    apply_overrides(env_lib.default_config(), dict(pairs))
+    apply_overrides(config, dict(pairs))
     return tuple(pairs)
 
 
@@ -273,7 +277,8 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         if not preset[name] >= 0:
             raise ValueError(f"--{name} must be >= 0, got {preset[name]}")
     return Settings(
-        env=_env_overrides(args.env),
+        env=_overrides("env", args.env, env_lib.default_config()),
+        sac=_overrides("sac", args.sac, training.default_config()),
         env_counts=_ints(preset["env_counts"]),
         train_rows=train_rows,
         stock_rows=stock_rows,

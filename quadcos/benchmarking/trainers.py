@@ -29,6 +29,7 @@ def measure_trainer(
     randomize: bool = False,
     profile_dir: str | None = None,
     env: dict[str, Any] | None = None,
+    sac: dict[str, Any] | None = None,
 ) -> dict[str, float]:
     """Our trainer's training throughput for one row (over `num_devices`), and its time to the
     first training step.
@@ -36,15 +37,15 @@ def measure_trainer(
     Builds the env and trainer from nothing, runs `init` and `prefill`, then chunks of
     `steps_per_chunk` vectorised env steps (each with `updates_per_step` SAC updates); the first
     chunk compiles, the ones after it are timed until `train_seconds` have passed (>= 2).
-    `profile_dir`: then two more chunks run under `jax.profiler.trace` into it (untimed). `env`:
-    env config overrides.
+    `profile_dir`: then two more chunks run under `jax.profiler.trace` into it (untimed). `env`,
+    `sac`: env and trainer config overrides.
 
     Returns:
       env_steps_per_s, first_chunk_s (compile + one chunk), start_to_first_step_s (startup_s +
       section start -> first chunk done), timed_chunks.
     """
     section_start = time.perf_counter()
-    config = trainer_config(preset, row, num_devices)
+    config = trainer_config(preset, row, num_devices, **(sac or {}))
     trainer = training.SACTrainer(
         make_bench_env(terrain, preset, impl, robot=robot, randomize=randomize, **(env or {})),
         config,

@@ -78,7 +78,9 @@ class Pilot:
             return self.policy
         centre = oscillator.action_centre(self.config.action_centre, self.config.period_min)
         action = np.asarray(
-            oscillator.parameters_to_action(self.fixed_parameters, self.config.period_min, centre),
+            oscillator.parameters_to_action(
+                self.fixed_parameters, self.config.period_min, centre, self.config.action_scale
+            ),
             np.float64,
         )
         action = np.pad(action, (0, env_lib.action_size(self.config) - action.size))
@@ -217,7 +219,10 @@ class HostRobot:
         if self.config.controller != "oscillator":
             return None
         return twins.action_to_parameters(
-            self.command[: oscillator.RHYTHM_SIZE], self.config.period_min, self.action_centre
+            self.command[: oscillator.RHYTHM_SIZE],
+            self.config.period_min,
+            self.action_centre,
+            self.config.action_scale,
         )
 
     def step(self, action: np.ndarray) -> StepResult:

@@ -18,11 +18,14 @@ _centre_and_spans = functools.lru_cache(oscillator._centre_and_spans)  # noqa: S
 
 
 def action_to_parameters(
-    action: np.ndarray, period_min: float, centre: oscillator.RhythmParameters | None
+    action: np.ndarray,
+    period_min: float,
+    centre: oscillator.RhythmParameters | None,
+    scale: float = 1.0,
 ) -> oscillator.RhythmParameters:
     """`oscillator.action_to_parameters` (§3.3): (5,) action in [−1, 1] → rhythm parameters."""
     mid, above, below = _centre_and_spans(period_min, centre)
-    action = np.clip(action, -1.0, 1.0)
+    action = scale * np.clip(action, -1.0, 1.0)
     values = mid + np.where(action >= 0, action * above, action * below)
     return oscillator.RhythmParameters(*(float(value) for value in values))
 

@@ -48,6 +48,10 @@ def default_config() -> ml_collections.ConfigDict:
     # walking gait; all of §3.3's ranges stay reachable), "midpoint" = the middle of each range
     # (a plain linear map: the zero action stands still). See oscillator.action_to_parameters.
     config.action_centre = "trot"
+    # The rhythm's share of each range the policy reaches around the centre: the action's five
+    # rhythm values are multiplied by this before the map (1: every bound of §3.3, the paper;
+    # 0.3: 30 % of the way from the centre to each bound, a residual on a searched gait).
+    config.action_scale = 1.0
     # rad: > 0 adds two action values, front and hind hip offsets of up to ± this (a posture
     # beyond §3.3's rhythm, for leaning back on steep descents: oscillator.posture_offsets);
     # 0 = the paper's five-value action.
@@ -189,6 +193,8 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
             f"randomization.latency_s reaches {latency_max} s, beyond control_dt "
             f"{config.control_dt} s: an action is late by at most one control step"
         )
+    if not 0.0 < config.action_scale <= 1.0:
+        raise ValueError(f"action_scale must be in (0, 1]; got {config.action_scale}")
     if not config.action_filter_tau >= 0:
         raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")
     if not 0.0 <= config.start_ramp_s < math.inf:

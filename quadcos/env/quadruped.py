@@ -234,14 +234,19 @@ class QuadrupedEnv(base.Env):
     def action_for(self, params: oscillator.RhythmParameters) -> jax.Array:
         """The (..., action_size) action that commands rhythm parameters `params` in this env (no
         posture offset)."""
-        action = oscillator.parameters_to_action(params, self.config.period_min, self.action_centre)
+        action = oscillator.parameters_to_action(
+            params, self.config.period_min, self.action_centre, self.config.action_scale
+        )
         padding = [(0, 0)] * (action.ndim - 1) + [(0, self.action_size - oscillator.RHYTHM_SIZE)]
         return jnp.pad(action, padding)
 
     def rhythm_parameters(self, action: jax.Array) -> oscillator.RhythmParameters:
         """The rhythm parameters (§3.3) that the oscillator controller's `action` sets."""
         return oscillator.action_to_parameters(
-            action[..., : oscillator.RHYTHM_SIZE], self.config.period_min, self.action_centre
+            action[..., : oscillator.RHYTHM_SIZE],
+            self.config.period_min,
+            self.action_centre,
+            self.config.action_scale,
         )
 
     # --- pieces of a step ---------------------------------------------------------------------

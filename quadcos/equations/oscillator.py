@@ -152,6 +152,7 @@ def action_to_parameters(
     action: jnp.ndarray,
     period_min: float = PERIOD_MIN,
     centre: RhythmParameters | None = None,
+    scale: float = 1.0,
 ) -> RhythmParameters:
     """Map a policy action in [−1, 1]^5 onto the controller parameters' ranges (§3.3).
 
@@ -159,13 +160,14 @@ def action_to_parameters(
     bound (`parameter_bounds`). With `centre=None` the centre is the middle of the range and the
     map is the plain linear one. A centre such as `FIXED_TROT` keeps every bound reachable but
     makes the zero action (where a fresh SAC policy starts) a walking trot. Actions outside
-    [−1, 1] are clipped.
+    [−1, 1] are clipped. `scale` < 1 (beyond the paper) reaches only that share of the way from
+    the centre to each bound: ±1 ↦ centre + scale · span.
 
     Args:
       action: (..., 5).
     """
     mid, above, below = _centre_and_spans(period_min, centre)
-    action = jnp.clip(action, -1.0, 1.0)
+    action = scale * jnp.clip(action, -1.0, 1.0)
     values = mid + jnp.where(action >= 0, action * above, action * below)
     return RhythmParameters(*(values[..., i] for i in range(5)))
 
@@ -174,14 +176,16 @@ def parameters_to_action(
     params: RhythmParameters,
     period_min: float = PERIOD_MIN,
     centre: RhythmParameters | None = None,
+    scale: float = 1.0,
 ) -> jnp.ndarray:
-    """Inverse of `action_to_parameters` (for fixed-parameter baselines and tests). Returns (..., 5)."""
+    """Inverse of `action_to_parameters` (for fixed-parameter baselines and tests). Returns
+    (..., 5), beyond ±1 for parameters that `scale` puts out of reach."""
     mid, above, below = _centre_and_spans(period_min, centre)
     values = jnp.stack(
         jnp.broadcast_arrays(*(jnp.asarray(p, jnp.float32) for p in params)), axis=-1
     )
     offset = values - mid
-    return jnp.where(offset >= 0, offset / above, offset / below)
+    return jnp.where(offset >= 0, offset / above, offset / below) / scale
 
 
 # Posture: an extension beyond §3.3, off by default (`env.posture_bound` = 0). The paper's rhythm

@@ -59,6 +59,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     for key in ("terrain", "spawn_x_max", "action_centre"):
         overrides.pop(key)
     overrides["action_filter_tau"] = 0.0  # act from the first step, as the centre will
+    overrides["action_scale"] = 1.0  # every candidate of §3.3's ranges in reach
     logger.info(
         "gait search: %d candidates x %d robots x %g s, %d rounds, on %s",
         search.num_candidates,
