@@ -216,6 +216,7 @@ def test_estimator_on_ramps_within_one_degree():
         ({"posture_bound": 0.8}, r"posture_bound must be in \[0, 0.7\]"),
         ({"posture_bound": 0.3, "controller": "joint"}, "posture_bound > 0 needs controller"),
         ({"forward_speed_cap": -1.0}, "forward_speed_cap must be finite and >= 0"),
+        ({"action_scale": 0.0}, r"action_scale must be in \(0, 1\]"),
         ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
     ],
 )
@@ -293,6 +294,21 @@ def test_the_start_ramp_lets_the_rhythm_in_over_the_first_seconds(flat_env):
         quadcos.make_env("flat", start_ramp_s=-1.0)
     with pytest.raises(ValueError, match="start_ramp_s > 0 needs controller='oscillator'"):
         quadcos.make_env("flat", start_ramp_s=0.5, controller="joint")
+
+
+def test_action_scale_reaches_its_share_of_each_range_and_fixed_gaits_stay_where_they_were(flat_env):
+    scaled = quadcos.make_env("flat", action_scale=0.3)
+    centre, full, part = (
+        flat_env.rhythm_parameters(jnp.zeros(5)),
+        flat_env.rhythm_parameters(jnp.ones(5)),
+        scaled.rhythm_parameters(jnp.ones(5)),
+    )
+    np.testing.assert_allclose(np.subtract(part, centre), 0.3 * np.subtract(full, centre), rtol=1e-5)
+    # A fixed rhythm within reach commands the same parameters in both.
+    within = flat_env.rhythm_parameters(jnp.full(5, 0.2))
+    np.testing.assert_allclose(
+        scaled.rhythm_parameters(scaled.action_for(within)), within, rtol=1e-5, atol=1e-6
+    )
 
 
 def test_the_speed_cap_limits_what_a_step_of_progress_pays():

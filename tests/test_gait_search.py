@@ -83,6 +83,7 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
         "--preset=smoke",
         "--config.env.action_centre=search",
         "--config.env.survival_min_speed=0.1",
+        "--config.env.action_scale=0.5",
         "--config.sac.gait_search.num_candidates=6",
         "--config.sac.gait_search.robots_per_candidate=1",
         "--config.sac.gait_search.rounds=2",
@@ -98,6 +99,8 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     assert not search["setup"]["include_trot"] and search["setup"]["symmetric"]
     # Candidates act from the first step, as the centre will (the run's own filter is on).
     assert search["setup"]["env"]["action_filter_tau"] == 0.0
+    # ... over all of §3.3's ranges, whatever share of them SAC will reach.
+    assert search["setup"]["env"]["action_scale"] == 1.0
     assert [entry["round"] for entry in search["rounds"]] == [1, 2]
     assert search["num_evaluated"] == 12
     for candidate in search["ranking"]:
@@ -110,6 +113,7 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     config = json.loads((run_dir / "config.json").read_text())
     centre = config["run_info"]["env"]["action_centre"]
     assert config["run_info"]["env"]["action_filter_tau"] > 0
+    assert config["run_info"]["env"]["action_scale"] == 0.5
     assert (
         centre == search["action_centre"] == search["ranking"][0]["policy"].removeprefix("fixed:")
     )
