@@ -90,6 +90,12 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--min_speed", type=float, default=0.0, help="search: m/s a ranked gait reaches (0: any)"
     )
+    parser.add_argument(
+        "--min_speed_of",
+        choices=("mean", "slowest"),
+        default="mean",
+        help="search: --min_speed holds for the candidate's robots' mean speed or its slowest's",
+    )
     parser.add_argument("--rounds", type=int, default=3, help="search: rounds of refinement")
     parser.add_argument(
         "--engine",
@@ -214,6 +220,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 seconds=args.seconds,
                 seed=args.seed,
                 min_speed=args.min_speed,
+                min_speed_of=args.min_speed_of,
                 env_overrides=overrides,
                 progress=_Progress("search", not args.no_progress),
             )

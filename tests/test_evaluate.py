@@ -415,3 +415,10 @@ def test_a_speed_floor_orders_the_gaits_it_rules_out_towards_it():
     ]
     # Without a floor only the score counts (ties keep their order, as before the floor).
     assert ranking_key(candidates["falls, fast"]) == ranking_key(candidates["no falls, slower"])
+    # Held to the slowest robot, a floor ranks the gaits it rules out by that robot's speed.
+    uneven = {"score": -inf, "fall_rate": 0.0, "mean_forward_speed": 0.6, "slowest_forward_speed": 0.2}
+    even = {"score": -inf, "fall_rate": 0.0, "mean_forward_speed": 0.3, "slowest_forward_speed": 0.25}
+    assert ranking_key(uneven, 0.8) > ranking_key(even, 0.8)
+    assert ranking_key(even, 0.8, "slowest") > ranking_key(uneven, 0.8, "slowest")
+    with pytest.raises(ValueError, match="min_speed_of must be one of .*'median'"):
+        evaluation_lib.search_fixed(min_speed=0.8, min_speed_of="median")

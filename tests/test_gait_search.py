@@ -76,6 +76,17 @@ def test_bad_search_settings_are_refused_before_anything_runs(tmp_path):
     assert not (tmp_path / "run").exists()
 
 
+def test_a_speed_floor_held_to_another_statistic_is_named():
+    from quadcos.training import checks
+    from quadcos.training import config as training_config
+
+    config = training_config.default_config()
+    assert config.gait_search.min_speed_of == "mean"
+    config.gait_search.min_speed_of = "median"
+    with pytest.raises(checks.ConfigError, match="min_speed_of must be 'mean' or 'slowest'"):
+        checks.check_config(config)
+
+
 @pytest.mark.slow
 def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path):
     run_dir = tmp_path / "scratch"

@@ -15,6 +15,8 @@ from quadcos.evaluation.rollout import FORMAT_VERSION, rollout
 from quadcos.evaluation.sources import FIXED_PREFIX, PARAMETER_NAMES, build_env, fixed_source
 
 SEARCH_FORMAT = "quadcos.fixed_search"
+# What a speed floor holds to: the candidate's robots' mean forward speed, or its slowest robot's.
+SPEED_FLOOR_OF = {"mean": "mean_forward_speed", "slowest": "slowest_forward_speed"}
 
 
 def search_fixed(
@@ -30,6 +32,7 @@ def search_fixed(
     include_trot: bool = True,
     symmetric: bool = False,
     min_speed: float = 0.0,
+    min_speed_of: str = "mean",
     env_overrides: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_round: Callable[[dict[str, Any]], None] | None = None,
@@ -43,8 +46,10 @@ def search_fixed(
     candidate on φ3 = φ1 − π (wrapped into its range), where the two diagonal leg pairs move
     alike half a cycle apart — mirror-symmetric gaits, which do not turn by construction. Each later round keeps the `elite` best so far and draws the rest around them (Gaussian, std
     10 % of each range in round 2, halved every round after). A candidate's score is its robots'
-    mean episode reward (Eq. 13 summed over the episode) when none of them fell and their mean
-    forward speed reaches `min_speed` (m/s; 0: any), else −inf: the ranking is the paper's reward
+    mean episode reward (Eq. 13 summed over the episode) when none of them fell and their forward
+    speed reaches `min_speed` (m/s; 0: any) — their mean's, or with `min_speed_of="slowest"` every
+    robot's (under domain randomisation: the gait holds its speed on every robot it was drawn for,
+    not only on average) — else −inf: the ranking is the paper's reward
     among gaits with zero falls (and that speed); `ranking_key` orders the rest. On a lane
     terrain every candidate runs on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
     steepest), so that no candidate is ranked up for the easier course it was given.
@@ -63,6 +68,10 @@ def search_fixed(
         raise ValueError(f"seconds must be finite and > 0; got {seconds}")
     if not (math.isfinite(min_speed) and min_speed >= 0):
         raise ValueError(f"min_speed must be finite and >= 0 m/s; got {min_speed}")
+    if min_speed_of not in SPEED_FLOOR_OF:
+        raise ValueError(
+            f"min_speed_of must be one of {sorted(SPEED_FLOOR_OF)}; got {min_speed_of!r}"
+        )
     source = fixed_source(oscillator.FIXED_TROT, name="search")
     env = build_env(source, terrain, env_overrides)
     num_steps = math.ceil(seconds / env.dt - 1e-9)
@@ -71,7 +80,7 @@ def search_fixed(
     # best can be an action centre (`env.action_centre` needs a span on both sides).
     inner = 1e-3 * (upper - lower)
     rng = np.random.default_rng(seed)
-    rank_key = functools.partial(ranking_key, min_speed=min_speed)
+    rank_key = functools.partial(ranking_key, min_speed=min_speed, min_speed_of=min_speed_of)
     num_envs = num_candidates * robots_per_candidate
     lanes = np.tile(candidate_lanes(env.terrain.num_lanes, robots_per_candidate), num_candidates)
     evaluated: list[dict[str, Any]] = []
@@ -115,8 +124,13 @@ def search_fixed(
             group = episodes[c * robots_per_candidate : (c + 1) * robots_per_candidate]
             fall_rate = float(np.mean([e["fell"] for e in group]))
             mean_reward = float(np.mean([e["episode_reward"] for e in group]))
-            speed = float(np.mean([e["forward_speed"] for e in group]))
-            eligible = fall_rate == 0.0 and (min_speed == 0 or speed >= min_speed)
+            speeds = [e["forward_speed"] for e in group]
+            candidate = {
+                "mean_forward_speed": float(np.mean(speeds)),
+                "slowest_forward_speed": float(np.min(speeds)),
+            }
+            floor_speed = candidate[SPEED_FLOOR_OF[min_speed_of]]
+            eligible = fall_rate == 0.0 and (min_speed == 0 or floor_speed >= min_speed)
             evaluated.append(
                 {
                     "round": round_index + 1,
@@ -126,7 +140,7 @@ def search_fixed(
                     "score": mean_reward if eligible else -math.inf,
                     "mean_episode_reward": mean_reward,
                     "fall_rate": fall_rate,
-                    "mean_forward_speed": speed,
+                    **candidate,
                     "mean_max_abs_yaw": float(np.mean([e["max_abs_yaw"] for e in group])),
                     "mean_max_abs_roll": float(np.mean([e["max_abs_roll"] for e in group])),
                     "mean_lateral_drift": float(np.mean([e["lateral_drift"] for e in group])),
@@ -171,19 +185,22 @@ def search_fixed(
             "include_trot": include_trot,
             "symmetric": symmetric,
             "min_speed": min_speed,
+            "min_speed_of": min_speed_of,
             "env": env.config.to_dict() | {"terrain": env.terrain.spec},
             "wall_time_s": time.monotonic() - started,
         },
     }
 
 
-def ranking_key(candidate: Mapping[str, Any], min_speed: float = 0.0) -> tuple[float, ...]:
+def ranking_key(
+    candidate: Mapping[str, Any], min_speed: float = 0.0, min_speed_of: str = "mean"
+) -> tuple[float, ...]:
     """How a search orders its candidates (descending): by score; with a speed floor, the
-    candidates it rules out (score −inf) follow by fewer falls, then by speed up to the floor, so
-    that the next round's elite breed towards it."""
+    candidates it rules out (score −inf) follow by fewer falls, then by the speed the floor holds
+    to (`SPEED_FLOOR_OF`) up to the floor, so that the next round's elite breed towards it."""
     if min_speed == 0:
         return (candidate["score"],)
-    speed = min(candidate["mean_forward_speed"], min_speed)
+    speed = min(candidate[SPEED_FLOOR_OF[min_speed_of]], min_speed)
     return candidate["score"], -candidate["fall_rate"], speed
 
 

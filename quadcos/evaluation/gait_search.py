@@ -70,6 +70,8 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     )
 
     floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
+    if floor and search.min_speed_of == "slowest":
+        floor += " on every robot"
 
     def report(entry: dict[str, Any]) -> None:
         best = entry["best_score"]
@@ -96,6 +98,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         include_trot=False,
         symmetric=bool(search.symmetric),
         min_speed=float(search.min_speed),
+        min_speed_of=search.min_speed_of,
         env_overrides=overrides,
         on_round=report,
     )

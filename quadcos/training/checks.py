@@ -55,6 +55,11 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 raise ValueError(
                     f"config.gait_search.{name} must be a whole number >= 1, got {search[name]}"
                 )
+        if search.min_speed_of not in ("mean", "slowest"):
+            raise ValueError(
+                "config.gait_search.min_speed_of must be 'mean' or 'slowest', got"
+                f" {search.min_speed_of!r}"
+            )
         if not 0 < search.seconds < math.inf:
             raise ValueError(
                 f"config.gait_search.seconds must be finite and > 0, got {search.seconds}"

@@ -88,7 +88,8 @@ def default_config() -> ml_collections.ConfigDict:
     # ranges, later rounds around the `elite` best; a candidate scores its robots' mean Eq. 13
     # episode reward when none fell. The best becomes the action centre SAC starts from.
     # symmetric: candidates keep φ3 = φ1 − π (mirror-symmetric gaits; SAC may leave it later).
-    # min_speed: m/s a candidate's robots must reach on average to be ranked (0: any speed).
+    # min_speed: m/s a candidate's robots must reach to be ranked (0: any speed): on average, or
+    # with min_speed_of="slowest" each of them (under randomisation: on every robot drawn).
     config.gait_search = ml_collections.ConfigDict(
         dict(
             num_candidates=2048,
@@ -98,6 +99,7 @@ def default_config() -> ml_collections.ConfigDict:
             seconds=5.0,
             symmetric=True,
             min_speed=0.0,
+            min_speed_of="mean",
         )
     )
 
