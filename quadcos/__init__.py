@@ -15,9 +15,7 @@ import importlib.abc
 import importlib.util
 import sys
 
-# The env's names load MJX: they are imported on first use, so that `import quadcos` (and
-# `python -m quadcos.train`, which imports this package first) starts in milliseconds.
-_FROM_ENV = ("QuadrupedEnv", "default_config", "make_env")
+from quadcos.env import QuadrupedEnv, default_config, make_env
 
 # Old module names -> where they live now; `import quadcos.oscillator` and
 # `from quadcos import oscillator` give the very same module object.
@@ -101,16 +99,6 @@ def evaluate_policy(policy, terrain=None, *, episodes=64, seconds=20.0, seed=0, 
         seed=seed,
         env_overrides=env_overrides,
     )
-
-
-def __getattr__(name: str):
-    """The env's names and the subpackages (`quadcos.env`, `quadcos.terrain`, ...), imported
-    when first asked for."""
-    if name in _FROM_ENV:
-        return getattr(importlib.import_module("quadcos.env"), name)
-    if not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
-        return importlib.import_module(f"{__name__}.{name}")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = ["QuadrupedEnv", "default_config", "evaluate_policy", "load_policy", "make_env"]

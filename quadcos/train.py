@@ -11,21 +11,13 @@ before anything is written. stdout carries only the config JSON (`--print_config
 directory at the end; logs and progress go to stderr.
 """
 
-# As a command, the device is set up (in a thread) while the imports below run.
-# ruff: noqa: E402
-import sys
-
-if __name__ == "__main__":
-    from quadcos._util import device_warmup
-
-    device_warmup.start(sys.argv[1:])
-
 import argparse
 import contextlib
 import json
 import logging
 import os
 import pathlib
+import sys
 from collections.abc import Iterator, Sequence
 from typing import Any
 
@@ -33,7 +25,7 @@ import ml_collections
 
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
-from quadcos._util import caches, cli, device_warmup, provenance
+from quadcos._util import caches, cli, provenance
 from quadcos._util.cli import UsageError
 from quadcos._util.overrides import parse_value
 from quadcos.evaluation import gait_search
@@ -174,8 +166,8 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    # Read when JAX starts its backend, so it is set before anything else.
-    os.environ.setdefault("XLA_FLAGS", device_warmup.XLA_FLAGS)
+    # Read when JAX starts its backend (building the env), so it is set before anything else.
+    os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
     with _logging_to_stderr():
         return _main(argv)
 

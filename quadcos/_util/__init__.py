@@ -1,4 +1,3 @@
 """Plumbing every layer may use: CLI errors (`cli`), the compilation caches (`caches`), quiet
 third-party imports (`quiet`), dotted config overrides (`overrides`), versions and git revision
-(`provenance`), atomic file writes (`files`), the device set up during a command's imports
-(`device_warmup`)."""
+(`provenance`), atomic file writes (`files`)."""
