@@ -4,8 +4,6 @@ rebuild the same env from it (the env the run was trained in)."""
 import importlib.util
 import json
 import pathlib
-import subprocess
-import sys
 
 import pytest
 
@@ -16,6 +14,7 @@ from quadcos.evaluation import sources
 from quadcos.training import run_config as runs
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
+ANY_SLOPE = ROOT / "experiments" / "any_slope"
 CONFIGS = sorted(ROOT.glob("tests/data/trained/**/config.json"))
 POLICIES = sorted(ROOT.glob("tests/data/trained/**/policy.json")) + sorted(
     ROOT.glob("experiments/policies/*/policy.json")
@@ -72,11 +71,8 @@ def test_the_committed_any_slope_tables_are_what_their_runs_and_evaluations_say(
     name, runs, seeds, tmp_path
 ):
     out = tmp_path / f"{name}.json"
-    script = ROOT / "experiments" / "any_slope" / "seeds.py"
-    folder = ROOT / "experiments" / "any_slope" / name
     pattern = ["--runs", runs] if runs else []
-    command = [sys.executable, str(script), str(folder), "--out", str(out), *pattern]
-    subprocess.run(command, check=True)
+    assert _script("seeds").main([str(ANY_SLOPE / name), "--out", str(out), *pattern]) == 0
     committed = json.loads((ROOT / "experiments" / "any_slope" / f"{name}.json").read_text())
     assert json.loads(out.read_text()) == committed
     assert [row["seed"] for row in committed] == seeds
@@ -85,12 +81,18 @@ def test_the_committed_any_slope_tables_are_what_their_runs_and_evaluations_say(
         assert row["command"].startswith("python -m quadcos.train --preset=any_slope --seed=")
 
 
+def _script(name: str):
+    """experiments/any_slope/NAME.py as a module: its main() runs in this process (a Python
+    of its own would spend seconds importing quadcos for it)."""
+    spec = importlib.util.spec_from_file_location(name, ANY_SLOPE / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def test_the_committed_falls_table_is_what_the_kept_episodes_say(capsys):
-    folder = ROOT / "experiments" / "any_slope" / "seeds"
-    spec = importlib.util.spec_from_file_location("falls", folder.parent / "falls.py")
-    falls_py = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(falls_py)
-    falls_py.main([str(path) for path in sorted(folder.glob("*.episodes.json.gz"))])
+    folder = ANY_SLOPE / "seeds"
+    _script("falls").main([str(path) for path in sorted(folder.glob("*.episodes.json.gz"))])
     table = capsys.readouterr().out
     assert table == (folder / "falls.md").read_text()
     for line in table.splitlines()[2:]:  # each row's falls are those of its evaluation's summary
@@ -99,13 +101,13 @@ def test_the_committed_falls_table_is_what_the_kept_episodes_say(capsys):
         assert falls == round(summary["fall_rate"] * summary["num_episodes"]) > 0
 
 
-def test_the_committed_success_by_slope_is_what_the_evaluations_say():
-    folder = ROOT / "experiments" / "any_slope"
+def test_the_committed_success_by_slope_is_what_the_evaluations_say(capsys):
+    folder = ANY_SLOPE
     table = (folder / "by_slope.md").read_text()
     names = [line.split(" | ")[0].strip("| ") for line in table.splitlines()[2:]]
     found = {path.stem: path for path in folder.rglob("eval_*.json")}
-    command = [sys.executable, str(folder / "by_slope.py"), *(str(found[name]) for name in names)]
-    assert subprocess.run(command, capture_output=True, text=True, check=True).stdout == table
+    _script("by_slope").main([str(found[name]) for name in names])
+    assert capsys.readouterr().out == table
     # on the steepest courses every 300-s run that climbed two lanes a success (the preset, with
     # and without the start ramp) beats every one that climbed one or three, and only the 870-s
     # policy of one lane a success comes close
