@@ -47,20 +47,25 @@ _SMOKE_ARGS = ("--preset=smoke", "--no_progress", "--seed=3")
 # subprocesses compile the smoke run's programs (test_faults, test_bench, test_cli,
 # test_newcomer) after the session's smoke run has put those programs into the cache; test_evaluate
 # before the notebooks, which reuse its rollouts. The other files follow in their usual order.
+# (From a cold cache on two cores: test_env, test_evaluate, test_robot, test_faults and
+# test_notebooks take 85-90 s each, test_bench about 70 s, the rest 60 s or less.)
 FILE_ORDER = (
     "test_env.py",
     "test_evaluate.py",
-    "test_courses.py",
+    "test_robot.py",
     "test_faults.py",
+    "test_notebooks.py",
     "test_bench.py",
     "test_gait_search.py",
-    "test_training.py",
     "test_parallel.py",
-    "test_cli.py",
-    "test_notebooks.py",
-    "test_readme.py",
     "test_randomization.py",
+    "test_courses.py",
+    "test_training.py",
     "test_newcomer.py",
+    "test_readme.py",
+    "test_cli.py",
+    "test_backends.py",
+    "test_runs.py",
     "test_terrain.py",
 )
 

@@ -203,6 +203,10 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
     # programs rather than compiling them beside it).
     del smoke_run
     monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
+    # JAX names a program's inner functions after what this process traced before: the rollouts
+    # of earlier tests (test_courses') make the trainer's programs text-wise other than the CLI's,
+    # and the persistent cache misses them (~30 s of compiling). Traced afresh, they are the CLI's.
+    jax.clear_caches()
     out = tmp_path / "cpu.json"
     argv = [
         "--preset=cpu",
