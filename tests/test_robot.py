@@ -4,7 +4,6 @@ forward kinematics against MuJoCo; the refusals; `python -m quadcos.robot descri
 the test robot."""
 
 import json
-import os
 import pathlib
 import subprocess
 import sys
@@ -180,12 +179,9 @@ def test_menagerie_robots_are_described(name, menagerie_root):
         assert legs["LF"].knee_sign == -legs["LB"].knee_sign
 
 
-def _describe_cli(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+def _describe_cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "quadcos.robot", "describe", *args],
-        capture_output=True,
-        text=True,
-        env={**os.environ, **(env or {})},
+        [sys.executable, "-m", "quadcos.robot", "describe", *args], capture_output=True, text=True
     )
 
 
@@ -206,10 +202,9 @@ def test_describe_prints_json_and_refuses_in_one_line(tmp_path, capsys, menageri
 
 
 @needs_menagerie
-def test_describe_go1_through_menagerie_root():
-    result = _describe_cli("--robot=menagerie:unitree_go1", env={"MENAGERIE_ROOT": str(MENAGERIE)})
-    assert result.returncode == 0, result.stderr
-    summary = json.loads(result.stdout)
+def test_describe_go1_through_menagerie_root(menagerie_root, capsys):
+    assert robot_main(["describe", "--robot=menagerie:unitree_go1"]) == 0
+    summary = json.loads(capsys.readouterr().out)
     assert summary["root_body"] == "trunk" and summary["menagerie_commit"]
 
 
