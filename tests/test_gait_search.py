@@ -65,14 +65,10 @@ def test_the_any_slope_preset_is_the_generalists_recipe_with_a_time_budget():
     assert flagged.sac.max_seconds == 870.0
 
 
-def test_bad_search_settings_are_refused_before_anything_runs(tmp_path):
-    result = run_cli(
-        "--preset=smoke",
-        "--config.sac.gait_search.rounds=0",
-        f"--output_dir={tmp_path / 'run'}",
-    )
-    assert result.returncode == 2
-    assert "config.sac.gait_search.rounds must be a whole number >= 1" in result.stderr
+def test_bad_search_settings_are_refused_before_anything_runs(tmp_path, capsys):
+    argv = ["--preset=smoke", "--config.sac.gait_search.rounds=0"]
+    assert train.main([*argv, f"--output_dir={tmp_path / 'run'}"]) == 2
+    assert "config.sac.gait_search.rounds must be a whole number >= 1" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
 
 
