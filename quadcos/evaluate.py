@@ -44,6 +44,7 @@ from typing import Any
 
 from quadcos import evaluation
 from quadcos._util import cli
+from quadcos.evaluation.fixed_search import SPEED_FLOOR_OF
 from quadcos.viz import video
 
 _PROG = "quadcos.evaluate"
@@ -92,7 +93,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--min_speed_of",
-        choices=("mean", "slowest"),
+        choices=tuple(SPEED_FLOOR_OF),
         default="mean",
         help="search: --min_speed holds for the candidate's robots' mean speed or its slowest's",
     )
