@@ -21,6 +21,7 @@ import sys
 from collections.abc import Iterator, Sequence
 from typing import Any
 
+import jax
 import ml_collections
 
 from quadcos import env as env_lib
@@ -29,7 +30,7 @@ from quadcos._util import caches, cli, provenance
 from quadcos._util.cli import UsageError
 from quadcos._util.overrides import parse_value
 from quadcos.evaluation import gait_search
-from quadcos.training import host, parallel, run_dirs
+from quadcos.training import host, parallel, reuse, run_dirs
 from quadcos.training.presets import PRESETS, build_config, default_config  # noqa: F401 (re-exported)
 
 # Short flags -> the config key each one sets.
@@ -211,16 +212,8 @@ def _main(argv: list[str]) -> int:
         search = gait_search.resolve_centre(config, run_dir)  # None: a centre was given
         if search is not None:
             startup.mark("gait_search")
-        env = env_lib.QuadrupedEnv(
-            config.env.terrain, ml_collections.ConfigDict(config.env.to_dict())
-        )
-        # Evaluations start at the spawn point (as quadcos.evaluate's do).
-        eval_env = env
-        if config.env.spawn_x_max > 0:
-            eval_env = env_lib.QuadrupedEnv(
-                config.env.terrain,
-                ml_collections.ConfigDict({**config.env.to_dict(), "spawn_x_max": 0.0}),
-            )
+        key = reuse.program_key(config.env, config.sac)
+        env, eval_env = _BUILT.envs(key) or _envs(config.env)
         startup.mark("envs_built")
     except (UsageError, ValueError, FileNotFoundError) as error:
         cli.print_error("quadcos.train", error)
@@ -232,6 +225,9 @@ def _main(argv: list[str]) -> int:
     from quadcos import training
 
     try:
+        trainer = _BUILT.get(key, config.sac) if jax.process_count() == 1 else None
+        if trainer is None:
+            trainer = training.SACTrainer(env, config.sac, eval_env=eval_env)
         result = training.train(
             env,
             config.sac,
@@ -249,6 +245,7 @@ def _main(argv: list[str]) -> int:
             },
             started_at=provenance.process_start(),
             startup=startup,
+            trainer=trainer,
         )
     except training.ConfigError as error:  # raised before anything is written
         cli.print_error("quadcos.train", error)
@@ -256,10 +253,26 @@ def _main(argv: list[str]) -> int:
     except training.NonFiniteLossError as error:
         cli.print_error("quadcos.train", error)
         return 1
+    _BUILT.keep(key, env, eval_env, trainer)
     if writer:
         logger.info("env step %s: policy in %s", f"{result.env_steps:,}", run_dir / "policy")
         print(run_dir)
     return 0
+
+
+# The envs and trainer of this process's runs: a later run of the same programs in the process
+# (tests, notebooks calling `main`) reuses them, with the programs they compiled.
+_BUILT = reuse.Trainers()
+
+
+def _envs(env_config: ml_collections.ConfigDict) -> tuple[Any, Any]:
+    """The training env and the evaluation env (the same unless robots spawn along the ground:
+    evaluations start at the spawn point, as quadcos.evaluate's do)."""
+    env = env_lib.QuadrupedEnv(env_config.terrain, ml_collections.ConfigDict(env_config.to_dict()))
+    if env_config.spawn_x_max <= 0:
+        return env, env
+    eval_config = ml_collections.ConfigDict({**env_config.to_dict(), "spawn_x_max": 0.0})
+    return env, env_lib.QuadrupedEnv(env_config.terrain, eval_config)
 
 
 class _Formatter(logging.Formatter):

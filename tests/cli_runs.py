@@ -1,5 +1,8 @@
-"""`python -m quadcos.train` in a subprocess that shares the tests' compilation cache."""
+"""`python -m quadcos.train` in a subprocess that shares the tests' compilation cache, or in
+this process."""
 
+import contextlib
+import io
 import os
 import pathlib
 import subprocess
@@ -47,3 +50,28 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
     process = start_cli(*args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     stdout, stderr = process.communicate(timeout=900)
     return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
+
+
+_CLEARED_FOR_MAIN = False
+
+
+def run_in_process(*args: str) -> subprocess.CompletedProcess:
+    """`python -m quadcos.train` in this process: its exit status, stdout and stderr. A later
+    run of the same programs in this process reuses the envs and trainer of an earlier one
+    (quadcos.train keeps them), which saves the tracing, lowering and loading a subprocess pays.
+
+    The first call clears JAX's in-memory caches: how JAX names a program's inner functions
+    depends on what the process traced before, so after other tests' programs the trainer's
+    would differ from the CLI subprocesses' in text and miss their persistent-cache entries."""
+    global _CLEARED_FOR_MAIN
+    if not _CLEARED_FOR_MAIN:
+        jax.clear_caches()
+        _CLEARED_FOR_MAIN = True
+    from quadcos import train  # the CLI's module (heavy: builds nothing until called)
+
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        status = train.main(list(args))
+    return subprocess.CompletedProcess(
+        ["quadcos.train", *args], status, stdout.getvalue(), stderr.getvalue()
+    )

@@ -8,7 +8,7 @@ import pytest
 
 import quadcos
 from quadcos import train
-from tests.cli_runs import run_cli
+from tests.cli_runs import run_in_process
 
 
 @pytest.mark.slow
@@ -68,7 +68,8 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
     before = [
         json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()
     ]
-    result = run_cli(f"--output_dir={run_dir}", "--resume", "--num_timesteps=2048", "--no_progress")
+    args = (f"--output_dir={run_dir}", "--resume", "--num_timesteps=2048", "--no_progress")
+    result = run_in_process(*args)
     assert result.returncode == 0, result.stderr[-3000:]
     steps = [
         json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()

@@ -15,7 +15,6 @@ import pathlib
 import random
 import shutil
 import signal
-import subprocess
 import tempfile
 import time
 from unittest import mock
@@ -27,7 +26,7 @@ from hypothesis import strategies as st
 from quadcos import terrain, train, training
 from quadcos._util import overrides as overrides_lib
 from quadcos.training import checkpoint
-from tests.cli_runs import run_cli, start_cli
+from tests.cli_runs import run_in_process, start_cli
 from tests.toy_env import PointEnv
 
 ORBAX_TMP = ".orbax-checkpoint-tmp"
@@ -62,40 +61,6 @@ def toy_state():
     return training.SACTrainer(PointEnv(), toy_config()).init()
 
 
-@pytest.fixture(scope="module")
-def seeded_smoke_runs(tmp_path_factory, smoke_run):
-    """Smoke runs with --seed=3 and --seed=4 for the determinism test, started in the background
-    by the first test that asks for them; the kill -9 test asks too, so that they run beside it
-    on the second core. Yields a function that waits for them and returns {seed: run_dir}.
-
-    They start once the session's smoke run has finished (`smoke_run`): its programs are then in
-    the persistent compilation cache, and these runs and the kill -9 run load them instead of
-    compiling them again at the same time."""
-    del smoke_run
-    directory = tmp_path_factory.mktemp("seeded")
-    processes = {}
-    for seed in (3, 4):
-        with (directory / f"stderr-{seed}").open("w") as stderr:
-            processes[seed] = start_cli(
-                "--preset=smoke",
-                "--no_progress",
-                f"--seed={seed}",
-                f"--output_dir={directory / str(seed)}",
-                stdout=subprocess.DEVNULL,
-                stderr=stderr,
-            )
-
-    def finished() -> dict[int, pathlib.Path]:
-        for seed, process in processes.items():
-            assert process.wait(timeout=900) == 0, (directory / f"stderr-{seed}").read_text()
-        return {seed: directory / str(seed) for seed in processes}
-
-    yield finished
-    for process in processes.values():
-        process.kill()
-        process.wait()
-
-
 # --- kill -9 ----------------------------------------------------------------------------------
 
 # 4 envs x 32 steps = 128 env steps a chunk; a checkpoint every 2 chunks, from step 512 on.
@@ -110,8 +75,10 @@ KILL_RUN = (
 
 
 @pytest.mark.slow
-def test_kill_9_at_a_random_moment_then_resume_completes_the_run(tmp_path, seeded_smoke_runs):
-    del seeded_smoke_runs  # asked for only to start those runs now, beside this one
+def test_kill_9_at_a_random_moment_then_resume_completes_the_run(tmp_path, smoke_run):
+    # After the session's smoke run: its programs are in the persistent compilation cache then,
+    # and this run loads them instead of compiling them beside it.
+    del smoke_run
     run_dir = tmp_path / "run"
     checkpoints = run_dir / "checkpoints"
     # After the first checkpoint: during the first, second or third checkpoint write that
@@ -143,7 +110,7 @@ def test_kill_9_at_a_random_moment_then_resume_completes_the_run(tmp_path, seede
     lost = rows_before[-1]["step"] - last_good
     assert 0 <= lost <= 256, (moment, rows_before[-1]["step"], last_good)
 
-    result = run_cli(f"--output_dir={run_dir}", "--resume", "--no_progress")
+    result = run_in_process(f"--output_dir={run_dir}", "--resume", "--no_progress")
     assert result.returncode == 0, (moment, result.stderr[-3000:])
     rows = read_metrics(run_dir)
     steps = [row["step"] for row in rows]
@@ -405,9 +372,15 @@ def without_timing(rows: list[dict]) -> list[dict]:
 
 
 @pytest.mark.slow
-def test_same_seed_same_metrics_other_seed_other_rewards(smoke_run, seeded_smoke_runs):
-    """The session's `--seed=3` smoke run against the same command again and with --seed=4."""
-    runs = seeded_smoke_runs()
+def test_same_seed_same_metrics_other_seed_other_rewards(smoke_run, tmp_path):
+    """The session's `--seed=3` smoke run (a process of its own) against the same command again
+    and with --seed=4, both in this process (the second with the first's programs)."""
+    runs = {}
+    for seed in (3, 4):
+        runs[seed] = tmp_path / str(seed)
+        argv = ("--preset=smoke", "--no_progress", f"--seed={seed}", f"--output_dir={runs[seed]}")
+        result = run_in_process(*argv)
+        assert result.returncode == 0, result.stderr[-3000:]
     first = [row for row in without_timing(read_metrics(smoke_run)) if row["step"] <= 1024]
     assert [row["step"] for row in first] == [0, 512, 1024]
     assert without_timing(read_metrics(runs[3])) == first

@@ -20,7 +20,7 @@ import quadcos
 from quadcos import terrain, train, training
 from quadcos.terrain import Section
 from quadcos.training import host, loop
-from tests.cli_runs import ROOT, run_cli
+from tests.cli_runs import ROOT, run_cli, run_in_process
 
 
 def tree_digest(directory: pathlib.Path) -> dict[str, str]:
@@ -128,7 +128,7 @@ def test_resume_past_a_corrupt_checkpoint_says_so_in_one_line(smoke_run, tmp_pat
     for path in (latest / "state" / "d").iterdir():  # the array data, cut in half
         path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
     total = steps[-1] + 100  # not a whole number of chunks from the previous checkpoint
-    result = run_cli(
+    result = run_in_process(
         f"--output_dir={run_dir}", "--resume", f"--num_timesteps={total}", "--no_progress"
     )
     assert result.returncode == 0, result.stderr[-3000:]

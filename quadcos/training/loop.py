@@ -97,6 +97,7 @@ def train(
     extra_run_info: dict[str, Any] | None = None,
     started_at: float | None = None,
     startup: host.StartUp | None = None,
+    trainer: sac.SACTrainer | None = None,
 ) -> TrainResult:
     """Trains a SAC policy on `env`.
 
@@ -121,6 +122,8 @@ def train(
         from `started_at`; this call adds the trainer, its initial state, the run directory, the
         programs traced, the prefill, the first chunk and the first evaluation (`run_chunks`),
         and writes them to `run_dir/startup.json`.
+      trainer: the `SACTrainer` of `env`, `eval_env` and `config`, already built (by an
+        earlier run of the same programs: `quadcos.training.reuse`); None builds one.
 
     Returns:
       The final policy, state and metrics.
@@ -138,7 +141,8 @@ def train(
     if resume and run_dir is None:
         raise ValueError("resume=True needs a run_dir")
     startup = host.StartUp(started_at) if startup is None else startup
-    trainer = sac.SACTrainer(env, config, eval_env=eval_env)
+    if trainer is None:
+        trainer = sac.SACTrainer(env, config, eval_env=eval_env)
     startup.mark("trainer_built")
     check_memory(trainer)
     spec = policy_lib.PolicySpec(

@@ -1,0 +1,72 @@
+"""A trainer's compiled programs reused by a later run of the same programs in one process.
+
+Tracing, lowering and loading a trainer's programs costs a process seconds even when the
+persistent compilation cache holds them. Runs whose env config and trainer config agree in every
+field a program reads (another seed, a longer or resumed run) can share one `SACTrainer`:
+`Trainers.get` hands out the last one built for that config, reseeded, and `Trainers.keep`
+stores the one a run used (with the programs it compiled).
+"""
+
+import copy
+import json
+from typing import Any
+
+import jax
+import ml_collections
+
+from quadcos._util.overrides import flatten
+from quadcos.training import sac
+
+# Trainer config fields no program reads: the host loop's and the keys' (the keys are arguments
+# of the programs, not constants).
+HOST_FIELDS = frozenset(
+    {"seed", "num_timesteps", "eval_interval", "checkpoint_interval", "keep_checkpoints"}
+)
+
+
+def program_key(env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict) -> str:
+    """What a trainer's programs depend on: the env config and the trainer config but for
+    `HOST_FIELDS`, as one JSON string."""
+    programs = {k: v for k, v in flatten(config.to_dict()).items() if k not in HOST_FIELDS}
+    return json.dumps({"env": env_config.to_dict(), "sac": programs}, sort_keys=True, default=str)
+
+
+def for_run(trainer: sac.SACTrainer, config: ml_collections.ConfigDict) -> sac.SACTrainer:
+    """`trainer` (a shallow copy, sharing its jitted and compiled programs) for a run with
+    `config`, which may differ from the trainer's own only in `HOST_FIELDS`.
+
+    Raises:
+      ValueError: `config` differs in a field a program reads.
+    """
+    mine, theirs = (
+        {k: v for k, v in flatten(c.to_dict()).items() if k not in HOST_FIELDS}
+        for c in (trainer.config, config)
+    )
+    if mine != theirs:
+        changed = sorted(k for k in mine.keys() | theirs.keys() if mine.get(k) != theirs.get(k))
+        raise ValueError(f"the trainer's programs read {', '.join(changed)}, which differ")
+    reused = copy.copy(trainer)
+    reused.config = config.copy_and_resolve_references()
+    reused._key_init, reused._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
+    reused._eval_keys = jax.random.split(reused._eval_key, config.num_eval_envs)
+    return reused
+
+
+class Trainers:
+    """The envs and trainer last built per `program_key` (one process: tests, notebooks)."""
+
+    def __init__(self) -> None:
+        self._built: dict[str, tuple[Any, Any, sac.SACTrainer | None]] = {}
+
+    def envs(self, key: str) -> tuple[Any, Any] | None:
+        """The (env, eval_env) kept for `key`, or None."""
+        built = self._built.get(key)
+        return None if built is None else built[:2]
+
+    def get(self, key: str, config: ml_collections.ConfigDict) -> sac.SACTrainer | None:
+        """The trainer kept for `key`, for a run with `config` (`for_run`), or None."""
+        built = self._built.get(key)
+        return None if built is None or built[2] is None else for_run(built[2], config)
+
+    def keep(self, key: str, env: Any, eval_env: Any, trainer: sac.SACTrainer | None) -> None:
+        self._built[key] = (env, eval_env, trainer)
