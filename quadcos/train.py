@@ -213,7 +213,8 @@ def _main(argv: list[str]) -> int:
         if search is not None:
             startup.mark("gait_search")
         key = reuse.program_key(config.env, config.sac)
-        env, eval_env = _BUILT.envs(key) or _envs(config.env)
+        reused = _BUILT.get(key, config.sac) if jax.process_count() == 1 else None
+        env, eval_env, trainer = reused or (*_envs(config.env), None)
         startup.mark("envs_built")
     except (UsageError, ValueError, FileNotFoundError) as error:
         cli.print_error("quadcos.train", error)
@@ -225,9 +226,6 @@ def _main(argv: list[str]) -> int:
     from quadcos import training
 
     try:
-        trainer = _BUILT.get(key, config.sac) if jax.process_count() == 1 else None
-        if trainer is None:
-            trainer = training.SACTrainer(env, config.sac, eval_env=eval_env)
         result = training.train(
             env,
             config.sac,
@@ -253,7 +251,7 @@ def _main(argv: list[str]) -> int:
     except training.NonFiniteLossError as error:
         cli.print_error("quadcos.train", error)
         return 1
-    _BUILT.keep(key, env, eval_env, trainer)
+    _BUILT.keep(key, env, eval_env, result.trainer)
     if writer:
         logger.info("env step %s: policy in %s", f"{result.env_steps:,}", run_dir / "policy")
         print(run_dir)

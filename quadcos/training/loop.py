@@ -65,6 +65,7 @@ class TrainResult:
         training early after writing a checkpoint, else None.
       chunk_traces: times the training chunk was traced in this call (1 unless
         something forces a recompile).
+      trainer: the trainer, with its compiled programs (for a later run of the same programs).
     """
 
     policy: policy_lib.Policy
@@ -75,6 +76,7 @@ class TrainResult:
     run_dir: Path | None
     stopped_by_signal: str | None
     chunk_traces: int
+    trainer: sac.SACTrainer
 
 
 def _run_age(restored_s: float | None, started_at: float | None) -> float:
@@ -229,6 +231,7 @@ def train(
         run_dir=run_dir,
         stopped_by_signal=stop.signal_name,
         chunk_traces=trainer.chunk_traces,
+        trainer=trainer,
     )
 
 

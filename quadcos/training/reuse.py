@@ -3,8 +3,8 @@
 Tracing, lowering and loading a trainer's programs costs a process seconds even when the
 persistent compilation cache holds them. Runs whose env config and trainer config agree in every
 field a program reads (another seed, a longer or resumed run) can share one `SACTrainer`:
-`Trainers.get` hands out the last one built for that config, reseeded, and `Trainers.keep`
-stores the one a run used (with the programs it compiled).
+`Trainers.get` hands out the one of the last run of those programs, reseeded, and
+`Trainers.keep` stores the one a run used (with the programs it compiled).
 """
 
 import copy
@@ -53,20 +53,22 @@ def for_run(trainer: sac.SACTrainer, config: ml_collections.ConfigDict) -> sac.S
 
 
 class Trainers:
-    """The envs and trainer last built per `program_key` (one process: tests, notebooks)."""
+    """The envs and trainer of the last run per `program_key` in this process (tests, notebooks
+    calling `quadcos.train.main` again)."""
 
     def __init__(self) -> None:
-        self._built: dict[str, tuple[Any, Any, sac.SACTrainer | None]] = {}
+        self._built: dict[str, tuple[Any, Any, sac.SACTrainer]] = {}
 
-    def envs(self, key: str) -> tuple[Any, Any] | None:
-        """The (env, eval_env) kept for `key`, or None."""
-        built = self._built.get(key)
-        return None if built is None else built[:2]
+    def get(
+        self, key: str, config: ml_collections.ConfigDict
+    ) -> tuple[Any, Any, sac.SACTrainer] | None:
+        """(env, eval_env, trainer for a run with `config`: `for_run`) kept for `key`, or None."""
+        if key not in self._built:
+            return None
+        env, eval_env, trainer = self._built[key]
+        return env, eval_env, for_run(trainer, config)
 
-    def get(self, key: str, config: ml_collections.ConfigDict) -> sac.SACTrainer | None:
-        """The trainer kept for `key`, for a run with `config` (`for_run`), or None."""
-        built = self._built.get(key)
-        return None if built is None or built[2] is None else for_run(built[2], config)
-
-    def keep(self, key: str, env: Any, eval_env: Any, trainer: sac.SACTrainer | None) -> None:
-        self._built[key] = (env, eval_env, trainer)
+    def keep(self, key: str, env: Any, eval_env: Any, trainer: Any) -> None:
+        """Keeps a run's envs and trainer; a run that built no `SACTrainer` keeps nothing."""
+        if isinstance(trainer, sac.SACTrainer):
+            self._built[key] = (env, eval_env, trainer)
