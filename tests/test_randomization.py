@@ -195,7 +195,9 @@ def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways():
     # (The first step after a reset draws afresh, as after Brax's auto-reset.)
     state = step(reset(jnp.stack([jax.random.PRNGKey(2)] * 4)), action)
     push = jnp.zeros((4, 3)).at[0, 1].set(200.0)
-    physics = state.info["physics"]._replace(push=push, push_left_s=jnp.full(4, 0.05))
+    # float32, not a weakly typed 0.05: the state keeps its types, and `step` is not traced again.
+    push_left_s = jnp.full(4, 0.05, jnp.float32)
+    physics = state.info["physics"]._replace(push=push, push_left_s=push_left_s)
     state = state.replace(info={**state.info, "physics": physics})
     for _ in range(3):
         state = step(state, action)
