@@ -44,8 +44,9 @@ _SMOKE_ARGS = ("--preset=smoke", "--no_progress", "--seed=3")
 
 # The order in which the two xdist workers take the test files (`--dist loadfile`): the longest
 # files first, so that neither worker is left with a long file at the end, and the files whose
-# subprocesses compile the smoke run's programs (test_faults, test_bench, test_cli,
-# test_newcomer) after the session's smoke run has put those programs into the cache; test_evaluate
+# runs load the smoke run's programs (test_faults, test_bench, test_cli, test_newcomer; their
+# in-process CLI runs share one trainer per worker) after the session's smoke run has put those
+# programs into the cache; test_evaluate
 # before the notebooks, which reuse its rollouts. The other files follow in their usual order.
 # (From a cold cache on two cores: test_env, test_evaluate, test_robot, test_faults and
 # test_notebooks take 85-90 s each, test_bench about 70 s, the rest 60 s or less.)
