@@ -27,8 +27,12 @@ HOST_FIELDS = frozenset(
 def program_key(env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict) -> str:
     """What a trainer's programs depend on: the env config and the trainer config but for
     `HOST_FIELDS`, as one JSON string."""
-    programs = {k: v for k, v in flatten(config.to_dict()).items() if k not in HOST_FIELDS}
+    programs = _program_fields(config)
     return json.dumps({"env": env_config.to_dict(), "sac": programs}, sort_keys=True, default=str)
+
+
+def _program_fields(config: ml_collections.ConfigDict) -> dict[str, Any]:
+    return {k: v for k, v in flatten(config.to_dict()).items() if k not in HOST_FIELDS}
 
 
 def for_run(trainer: sac.SACTrainer, config: ml_collections.ConfigDict) -> sac.SACTrainer:
@@ -38,15 +42,13 @@ def for_run(trainer: sac.SACTrainer, config: ml_collections.ConfigDict) -> sac.S
     Raises:
       ValueError: `config` differs in a field a program reads.
     """
-    mine, theirs = (
-        {k: v for k, v in flatten(c.to_dict()).items() if k not in HOST_FIELDS}
-        for c in (trainer.config, config)
-    )
+    mine, theirs = _program_fields(trainer.config), _program_fields(config)
     if mine != theirs:
         changed = sorted(k for k in mine.keys() | theirs.keys() if mine.get(k) != theirs.get(k))
         raise ValueError(f"the trainer's programs read {', '.join(changed)}, which differ")
     reused = copy.copy(trainer)
     reused.config = config.copy_and_resolve_references()
+    # The run's keys, as SACTrainer.__init__ draws them from the seed.
     reused._key_init, reused._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
     reused._eval_keys = jax.random.split(reused._eval_key, config.num_eval_envs)
     return reused
