@@ -99,6 +99,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--rounds", type=int, default=3, help="search: rounds of refinement")
     parser.add_argument(
+        "--confirm_robots",
+        type=int,
+        default=0,
+        help="search: rerun the best candidates on this many robots each and rank by that (0: no)",
+    )
+    parser.add_argument(
         "--engine",
         choices=("mjx", "mujoco"),
         default="mjx",
@@ -222,6 +228,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 seed=args.seed,
                 min_speed=args.min_speed,
                 min_speed_of=args.min_speed_of,
+                confirm_robots=args.confirm_robots,
                 env_overrides=overrides,
                 progress=_Progress("search", not args.no_progress),
             )

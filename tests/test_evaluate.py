@@ -242,6 +242,22 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
     assert floored_result["setup"]["min_speed"] == 2.0
     assert [e["score"] for e in floored_result["ranking"]] == [None] * 4
     assert all(e["mean_forward_speed"] < 2 for e in floored_result["ranking"])
+    # A confirmation reruns the rounds' best on more robots (here the whole batch: 4) and ranks
+    # by that run alone: the same rounds (same seed) give the same finalist, scored anew.
+    confirmed = tmp_path / "confirmed.json"
+    args[-2] = f"--out={confirmed}"
+    assert evaluate.main([*args, "--confirm_robots=4"]) == 0
+    confirmed_result = json.loads(confirmed.read_text())
+    assert confirmed_result["confirmation"]["robots"] == 4
+    assert confirmed_result["confirmation"]["candidates"] == 1
+    best_scores = [[r["best_score"] for r in out["rounds"]] for out in (result, confirmed_result)]
+    assert best_scores[0] == best_scores[1] and confirmed_result["num_evaluated"] == 4
+    (finalist,) = confirmed_result["ranking"]
+    assert finalist["policy"] == ranking[0]["policy"] and finalist["round"] == 3
+    assert (finalist["fall_rate"] * 4).is_integer()
+    assert result["confirmation"] is None and confirmed_result["setup"]["confirm_robots"] == 4
+    with pytest.raises(ValueError, match="confirm_robots must be 0 or divide .* = 4; got 3"):
+        evaluation_lib.search_fixed(num_candidates=2, robots_per_candidate=2, confirm_robots=3)
 
 
 @pytest.mark.parametrize(
@@ -422,3 +438,21 @@ def test_a_speed_floor_orders_the_gaits_it_rules_out_towards_it():
     assert ranking_key(even, 0.8, "slowest") > ranking_key(uneven, 0.8, "slowest")
     with pytest.raises(ValueError, match="min_speed_of must be one of .*'median'"):
         evaluation_lib.search_fixed(min_speed=0.8, min_speed_of="median")
+
+
+def test_a_confirmation_ranks_clean_gaits_first_then_the_one_that_fell_least():
+    from quadcos.evaluation.fixed_search import confirmation_key
+
+    inf = float("inf")
+    candidates = {
+        "clean": {"score": 10.0, "fall_rate": 0.0, "mean_forward_speed": 0.81},
+        "fell once, fast": {"score": -inf, "fall_rate": 1 / 64, "mean_forward_speed": 1.2},
+        "fell twice, faster": {"score": -inf, "fall_rate": 2 / 64, "mean_forward_speed": 1.5},
+        "clean, too slow": {"score": -inf, "fall_rate": 0.0, "mean_forward_speed": 0.5},
+    }
+    ordered = sorted(candidates, key=lambda n: confirmation_key(candidates[n], 0.8), reverse=True)
+    assert ordered == ["clean", "clean, too slow", "fell once, fast", "fell twice, faster"]
+    # Without a floor the gaits that fell equally often go by speed.
+    fast, slow = dict(candidates["fell once, fast"]), dict(candidates["fell once, fast"])
+    slow["mean_forward_speed"] = 0.3
+    assert confirmation_key(fast) > confirmation_key(slow)

@@ -83,6 +83,19 @@ def test_a_speed_floor_held_to_another_statistic_is_named():
         checks.check_config(config)
 
 
+def test_a_confirmation_that_does_not_fill_the_search_batch_is_named():
+    from quadcos.training import checks
+    from quadcos.training import config as training_config
+
+    config = training_config.default_config()
+    assert config.gait_search.confirm_robots == 0
+    config.gait_search.confirm_robots = 64  # divides 2048 x 2
+    checks.check_config(config)
+    config.gait_search.confirm_robots = 3
+    with pytest.raises(checks.ConfigError, match="confirm_robots must be 0 or .* = 4096, got 3"):
+        checks.check_config(config)
+
+
 @pytest.mark.slow
 def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path):
     run_dir = tmp_path / "scratch"

@@ -4,7 +4,8 @@ With `env.action_centre="search"`, `python -m quadcos.train` knows no walking ga
 builds the env it searches constant rhythm parameters (A_k, A_h, T, φ1, φ3) with
 `evaluation.search_fixed` — round 1 uniform over §3.3's ranges, no hand-set trot among the
 candidates, later rounds around the best — scored by the run's own reward (Eq. 13) on the run's
-own terrain. The best candidate without falls becomes the action centre (what SAC's zero action
+own terrain. The best candidate without falls (with `gait_search.confirm_robots`: the best of a
+rerun of the finalists on more robots) becomes the action centre (what SAC's zero action
 commands), and the search's wall time starts the run's clock, so a time to walk counts it.
 
 Candidates act from the first step, with the command filter off, as the found gait will in
@@ -16,7 +17,6 @@ shuffles at 0.33 m/s and falls within 2-13 s (experiments/robots).
 
 import json
 import logging
-import math
 import pathlib
 from typing import Any
 
@@ -99,21 +99,34 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         symmetric=bool(search.symmetric),
         min_speed=float(search.min_speed),
         min_speed_of=search.min_speed_of,
+        confirm_robots=search.confirm_robots,
         env_overrides=overrides,
         on_round=report,
     )
     best = result["ranking"][0]
-    if best["score"] is None or not math.isfinite(best["score"]):
+    if result["num_without_falls"] == 0:
         raise NoGaitFound(
             f"the gait search found no candidate without falls{floor} in {search.rounds} rounds"
             f" of {search.num_candidates}; raise config.sac.gait_search.rounds or .num_candidates"
             + (" or lower .min_speed" if floor else "")
         )
+    confirmation = result["confirmation"]
+    if confirmation is not None:
+        logger.info(
+            "gait search confirmation (%.0f s): %d of the %d best candidates never fell%s on %d"
+            " robots each",
+            confirmation["wall_time_s"],
+            confirmation["num_without_falls"],
+            confirmation["candidates"],
+            floor,
+            confirmation["robots"],
+        )
     centre = oscillator.centre_spec(best["parameters"].values())
     logger.info(
-        "gait search: action centre %s (%.2f m/s, no falls) after %.0f s",
+        "gait search: action centre %s (%.2f m/s, %.1f %% falls) after %.0f s",
         centre,
         best["mean_forward_speed"],
+        100 * best["fall_rate"],
         result["setup"]["wall_time_s"],
     )
     return result | {"action_centre": centre}

@@ -60,6 +60,16 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 "config.gait_search.min_speed_of must be 'mean' or 'slowest', got"
                 f" {search.min_speed_of!r}"
             )
+        envs = search.num_candidates * search.robots_per_candidate
+        if not (
+            isinstance(search.confirm_robots, int)
+            and search.confirm_robots >= 0
+            and (search.confirm_robots == 0 or envs % search.confirm_robots == 0)
+        ):
+            raise ValueError(
+                "config.gait_search.confirm_robots must be 0 or a whole number dividing"
+                f" num_candidates x robots_per_candidate = {envs}, got {search.confirm_robots}"
+            )
         if not 0 < search.seconds < math.inf:
             raise ValueError(
                 f"config.gait_search.seconds must be finite and > 0, got {search.seconds}"

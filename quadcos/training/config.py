@@ -90,6 +90,9 @@ def default_config() -> ml_collections.ConfigDict:
     # symmetric: candidates keep φ3 = φ1 − π (mirror-symmetric gaits; SAC may leave it later).
     # min_speed: m/s a candidate's robots must reach to be ranked (0: any speed): on average, or
     # with min_speed_of="slowest" each of them (under randomisation: on every robot drawn).
+    # confirm_robots: after the rounds, the best distinct candidates run once more on that many
+    # robots each (as many as the batch holds; 0: none) and the gait kept is the best of that
+    # run — the clean ones by reward, else the one that fell least.
     config.gait_search = ml_collections.ConfigDict(
         dict(
             num_candidates=2048,
@@ -100,6 +103,7 @@ def default_config() -> ml_collections.ConfigDict:
             symmetric=True,
             min_speed=0.0,
             min_speed_of="mean",
+            confirm_robots=0,
         )
     )
 
