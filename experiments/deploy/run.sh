@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The deploy path on a CPU: export the pretrained flat and slope5 policies to ONNX, then run each
+# The deploy path on a CPU: export the pretrained flat, flat_robust and slope5 policies to ONNX, then run each
 # file with ONNX Runtime in C MuJoCo (python -m quadcos.sim2sim) on its terrain, nominal, under 20
 # and 40 ms of control latency and with observation noise. Two runs at a time (2 cores).
 #   bash experiments/deploy/run.sh OUT        # OUT: a folder for the .onnx files and the JSONs
@@ -7,7 +7,7 @@
 set -euo pipefail
 out=${1:?usage: run.sh OUT}
 mkdir -p "$out"
-for policy in flat slope5; do
+for policy in flat flat_robust slope5; do
   python -m quadcos.export --policy="experiments/policies/$policy" --out="$out/$policy.onnx"
 done
 run() {  # POLICY TERRAIN SECONDS NAME FLAGS...
@@ -17,7 +17,7 @@ run() {  # POLICY TERRAIN SECONDS NAME FLAGS...
     > "$out/${policy}_${terrain}_$name.log" 2>&1
   tail -n 1 "$out/${policy}_${terrain}_$name.log"
 }
-for case in "flat flat 20" "slope5 slope5 30"; do
+for case in "flat flat 20" "flat_robust flat 20" "slope5 slope5 30"; do
   set -- $case
   run "$1" "$2" "$3" nominal &
   run "$1" "$2" "$3" latency20 --latency_ms=20

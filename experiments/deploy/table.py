@@ -19,7 +19,7 @@ def main() -> None:
     folder = pathlib.Path(sys.argv[1])
     print("| policy (.onnx) | terrain | condition | success | falls | speed m/s |")
     print("|---|---|---|---:|---:|---:|")
-    for policy, terrain in (("flat", "flat"), ("slope5", "slope5")):
+    for policy, terrain in (("flat", "flat"), ("flat_robust", "flat"), ("slope5", "slope5")):
         for key, label in CONDITIONS:
             path = folder / f"{policy}_{terrain}_{key}.json"
             if not path.is_file():
