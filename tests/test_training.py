@@ -319,7 +319,7 @@ def test_a_spent_time_budget_ends_the_run_as_its_last_step_would(tmp_path):
 def test_a_time_budget_keeps_room_for_what_is_due_another_chunk_and_the_final_evaluation():
     # a budget ending at 100 s; a chunk takes 1 s, an evaluation 2 s, a checkpoint 0.5 s
     def spent(now, evaluating_now=False, saving_now=False, deadline=100.0):
-        return loop._budget_spent(
+        return host.budget_spent(
             deadline,
             now,
             chunk_s=1.0,

@@ -1,5 +1,6 @@
 """What the host loop does between compiled chunks besides training: the metrics window, the
-run's wall clock and start-up times, stopping on SIGINT/SIGTERM and the progress line."""
+run's wall clock, time budget and start-up times, stopping on SIGINT/SIGTERM and the progress
+line."""
 
 import json
 import logging
@@ -47,6 +48,44 @@ class Clock:
 
     def __call__(self) -> float:
         return time.monotonic() - self._start
+
+
+def run_age(restored_s: float | None, started_at: float | None) -> float:
+    """Seconds the run has lasted when its clock starts: a resumed run's recorded time, else the
+    time since `started_at`."""
+    if restored_s is not None:
+        return restored_s
+    return 0.0 if started_at is None else time.monotonic() - started_at
+
+
+def deadline(max_seconds: float, started_at: float | None) -> float | None:
+    """The `time.monotonic()` at which a run with a time budget of `max_seconds` (0: none) from
+    `started_at` (default: now) ends."""
+    if not max_seconds:
+        return None
+    return (time.monotonic() if started_at is None else started_at) + max_seconds
+
+
+def budget_spent(
+    deadline: float | None,
+    now: float,
+    *,
+    chunk_s: float,
+    evaluation_s: float,
+    save_s: float,
+    evaluating_now: bool,
+    saving_now: bool,
+) -> bool:
+    """Whether a run with a time budget ending at `deadline` (None: no budget) ends with the chunk
+    that just ended: when what is due now (this chunk's evaluation, `evaluating_now`, and
+    checkpoint, `saving_now`), another chunk and then the final evaluation and checkpoint would
+    end past it, so that the final evaluation, `policy_best` and the checkpoint come within it.
+    Each part counts as long as it last took: `chunk_s`, `evaluation_s` (with writing
+    `policy_best`), `save_s`."""
+    if deadline is None:
+        return False
+    due_now = evaluating_now * evaluation_s + saving_now * save_s
+    return now + due_now + chunk_s + evaluation_s + save_s >= deadline
 
 
 class StartUp:

@@ -79,14 +79,6 @@ class TrainResult:
     trainer: sac.SACTrainer
 
 
-def _run_age(restored_s: float | None, started_at: float | None) -> float:
-    """Seconds the run has lasted when its clock starts: a resumed run's recorded time, else the
-    time since `started_at`."""
-    if restored_s is not None:
-        return restored_s
-    return 0.0 if started_at is None else time.monotonic() - started_at
-
-
 def train(
     env: envs.Env,
     config: ml_collections.ConfigDict | None = None,
@@ -207,10 +199,10 @@ def train(
                 store,
                 log,
                 stop,
-                host.Clock(_run_age(wall_time_offset, started_at)),
+                host.Clock(host.run_age(wall_time_offset, started_at)),
                 host.Progress(config.num_timesteps, enabled=progress and writer, bar=progress_bar),
                 best,
-                _deadline(config.max_seconds, started_at),
+                host.deadline(config.max_seconds, started_at),
                 startup,
             )
     finally:
@@ -233,36 +225,6 @@ def train(
         chunk_traces=trainer.chunk_traces,
         trainer=trainer,
     )
-
-
-def _deadline(max_seconds: float, started_at: float | None) -> float | None:
-    """The `time.monotonic()` at which a run with a time budget of `max_seconds` (0: none) from
-    `started_at` (default: now) ends."""
-    if not max_seconds:
-        return None
-    return (time.monotonic() if started_at is None else started_at) + max_seconds
-
-
-def _budget_spent(
-    deadline: float | None,
-    now: float,
-    *,
-    chunk_s: float,
-    evaluation_s: float,
-    save_s: float,
-    evaluating_now: bool,
-    saving_now: bool,
-) -> bool:
-    """Whether a run with a time budget ending at `deadline` (None: no budget) ends with the chunk
-    that just ended: when what is due now (this chunk's evaluation, `evaluating_now`, and
-    checkpoint, `saving_now`), another chunk and then the final evaluation and checkpoint would
-    end past it, so that the final evaluation, `policy_best` and the checkpoint come within it.
-    Each part counts as long as it last took: `chunk_s`, `evaluation_s` (with writing
-    `policy_best`), `save_s`."""
-    if deadline is None:
-        return False
-    due_now = evaluating_now * evaluation_s + saving_now * save_s
-    return now + due_now + chunk_s + evaluation_s + save_s >= deadline
 
 
 @dataclasses.dataclass(frozen=True)
@@ -417,7 +379,7 @@ def _train_loop(
         stopping = stop.signal_name is not None
         evaluating = _crossed(previous_step, step, config.eval_interval)
         saving = store is not None and _crossed(previous_step, step, config.checkpoint_interval)
-        out_of_time = _budget_spent(
+        out_of_time = host.budget_spent(
             deadline,
             time.monotonic(),
             chunk_s=chunk.seconds,
