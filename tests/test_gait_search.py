@@ -9,7 +9,7 @@ import pytest
 from quadcos import train
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from quadcos.equations import oscillator
-from tests.cli_runs import run_cli
+from tests.cli_runs import ROOT, run_cli
 
 
 def test_a_numeric_action_centre_is_the_gait_its_zero_action_commands():
@@ -63,6 +63,22 @@ def test_the_any_slope_preset_is_the_generalists_recipe_with_a_time_budget():
     assert config.env.start_ramp_s == 0.25 and config.sac.curriculum.restart_fraction == 0.5
     flagged = train.build_config(train.PRESETS["any_slope"], {"sac.max_seconds": 870.0})
     assert flagged.sac.max_seconds == 870.0
+
+
+def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
+    # experiments/robustness: the runs behind policies/flat_robust were made with flags; the
+    # preset must be the config they recorded, but for the action centre their search resolved.
+    run = ROOT / "experiments/robustness/levers_gpu/runs"
+    recorded = json.loads(
+        (run / "robust_scratch_fric15s20fl085r8as03cf64p2t015_s0/config.json").read_text()
+    )
+    config = json.loads(json.dumps(train.build_config(train.PRESETS["robust"], {}).to_dict()))
+    assert config["sac"] == recorded["config"]
+    env = config["env"]
+    assert env.pop("action_centre") == "search"
+    recorded["run_info"]["env"].pop("action_centre")
+    assert env == recorded["run_info"]["env"]
+    assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 
 
 def test_bad_search_settings_are_refused_before_anything_runs(tmp_path, capsys):

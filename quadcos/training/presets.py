@@ -142,6 +142,33 @@ PRESETS["any_slope"] = {
     "sac.max_seconds": 300.0,
 }
 
+# A flat policy robust to latency, pushes and slippery ground that keeps its speed
+# (experiments/robustness: 4 of 4 seeds survive 40 ms of latency, 50-N pushes every 2 s and
+# friction 0.4 in every episode at 0.91-1.00 m/s nominal). From scratch on flat with every domain
+# randomisation on but friction (held at the MJCF's 1.5: a slippery range makes the search keep
+# gaits that are slow on it), pushes as often as they are measured, observation noise; the
+# rhythm's period down to 0.15 s (the paper's range is (0, 2] s; at the default 0.2 s the fastest
+# gaits stood at the floor, under 0.8 m/s); a 20-s randomised gait search floored at 0.85 m/s whose
+# best are confirmed on 64 robots each. The kept policy is, so far on every seed, the searched
+# gait (SAC's later policies walk faster and fall more); SAC reaches 0.3 of each range around it.
+PRESETS["robust"] = {
+    **PRESETS["scratch"],
+    "env.terrain": "flat",
+    "env.period_min": 0.15,
+    "env.action_scale": 0.3,
+    "env.randomization.enabled": True,
+    "env.randomization.obs_noise": 0.02,
+    "env.randomization.friction": (1.5, 1.5),
+    "env.randomization.push_interval_s": 2.0,
+    "sac.gait_search.seconds": 20.0,
+    "sac.gait_search.num_candidates": 1_024,
+    "sac.gait_search.robots_per_candidate": 8,
+    "sac.gait_search.rounds": 8,
+    "sac.gait_search.min_speed": 0.85,
+    "sac.gait_search.confirm_robots": 64,
+    "sac.max_seconds": 300.0,
+}
+
 
 def default_config() -> ml_collections.ConfigDict:
     """The whole run's config: {"env": env config, "sac": trainer config}."""
