@@ -74,3 +74,27 @@ def test_the_committed_per_step_table_is_what_the_gpu_profiles_say():
         wall, physics, fusions, matmuls, copies, idle = (float(c.strip(" |")) for c in cells[3:])
         assert 0 < idle < wall
         assert physics + fusions + matmuls + copies >= 0.99 * (wall - idle)
+
+
+def test_idle_gaps_are_classed_by_length_and_blamed_on_the_host_event_in_them():
+    meta = [
+        {"ph": "M", "name": "process_name", "pid": 1, "args": {"name": "/device:GPU:0"}},
+        {"ph": "M", "name": "process_name", "pid": 2, "args": {"name": "/host:CPU"}},
+        {"ph": "M", "name": "thread_name", "pid": 2, "tid": 3, "args": {"name": "python"}},
+    ]
+    kernels = [(0, 10, "physics_kernel"), (12, 8, "fusion.1"), (100, 10, "gemm.2")]
+    kernels += [(1110, 10, "fusion.3")]  # gaps: 2, 80 and 1000 µs
+    device = [{"ph": "X", "pid": 1, "tid": 9, "ts": t, "dur": d, "name": n} for t, d, n in kernels]
+    host = [  # the whole execution, and inside it a callback across the 80-µs gap
+        {"ph": "X", "pid": 2, "tid": 3, "ts": 0, "dur": 2000, "name": "Execute"},
+        {"ph": "X", "pid": 2, "tid": 3, "ts": 20, "dur": 85, "name": "ffi_callback"},
+    ]
+    (idle,) = profile.idle_gaps(meta + device + host, min_gap_us=10)
+    assert (idle.process, idle.host_thread) == ("/device:GPU:0", "python")
+    classes = dict(zip(profile.GAP_CLASSES_US, idle.counts))
+    assert (classes[2.0], classes[200.0], classes[1000.0]) == (1, 1, 1)
+    assert sum(idle.seconds) == pytest.approx(1082e-6)
+    assert idle.by_host == pytest.approx({"ffi_callback": 80e-6, "Execute": 1000e-6})
+    assert idle.by_neighbours["fusion.1 → gemm.2"] == pytest.approx(80e-6)
+    text = profile.idle_report([idle], top=5)
+    assert "| ffi_callback | 0.0001 |" in text and "| 200–1000 | 1 | 0.0010 |" in text

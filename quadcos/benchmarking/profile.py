@@ -9,9 +9,12 @@ timeline — a device's op or kernel lines (`/device:GPU:N`), the host's XLA thr
 by name and by kind (Warp kernels, SAC's dense layers, collectives, copies, other fusions). Per
 timeline: its busy seconds against the trace's span, and the heaviest names. The busy share of a
 device's timeline is how much of the wall time the GPU computed; the rest it waited on the host.
+`--gaps`: where it waited — the device's idle gaps by length, and the idle time by what the
+host's busiest thread was doing in each gap (its innermost event) and by the kernels either side.
 """
 
 import argparse
+import bisect
 import collections
 import dataclasses
 import gzip
@@ -149,18 +152,130 @@ def report(span_s: float, found: Sequence[Timeline], top: int) -> str:
     return "\n".join(lines)
 
 
-def summarize(folder: pathlib.Path, top: int = 15) -> str:
-    span_s, found = timelines(read_events(trace_file(folder)))
-    return report(span_s, found, top)
+# Upper bounds (µs) of the idle-gap length classes.
+GAP_CLASSES_US = (2.0, 5.0, 10.0, 50.0, 200.0, 1000.0, float("inf"))
+
+
+@dataclasses.dataclass(frozen=True)
+class Idle:
+    """A device timeline's idle gaps: counts and seconds per length class (`GAP_CLASSES_US`), and
+    the seconds of the gaps of at least `min_gap_us` by the host's innermost event at each gap's
+    middle ("(host idle)" where it had none) and by the device's names either side."""
+
+    process: str
+    host_thread: str
+    counts: tuple[int, ...]
+    seconds: tuple[float, ...]
+    by_host: dict[str, float]
+    by_neighbours: dict[str, float]
+
+
+def _complete(events: Sequence[dict[str, Any]]) -> dict[tuple[Any, Any], list[dict[str, Any]]]:
+    grouped: dict[tuple[Any, Any], list[dict[str, Any]]] = collections.defaultdict(list)
+    for event in events:
+        if event.get("ph") == "X" and "dur" in event:
+            grouped[(event["pid"], event["tid"])].append(event)
+    for group in grouped.values():
+        group.sort(key=lambda event: event["ts"])
+    return grouped
+
+
+def _innermost(group: Sequence[dict[str, Any]], starts: Sequence[float], at: float) -> str:
+    """The name of the latest-starting event of `group` (sorted by start) that spans `at`."""
+    index = bisect.bisect_right(starts, at) - 1
+    for event in reversed(group[max(index - 5_000, 0) : index + 1]):
+        if event["ts"] + event["dur"] >= at:
+            return event["name"]
+    return "(host idle)"
+
+
+def idle_gaps(events: Sequence[dict[str, Any]], min_gap_us: float = 10.0) -> list[Idle]:
+    """The idle gaps of every device timeline (`/device:`), against the host thread with the most
+    events (the one that runs the program's thunks and callbacks)."""
+    processes, threads = {}, {}
+    for event in events:
+        if event.get("ph") == "M" and event.get("name") == "process_name":
+            processes[event["pid"]] = event["args"]["name"]
+        elif event.get("ph") == "M" and event.get("name") == "thread_name":
+            threads[(event["pid"], event["tid"])] = event["args"]["name"]
+    grouped = _complete(events)
+    hosts = [key for key in grouped if not processes.get(key[0], "").startswith("/device:")]
+    host = max(hosts, key=lambda key: len(grouped[key]), default=None)
+    host_events = grouped[host] if host is not None else []
+    host_starts = [event["ts"] for event in host_events]
+    found = []
+    for key, group in grouped.items():
+        if not processes.get(key[0], "").startswith("/device:") or len(group) < 2:
+            continue
+        counts = [0] * len(GAP_CLASSES_US)
+        seconds = [0.0] * len(GAP_CLASSES_US)
+        by_host: dict[str, float] = collections.Counter()
+        by_neighbours: dict[str, float] = collections.Counter()
+        end, previous = group[0]["ts"] + group[0]["dur"], group[0]["name"]
+        for event in group[1:]:
+            gap = event["ts"] - end
+            if gap > 0:
+                index = bisect.bisect_left(GAP_CLASSES_US, gap)
+                counts[index] += 1
+                seconds[index] += gap / 1e6
+                if gap >= min_gap_us:
+                    by_host[_innermost(host_events, host_starts, end + gap / 2)] += gap / 1e6
+                    by_neighbours[f"{previous[:50]} → {event['name'][:50]}"] += gap / 1e6
+            if event["ts"] + event["dur"] >= end:
+                end, previous = event["ts"] + event["dur"], event["name"]
+        found.append(
+            Idle(
+                process=processes.get(key[0], str(key[0])),
+                host_thread=threads.get(host, str(host)) if host is not None else "-",
+                counts=tuple(counts),
+                seconds=tuple(seconds),
+                by_host=dict(by_host),
+                by_neighbours=dict(by_neighbours),
+            )
+        )
+    return found
+
+
+def idle_report(found: Sequence[Idle], top: int, min_gap_us: float = 10.0) -> str:
+    """Markdown: per device timeline, its gaps by length, then the heaviest host states and
+    neighbours of the gaps of at least `min_gap_us`."""
+    lines = []
+    for idle in found:
+        lines += ["", f"**idle gaps of {idle.process}**", ""]
+        lines += ["| gap length (µs) | gaps | idle s |", "|---|---:|---:|"]
+        lower = 0.0
+        for upper, count, seconds in zip(GAP_CLASSES_US, idle.counts, idle.seconds):
+            lines.append(f"| {lower:g}–{upper:g} | {count} | {seconds:.4f} |")
+            lower = upper
+        for title, table in (
+            (f"host thread {idle.host_thread}'s innermost event", idle.by_host),
+            ("device names before → after", idle.by_neighbours),
+        ):
+            lines += ["", f"| gaps ≥ {min_gap_us:g} µs by {title} | idle s |", "|---|---:|"]
+            for name, seconds in sorted(table.items(), key=lambda item: -item[1])[:top]:
+                lines.append(f"| {name[:110]} | {seconds:.4f} |")
+    return "\n".join(lines)
+
+
+def summarize(folder: pathlib.Path, top: int = 15, gaps: bool = False) -> str:
+    events = read_events(trace_file(folder))
+    span_s, found = timelines(events)
+    text = report(span_s, found, top)
+    return text + "\n" + idle_report(idle_gaps(events), top) if gaps else text
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = cli.raising(argparse.ArgumentParser(prog=f"python -m {_PROG}", description=__doc__))
     parser.add_argument("folder", type=pathlib.Path, help="a jax.profiler.trace folder or trace")
     parser.add_argument("--top", type=int, default=15, help="names listed per device timeline")
+    parser.add_argument(
+        "--gaps",
+        action="store_true",
+        help="also the device's idle gaps and the host's state in them",
+    )
     try:
         args = parser.parse_args(argv)
-        print(summarize(args.folder, args.top))
+        print(summarize(args.folder, args.top, args.gaps))
     except cli.UsageError as error:
         cli.print_error(_PROG, error)
         return cli.EXIT_USAGE

@@ -4,9 +4,11 @@
 
 Reads `bench_warp_{flat,slope5}_profiled.json` (rates) and `profile_{terrain}_{row}.md` (the
 output of `python -m quadcos.benchmarking.profile`: the trace's span, the GPU stream's busy time by
-kind). The traced chunks hold span × rate / envs env steps; each kind's seconds over that count is
-its time per env step; idle = wall − busy (the stream's merged busy intervals; kinds that overlap,
-such as a copy beside a kernel, can sum to more than busy).
+kind). The trace holds the `TRACED_CHUNKS` chunks that `quadcos.bench --profile_dir` traces, of
+the training preset's `steps_per_chunk` env steps each; each kind's seconds over that count is its
+time per env step (the GPU's own durations); wall = the untraced rate's time per env step (tracing
+slows the host, so the trace's span is longer); idle = wall − busy (the stream's merged busy
+intervals; kinds that overlap, such as a copy beside a kernel, can sum to more than busy).
 """
 
 import json
@@ -14,7 +16,10 @@ import pathlib
 import re
 import sys
 
+from quadcos.benchmarking import settings
+
 KINDS = ("warp (physics)", "fusion", "matmul", "copy")
+TRACED_CHUNKS = 2  # quadcos.benchmarking.trainers.measure_trainer
 
 
 def gpu_stream(text: str) -> dict[str, float]:
@@ -41,7 +46,8 @@ def main(folder: pathlib.Path) -> None:
             rate = row["quadcos_env_steps_per_s"]
             text = (folder / f"profile_{terrain}_{envs}x{batch}x{updates}.md").read_text()
             stream = gpu_stream(text)
-            steps = stream["span"] * rate / envs
+            preset = bench["settings"]["training_preset"]
+            steps = TRACED_CHUNKS * settings.trainer_config(preset).steps_per_chunk
             per_step = {key: 1e3 * value / steps for key, value in stream.items()}
             wall = 1e3 * envs / rate
             cells = [f"{per_step.get(kind, 0.0):.2f}" for kind in KINDS]
