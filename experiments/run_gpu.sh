@@ -343,7 +343,7 @@ profile)  # where the 1- and 8-update training rows' time goes (flat and slope5,
   for terrain in flat slope5; do
     python3 -m quadcos.bench --impl=warp --terrain=$terrain --only=physics,train --env_counts=4096 \
       --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
-      --profile_dir="/tmp/quadcos_profile/$terrain" --out="$OUT/bench_warp_${terrain}_profiled.json" \
+      --profile_dir="/tmp/quadcos_profile/$terrain" --profile_python --out="$OUT/bench_warp_${terrain}_profiled.json" \
       > "$OUT/bench_warp_${terrain}_profiled.log" 2>&1
     note "bench $terrain profiled: exit $?"
     for row in 4096x8192x1 4096x8192x8; do

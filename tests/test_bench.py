@@ -16,8 +16,8 @@ import pytest
 
 from quadcos import bench, evaluation, training
 from quadcos._util.overrides import apply_overrides
+from quadcos.benchmarking import profile, settings, time_to_walk, trainers
 from quadcos.benchmarking import results as results_lib
-from quadcos.benchmarking import settings, time_to_walk, trainers
 from tests.toy_env import PointEnv
 
 _TOY_SAC = {
@@ -217,9 +217,14 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
         "--steps=2",
         "--train_seconds=0",
         "--skip=stock,walk,slope5",
+        f"--profile_dir={tmp_path / 'profile'}",
     ]
     assert bench.main(argv) == 0
     results = json.loads(out.read_text())
+    # Two more chunks traced, without the Python tracer (its events' names start with "$").
+    events = profile.read_events(profile.trace_file(tmp_path / "profile" / "4x32x1"))
+    assert any("train_chunk" in event.get("name", "") for event in events)
+    assert not any(str(event.get("name", "")).startswith("$") for event in events)
 
     for key in (
         "device",

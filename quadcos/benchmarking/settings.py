@@ -124,6 +124,7 @@ class Settings:
     robot: str = "quadcos"
     randomize: bool = False
     profile_dir: str | None = None
+    profile_python: bool = False
     env: tuple[tuple[str, Any], ...] = ()
     sac: tuple[tuple[str, Any], ...] = ()
 
@@ -298,4 +299,5 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
         robot=args.robot,
         randomize=args.randomize,
         profile_dir=args.profile_dir,
+        profile_python=args.profile_python,
     )

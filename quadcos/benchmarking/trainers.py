@@ -30,6 +30,7 @@ def measure_trainer(
     profile_dir: str | None = None,
     env: dict[str, Any] | None = None,
     sac: dict[str, Any] | None = None,
+    profile_python: bool = False,
 ) -> dict[str, float]:
     """Our trainer's training throughput for one row (over `num_devices`), and its time to the
     first training step.
@@ -37,7 +38,8 @@ def measure_trainer(
     Builds the env and trainer from nothing, runs `init` and `prefill`, then chunks of
     `steps_per_chunk` vectorised env steps (each with `updates_per_step` SAC updates); the first
     chunk compiles, the ones after it are timed until `train_seconds` have passed (>= 2).
-    `profile_dir`: then two more chunks run under `jax.profiler.trace` into it (untimed). `env`,
+    `profile_dir`: then two more chunks run under `jax.profiler.trace` into it (untimed), the
+    host's Python calls recorded only where `profile_python` (they slow the host). `env`,
     `sac`: env and trainer config overrides.
 
     Returns:
@@ -67,7 +69,9 @@ def measure_trainer(
         seconds += time.perf_counter() - start
         chunks += 1
     if profile_dir is not None:
-        with jax.profiler.trace(profile_dir, create_perfetto_trace=True):
+        options = jax.profiler.ProfileOptions()
+        options.python_tracer_level = int(profile_python)
+        with jax.profiler.trace(profile_dir, create_perfetto_trace=True, profiler_options=options):
             for _ in range(2):
                 state, metrics = trainer.train_chunk(state)
                 jax.block_until_ready((state, metrics))

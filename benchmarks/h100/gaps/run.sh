@@ -14,7 +14,7 @@ for n in physics_call physics_scan64 env_call env_scan64; do
   python3 -m quadcos.benchmarking.profile /tmp/gaps/flat/trace/$n --gaps --top 20 > $O/gaps_flat_$n.md 2>&1
 done
 python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
-  --train_rows=4096x8192x1 --train_seconds=8 --steps=20 --profile_dir=/tmp/gaps/train_flat \
+  --train_rows=4096x8192x1 --train_seconds=8 --steps=20 --profile_dir=/tmp/gaps/train_flat --profile_python \
   --out=$O/bench_flat_profiled.json > $O/bench_flat_profiled.log 2>&1
 echo "bench exit $? $(date +%T)"
 python3 -m quadcos.benchmarking.profile /tmp/gaps/train_flat/4096x8192x1 --gaps --top 25 \
