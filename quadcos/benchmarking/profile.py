@@ -79,16 +79,22 @@ def read_events(path: pathlib.Path) -> list[dict[str, Any]]:
     return data["traceEvents"] if isinstance(data, dict) else data
 
 
-def timelines(events: Sequence[dict[str, Any]]) -> tuple[float, list[Timeline]]:
-    """The trace's span in seconds and its timelines, busiest first. Nested events of a thread
-    (a module and its ops) are counted once: only events that start after the previous one on
-    that thread ended add to its busy time; every event counts towards its name and kind."""
+def names(events: Sequence[dict[str, Any]]) -> tuple[dict[Any, str], dict[tuple[Any, Any], str]]:
+    """The trace's process names by pid and thread names by (pid, tid), from its metadata."""
     processes, threads = {}, {}
     for event in events:
         if event.get("ph") == "M" and event.get("name") == "process_name":
             processes[event["pid"]] = event["args"]["name"]
         elif event.get("ph") == "M" and event.get("name") == "thread_name":
             threads[(event["pid"], event["tid"])] = event["args"]["name"]
+    return processes, threads
+
+
+def timelines(events: Sequence[dict[str, Any]]) -> tuple[float, list[Timeline]]:
+    """The trace's span in seconds and its timelines, busiest first. Nested events of a thread
+    (a module and its ops) are counted once: only events that start after the previous one on
+    that thread ended add to its busy time; every event counts towards its name and kind."""
+    processes, threads = names(events)
     complete = sorted(
         (event for event in events if event.get("ph") == "X" and "dur" in event),
         key=lambda event: event["ts"],
@@ -192,12 +198,7 @@ def _innermost(group: Sequence[dict[str, Any]], starts: Sequence[float], at: flo
 def idle_gaps(events: Sequence[dict[str, Any]], min_gap_us: float = 10.0) -> list[Idle]:
     """The idle gaps of every device timeline (`/device:`), against the host thread with the most
     events (the one that runs the program's thunks and callbacks)."""
-    processes, threads = {}, {}
-    for event in events:
-        if event.get("ph") == "M" and event.get("name") == "process_name":
-            processes[event["pid"]] = event["args"]["name"]
-        elif event.get("ph") == "M" and event.get("name") == "thread_name":
-            threads[(event["pid"], event["tid"])] = event["args"]["name"]
+    processes, threads = names(events)
     grouped = _complete(events)
     hosts = [key for key in grouped if not processes.get(key[0], "").startswith("/device:")]
     host = max(hosts, key=lambda key: len(grouped[key]), default=None)

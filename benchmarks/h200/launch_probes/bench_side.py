@@ -1,6 +1,6 @@
 """`python -m quadcos.bench` with MJX-Warp's CUDA graphs launched on a stream of their own.
 
-    python benchmarks/h200/launch_probes/bench_side_stream.py BENCH_ARGS...
+    python benchmarks/h200/launch_probes/bench_side.py BENCH_ARGS...
 
 A probe, not a feature: Warp's CUDA graph launch (`wp_cuda_graph_launch`, which MJX-Warp's FFI
 callback calls once a physics step on XLA's stream) is wrapped so that the graph runs on a second
