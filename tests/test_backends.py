@@ -4,7 +4,7 @@ import ml_collections
 import pytest
 
 from quadcos import env as env_lib
-from quadcos.env import backends
+from quadcos.env import backends, warp_arena
 from quadcos.robot import presets
 
 
@@ -85,6 +85,7 @@ def test_survival_min_speed_is_validated():
     [
         ("warp.graph_mode", "graphs", "unknown warp.graph_mode 'graphs'; known: auto, warp,"),
         ("substep_unroll", 0, "substep_unroll must be a whole number >= 1; got 0"),
+        ("warp.graph_mode", "jax", "warp.graph_mode 'jax' needs warp.graph_conditional=false"),
     ],
 )
 def test_bad_loop_and_graph_settings_are_named(key, value, message):
@@ -93,6 +94,38 @@ def test_bad_loop_and_graph_settings_are_named(key, value, message):
     (config[parents[0]] if parents else config)[leaf] = value
     with pytest.raises(ValueError, match=message):
         env_lib.validate_config(config)
+
+
+def test_an_arena_gives_a_call_the_same_blocks_every_time():
+    blocks = iter(range(0x1000, 0x100000, 0x1000))
+    requested = []
+
+    def malloc(size):
+        requested.append(size)
+        return next(blocks)
+
+    arena = warp_arena.Arena(malloc)
+    first = [arena.allocate(size) for size in (256, 64, 0, 256)]
+    assert len(set(first)) == 4 and requested == [256, 64, 0, 256]
+    arena.deallocate(first[0], 256)  # freeing keeps the block
+    arena.rewind()
+    assert [arena.allocate(size) for size in (256, 64, 0, 256)] == first
+    assert len(requested) == 4  # nothing new allocated
+    arena.rewind()
+    arena.allocate(256)
+    grown = arena.allocate(128)  # outgrows its block: a new one, the old one kept
+    assert grown not in first and requested[-1] == 128
+    assert arena.nbytes == 256 + 128 + 0 + 256 + 64
+    arena.rewind()
+    assert [arena.allocate(size) for size in (256, 128)] == [first[0], grown]
+
+
+def test_arena_wrapping_is_idempotent_and_keeps_the_name():
+    def step(m, d):
+        return m, d
+
+    wrapped = warp_arena.with_arena(step)
+    assert wrapped.__name__ == "step" and warp_arena.with_arena(wrapped) is wrapped
 
 
 @pytest.mark.slow

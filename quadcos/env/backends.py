@@ -18,6 +18,7 @@ import ml_collections
 import mujoco
 
 from quadcos._util.quiet import warp_absence_unprinted
+from quadcos.env import warp_arena
 
 with warp_absence_unprinted():  # MJX prints a notice to stdout when warp-lang is absent
     from mujoco import mjx
@@ -103,30 +104,45 @@ def default_warp_config() -> ml_collections.ConfigDict:
     # CUDA graph capture of MJX-Warp's calls (warp.JaxCallableGraphMode): "auto" is MJX's choice
     # (Warp captures and replays a graph per call on a GPU), or one of GRAPH_MODES by name.
     config.graph_mode = "auto"
+    # The solver's early exit as a conditional node of the step's CUDA graph (MuJoCo Warp's
+    # `graph_conditional`, its default); False runs all the MJCF's `iterations` every step.
+    config.graph_conditional = True
+    # MuJoCo Warp's scratch arrays from fixed blocks instead of allocations inside each call's
+    # graph (`quadcos.env.warp_arena`; always on with graph_mode "jax", which needs it).
+    config.arena = False
     return config
 
 
 GRAPH_MODES = ("auto", "warp", "warp_staged", "jax", "none")
 
 
-def put_model(mj_model, impl: str, graph_mode: str = "auto") -> mjx.Model:
-    """The device model for a resolved `impl` (with Warp, captured in CUDA graphs as `graph_mode`
-    says). With Warp, the per-step console warning that the solver reached its iteration limit is
-    off: our MJCF sets few iterations on purpose, and the JAX physics stops there silently too.
-    Buffer overflows (dropped contacts) still warn."""
+def put_model(
+    mj_model, impl: str, warp_config: ml_collections.ConfigDict | None = None
+) -> mjx.Model:
+    """The device model for a resolved `impl` (with Warp, captured in CUDA graphs as
+    `warp_config.graph_mode` says, the solver's early exit a conditional graph node where
+    `warp_config.graph_conditional`). With Warp, the per-step console warning that the solver
+    reached its iteration limit is off: our MJCF sets few iterations on purpose, and the JAX
+    physics stops there silently too. Buffer overflows (dropped contacts) still warn."""
     if impl != "warp":
         return mjx.put_model(mj_model, impl=impl)
+    warp_config = warp_config or default_warp_config()
     mode = None
-    if graph_mode != "auto":
+    if warp_config.graph_mode != "auto":
         import warp  # noqa: PLC0415 — installed wherever impl is warp
 
-        mode = warp.JaxCallableGraphMode[graph_mode.upper()]
+        mode = warp.JaxCallableGraphMode[warp_config.graph_mode.upper()]
+    if warp_config.arena or warp_config.graph_mode == "jax":
+        warp_arena.install()
     model = mjx.put_model(mj_model, impl=impl, graph_mode=mode)
     from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType  # noqa: PLC0415
 
     option = model.opt._impl  # noqa: SLF001 — Warp's own options live there
     quiet = int(option.warn_overflow) & ~int(OverflowType.ITERATIONS | OverflowType.LS_ITERATIONS)
-    return model.replace(opt=model.opt.replace(_impl=option.replace(warn_overflow=quiet)))
+    option = option.replace(
+        warn_overflow=quiet, graph_conditional=bool(warp_config.graph_conditional)
+    )
+    return model.replace(opt=model.opt.replace(_impl=option))
 
 
 def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Data:

@@ -158,6 +158,11 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
             f"unknown warp.graph_mode {config.warp.graph_mode!r};"
             f" known: {', '.join(backends.GRAPH_MODES)}"
         )
+    if config.warp.graph_mode == "jax" and config.warp.graph_conditional:
+        raise ValueError(
+            "warp.graph_mode 'jax' needs warp.graph_conditional=false: XLA records a Warp call"
+            " as a child graph, which cannot hold the solver's conditional node"
+        )
     if not (isinstance(config.substep_unroll, int) and config.substep_unroll >= 1):
         raise ValueError(
             f"substep_unroll must be a whole number >= 1; got {config.substep_unroll!r}"

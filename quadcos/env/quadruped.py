@@ -83,7 +83,7 @@ class QuadrupedEnv(base.Env):
         )
         self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)
-        self.model = backends.put_model(self.mj_model, self.impl, config.warp.graph_mode)
+        self.model = backends.put_model(self.mj_model, self.impl, config.warp)
         self.substeps = round(config.control_dt / config.physics_dt)
         self.substep_unroll = min(config.substep_unroll, self.substeps)  # lax.scan's unroll
         tau = config.survival_speed_tau
