@@ -108,7 +108,8 @@ def default_warp_config() -> ml_collections.ConfigDict:
     # `graph_conditional`, its default); False runs all the MJCF's `iterations` every step.
     config.graph_conditional = True
     # MuJoCo Warp's scratch arrays from fixed blocks instead of allocations inside each call's
-    # graph (`quadcos.env.warp_arena`; always on with graph_mode "jax", which needs it).
+    # graph (`quadcos.env.warp_arena`; always on with graph_mode "jax", which needs it). Once an
+    # env turns it on, every MJX-Warp call of the process uses it.
     config.arena = False
     return config
 
