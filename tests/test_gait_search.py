@@ -77,6 +77,8 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     env = config["env"]
     assert env.pop("action_centre") == "search"
     recorded["run_info"]["env"].pop("action_centre")
+    # Launch options added since, at the defaults that behave as the runs' physics did.
+    assert (env["warp"].pop("arena"), env["warp"].pop("graph_conditional")) == (False, True)
     assert env == recorded["run_info"]["env"]
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 
