@@ -353,9 +353,10 @@ profile)  # where the 1- and 8-update training rows' time goes (flat and slope5,
   done ;;
 launch_levers)  # the physics launch settings against the training and raw physics rates (flat,
   # Warp, 4096 envs, 1 and 8 updates per env step), one bench process per setting (LEVERS: a subset)
-  for lever in ${LEVERS:-default substep_unroll=10 warp.graph_mode=jax warp.graph_mode=warp_staged \
-      warp.graph_mode=none}; do
-    flags=(); [ "$lever" = default ] || flags=(--env "$lever")
+  # (a lever of several settings joins them with "+": warp.graph_mode=jax+warp.graph_conditional=false)
+  for lever in ${LEVERS:-default substep_unroll=10 warp.graph_mode=warp_staged warp.graph_mode=none \
+      warp.graph_mode=jax+warp.graph_conditional=false}; do
+    flags=(); [ "$lever" = default ] || for setting in ${lever//+/ }; do flags+=(--env "$setting"); done
     name=bench_launch_${lever//[^a-z0-9_]/_}
     python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
       --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 "${flags[@]}" \

@@ -121,7 +121,7 @@ def _parser() -> argparse.ArgumentParser:
         default=[],
         metavar="KEY=VALUE",
         help="env config override of the physics, env, train and stock sections (repeatable),"
-        " e.g. substep_unroll=10 or warp.graph_mode=jax",
+        " e.g. substep_unroll=10 or warp.graph_conditional=false",
     )
     parser.add_argument(
         "--sac",
