@@ -122,9 +122,10 @@ def put_model(
 ) -> mjx.Model:
     """The device model for a resolved `impl` (with Warp, captured in CUDA graphs as
     `warp_config.graph_mode` says, the solver's early exit a conditional graph node where
-    `warp_config.graph_conditional`). With Warp, the per-step console warning that the solver
-    reached its iteration limit is off: our MJCF sets few iterations on purpose, and the JAX
-    physics stops there silently too. Buffer overflows (dropped contacts) still warn."""
+    `warp_config.graph_conditional`, MuJoCo Warp's scratch arrays from `warp_arena` where
+    `warp_config.arena` or graph mode "jax"). With Warp, the per-step console warning that the
+    solver reached its iteration limit is off: our MJCF sets few iterations on purpose, and the
+    JAX physics stops there silently too. Buffer overflows (dropped contacts) still warn."""
     if impl != "warp":
         return mjx.put_model(mj_model, impl=impl)
     warp_config = warp_config or default_warp_config()
