@@ -52,6 +52,11 @@ def default_config() -> ml_collections.ConfigDict:
     # Gradient updates per vectorised env step, i.e. per `num_envs` new
     # transitions (replay ratio = updates_per_step * batch_size / num_envs).
     config.updates_per_step = 1
+    # True: each env step's updates draw from the replay buffer as it stood before that step and
+    # the envs act with the parameters before the updates, so the updates need not wait for the
+    # physics (with XLA's concurrent command buffers the GPU runs them side by side:
+    # docs/benchmarks.md). False: updates after the env step, on a buffer holding its transitions.
+    config.overlap_updates = False
     # Replay capacity in transitions; the oldest are overwritten first.
     # Memory: replay_size * (2 * obs_size + action_size + 3) * 4 bytes.
     config.replay_size = 1_000_000

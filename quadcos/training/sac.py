@@ -10,7 +10,10 @@ envs, fills and samples its own ring of the buffer, and the gradients are summed
 One chunk is `steps_per_chunk` iterations of: act with the stochastic policy
 in all training envs, guard against non-finite env outputs, insert the
 transitions into the replay buffer, update the observation statistics, then
-`updates_per_step` SAC updates (Haarnoja et al. 2018, arXiv:1812.05905).
+`updates_per_step` SAC updates (Haarnoja et al. 2018, arXiv:1812.05905). With
+`overlap_updates` the updates come first, on the buffer as it stood before the env step, and the
+policy acts with the parameters before them: the updates and the env step no longer depend on each
+other, so the GPU may run them side by side.
 """
 
 import concurrent.futures
@@ -34,6 +37,19 @@ from quadcos.training import curriculum, networks, parallel, periodic_eval, upda
 from quadcos.training import replay as replay_lib
 
 Metrics = dict[str, jax.Array]
+# A vectorised env step's transitions and which of them are finite (to be stored).
+Pending = tuple[types.Transition, jax.Array]
+# The TrainingState fields that SAC updates change.
+_LEARNER = (
+    "policy_params",
+    "policy_optimizer_state",
+    "q_params",
+    "q_optimizer_state",
+    "target_q_params",
+    "log_alpha",
+    "alpha_optimizer_state",
+    "gradient_steps",
+)
 PREFILL_ACTIONS = ("uniform", "policy")
 MIN_STD = networks.MIN_STD
 make_networks = networks.make_networks
@@ -102,6 +118,22 @@ def _strongly_typed(tree: Any) -> Any:
     leaves strongly typed would make the next call retrace.
     """
     return jax.tree.map(lambda x: jax.lax.convert_element_type(x, jnp.asarray(x).dtype), tree)
+
+
+def _transitions(
+    env_state: envs.State, actions: jax.Array, next_env_state: envs.State
+) -> types.Transition:
+    return types.Transition(
+        observation=env_state.obs,
+        action=actions,
+        reward=next_env_state.reward,
+        discount=1 - next_env_state.done,
+        next_observation=next_env_state.obs,
+        extras={
+            "state_extras": {"truncation": next_env_state.info["truncation"]},
+            "policy_extras": {},
+        },
+    )
 
 
 def where_per_env(mask: jax.Array, new: jax.Array, old: jax.Array) -> jax.Array:
@@ -338,8 +370,9 @@ class SACTrainer:
 
     def _env_step(
         self, state: TrainingState, actions: jax.Array, key_reset: jax.Array
-    ) -> tuple[TrainingState, Metrics]:
-        """Steps all training envs, stores the finite transitions.
+    ) -> tuple[TrainingState, Metrics, Pending]:
+        """Steps all training envs; returns their transitions for the replay buffer (`_store`),
+        those with non-finite values marked.
 
         An env whose observation or reward is non-finite is replaced by a freshly
         reset one (done = 1), its transition is neither stored nor counted in the
@@ -347,17 +380,7 @@ class SACTrainer:
         """
         env_state = state.env_state
         next_env_state = self._step_envs(env_state, actions)
-        transitions = types.Transition(
-            observation=env_state.obs,
-            action=actions,
-            reward=next_env_state.reward,
-            discount=1 - next_env_state.done,
-            next_observation=next_env_state.obs,
-            extras={
-                "state_extras": {"truncation": next_env_state.info["truncation"]},
-                "policy_extras": {},
-            },
-        )
+        transitions = _transitions(env_state, actions, next_env_state)
         finite = (
             jnp.all(jnp.isfinite(transitions.observation), axis=-1)
             & jnp.all(jnp.isfinite(transitions.next_observation), axis=-1)
@@ -381,7 +404,6 @@ class SACTrainer:
         )
         state = state.replace(
             env_state=_strongly_typed(next_env_state),
-            replay=self.replay.insert(state.replay, transitions, finite),
             normalizer_params=normalizer_params,
             env_steps=state.env_steps + self.config.num_envs,
             nan_resets=state.nan_resets + (self.config.num_envs - num_finite).astype(jnp.uint32),
@@ -389,7 +411,18 @@ class SACTrainer:
         metrics = {"reward": reward_sum / jnp.maximum(num_finite, 1)}
         if "course_level" in next_env_state.info:  # the course curriculum's mean lane
             metrics["course_level"] = jnp.mean(next_env_state.info["course_level"].astype(float))
-        return state, metrics
+        return state, metrics, (transitions, finite)
+
+    def _store(self, state: TrainingState, pending: Pending) -> TrainingState:
+        """`state` with the finite ones of `pending`'s transitions in its replay buffer."""
+        return state.replace(replay=self.replay.insert(state.replay, *pending))
+
+    def _nothing_pending(self, state: TrainingState) -> Pending:
+        """Transitions of the envs' shapes, all marked non-finite: storing them stores nothing."""
+        env_state = state.env_state
+        actions = jnp.zeros((self.config.num_envs, self.action_size))
+        transitions = jax.tree.map(jnp.zeros_like, _transitions(env_state, actions, env_state))
+        return transitions, jnp.zeros((self.config.num_envs,), bool)
 
     def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:
         """Replaces the whole state of the masked envs by a fresh reset state."""
@@ -413,8 +446,8 @@ class SACTrainer:
             key, key_action, key_reset = jax.random.split(state.key, 3)
             uniform = self.config.prefill_actions == "uniform"
             actions, state = self._exploring_actions(state, key_action, uniform=uniform)
-            state, _ = self._env_step(state.replace(key=key), actions, key_reset)
-            return state, None
+            state, _, transitions = self._env_step(state.replace(key=key), actions, key_reset)
+            return self._store(state, transitions), None
 
         state, _ = jax.lax.scan(step, state, None, length=self.num_prefill_steps)
         return _strongly_typed(state)
@@ -431,18 +464,47 @@ class SACTrainer:
         self.chunk_traces += 1
         config = self.config
 
-        def step(state: TrainingState, _) -> tuple[TrainingState, Metrics]:
+        def step(
+            carry: tuple[TrainingState, Pending | None], _
+        ) -> tuple[tuple[TrainingState, Pending | None], Metrics]:
+            state, pending = carry
             key, key_action, key_reset, key_sample, key_sgd = jax.random.split(state.key, 5)
+            if pending is not None:
+                # overlap_updates: the previous step's transitions are stored and the updates
+                # drawn first, so that nothing of them waits for this step's physics.
+                state = self._store(state, pending)
+                learner, sgd_metrics = self._learn(state, key_sample, key_sgd)
             actions, state = self._exploring_actions(state, key_action)
-            state, env_metrics = self._env_step(state.replace(key=key), actions, key_reset)
-            transitions = self._sample_batches(state.replay, key_sample)
-            keys_sgd = jax.random.split(key_sgd, config.updates_per_step)
-            state, sgd_metrics = jax.lax.scan(self._sgd_step, state, (transitions, keys_sgd))
-            sgd_metrics = jax.tree.map(jnp.mean, sgd_metrics)
-            return state, {**env_metrics, **sgd_metrics}
+            state, env_metrics, transitions = self._env_step(
+                state.replace(key=key), actions, key_reset
+            )
+            if pending is None:
+                state = self._store(state, transitions)
+                learner, sgd_metrics = self._learn(state, key_sample, key_sgd)
+            else:
+                pending = transitions
+            state = state.replace(**{name: getattr(learner, name) for name in _LEARNER})
+            return (state, pending), {**env_metrics, **sgd_metrics}
 
-        state, metrics = jax.lax.scan(step, state, None, length=config.steps_per_chunk)
+        pending = self._nothing_pending(state) if config.overlap_updates else None
+        (state, pending), metrics = jax.lax.scan(
+            step, (state, pending), None, length=config.steps_per_chunk
+        )
+        if pending is not None:
+            state = self._store(state, pending)
         return _strongly_typed(state), jax.tree.map(jnp.mean, metrics)
+
+    def _learn(
+        self, state: TrainingState, key_sample: jax.Array, key_sgd: jax.Array
+    ) -> tuple[TrainingState, Metrics]:
+        """`updates_per_step` SAC updates on batches drawn from `state.replay`: the state with
+        its `_LEARNER` fields updated (and no envs or replay: the updates carry only what they
+        change), and the updates' mean metrics."""
+        batches = self._sample_batches(state.replay, key_sample)
+        keys = jax.random.split(key_sgd, self.config.updates_per_step)
+        learner = state.replace(env_state=None, replay=None, exploration_noise=None)
+        learner, metrics = jax.lax.scan(self._sgd_step, learner, (batches, keys))
+        return learner, jax.tree.map(jnp.mean, metrics)
 
     def _sample_batches(self, replay: replay_lib.ReplayState, key: jax.Array) -> types.Transition:
         """(updates_per_step, batch_size) transitions; on several devices each device's ring
