@@ -96,6 +96,24 @@ def test_bad_loop_and_graph_settings_are_named(key, value, message):
         env_lib.validate_config(config)
 
 
+def test_xla_records_loops_and_runs_branches_side_by_side_only_with_warps_jax_graphs():
+    import jax
+    import jax.numpy as jnp
+
+    warp = env_lib.default_config().warp
+    assert backends.compiler_options("jax", warp) == {}
+    assert backends.compiler_options("warp", warp) == {}  # graph_mode "auto": Warp's own graphs
+    warp.graph_mode = "jax"
+    options = backends.compiler_options("warp", warp)
+    assert options["xla_gpu_command_buffer_scheduling_mode"] == "CONCURRENT"
+    assert {"WHILE", "CONDITIONAL", "FUSION", "CUSTOM_CALL"} <= set(
+        options["xla_gpu_enable_command_buffer"].split(",")
+    )
+    # Names and values XLA knows (a misspelt one fails to compile on any backend).
+    compiled = jax.jit(jnp.sin, compiler_options=options).lower(jnp.ones(3)).compile()
+    assert float(compiled(jnp.zeros(3))[0]) == 0.0
+
+
 def test_an_arena_gives_a_call_the_same_blocks_every_time():
     blocks = iter(range(0x1000, 0x100000, 0x1000))
     requested = []

@@ -80,6 +80,22 @@ def test_learns_toy_task(learned):
     assert 0.0 < learned.metrics["eval/distance"] < 0.2
 
 
+def test_updates_beside_the_env_step_learn_store_every_transition_and_copy_no_buffer():
+    """overlap_updates: each step's updates draw before its transitions are stored; a chunk still
+    stores them all, the toy task is learned, and the buffer is never copied (in place)."""
+    config = toy_config(
+        num_timesteps=CHUNK + 10 * CHUNK, eval_interval=10 * CHUNK, overlap_updates=True
+    )
+    result = training.train(PointEnv(), config, None, progress=False)
+    assert result.metrics["eval/episode_reward"] > LEARNED_RETURN
+    assert int(result.state.replay.size) == result.env_steps == 11 * CHUNK
+    chunk = jax.jit(result.trainer._train_chunk, donate_argnums=0)
+    program = chunk.lower(result.state).compile().as_text()
+    buffer = "f32[%d,%d]" % result.state.replay.data.shape
+    assert buffer in program
+    assert not [line for line in program.splitlines() if f"= {buffer}" in line and " copy(" in line]
+
+
 def test_chunk_traced_once(learned):
     assert learned.env_steps >= CHUNK + 3 * CHUNK
     assert learned.chunk_traces == 1

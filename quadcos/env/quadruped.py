@@ -84,6 +84,8 @@ class QuadrupedEnv(base.Env):
         self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)
         self.model = backends.put_model(self.mj_model, self.impl, config.warp)
+        # XLA options for the programs that step these envs (read by the trainer).
+        self.compiler_options = backends.compiler_options(self.impl, config.warp)
         self.substeps = round(config.control_dt / config.physics_dt)
         self.substep_unroll = min(config.substep_unroll, self.substeps)  # lax.scan's unroll
         tau = config.survival_speed_tau
@@ -326,6 +328,11 @@ class QuadrupedEnv(base.Env):
         blend = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0
         action = jnp.clip(action, -1.0, 1.0)
         model = self._model(info)
+        if self.impl == "warp":
+            # MJX-Warp hands every model field to its call, and XLA would sink the constant ones
+            # into the substep loop, where each splat one is a broadcast kernel every substep;
+            # behind a barrier they are built once a control step (docs/benchmarks.md).
+            model = jax.lax.optimization_barrier(model)
 
         def substep(carry, index):
             data, phase, command = carry

@@ -81,13 +81,14 @@ def jit(
     in_specs: Any,
     out_specs: Any,
     donate: bool = False,
+    compiler_options: dict[str, str] | None = None,
 ) -> Callable[..., Any]:
     """`jax.jit(fn)` of a one-argument function; on a mesh with the argument and result placed
     as `in_specs` / `out_specs` say (None: replicated), so that the state keeps its layout from
-    call to call."""
+    call to call. `compiler_options`: XLA's, for this program."""
     donate_argnums = (0,) if donate else ()
     if layout.mesh is None:
-        return jax.jit(fn, donate_argnums=donate_argnums)
+        return jax.jit(fn, donate_argnums=donate_argnums, compiler_options=compiler_options)
     shardings = lambda specs: (  # noqa: E731
         NamedSharding(layout.mesh, PartitionSpec())
         if specs is None
@@ -95,7 +96,11 @@ def jit(
     )
     out = tuple(map(shardings, out_specs)) if isinstance(out_specs, tuple) else shardings(out_specs)
     return jax.jit(
-        fn, in_shardings=(shardings(in_specs),), out_shardings=out, donate_argnums=donate_argnums
+        fn,
+        in_shardings=(shardings(in_specs),),
+        out_shardings=out,
+        donate_argnums=donate_argnums,
+        compiler_options=compiler_options,
     )
 
 

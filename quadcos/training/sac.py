@@ -239,14 +239,20 @@ class SACTrainer:
                 config.num_envs,
             )
             self._init = parallel.jit(self._init_state, self.layout, None, self._specs)
-        self.prefill = parallel.jit(self._prefill, self.layout, self._specs, self._specs, donate=True)
+        # XLA's options for the programs that step the training envs (none but with MJX-Warp's
+        # calls recorded by XLA: `quadcos.env.backends.compiler_options`).
+        options = getattr(env, "compiler_options", None) or None
+        self.prefill = parallel.jit(
+            self._prefill, self.layout, self._specs, self._specs, True, options
+        )
         self.train_chunk = parallel.jit(
-            self._train_chunk, self.layout, self._specs, (self._specs, None), donate=True
+            self._train_chunk, self.layout, self._specs, (self._specs, None), True, options
         )
         # The keys are an argument, not a constant of the program: runs of any seed share it (and
         # the persistent compilation cache's copy). On several devices each device runs its share
         # of the episodes (the same episodes as on one device) and the means are averaged.
-        self._evaluate_compiled = jax.jit(self._evaluate)
+        eval_options = getattr(eval_env or env, "compiler_options", None) or None
+        self._evaluate_compiled = jax.jit(self._evaluate, compiler_options=eval_options)
         self._eval_keys = jax.random.split(self._eval_key, config.num_eval_envs)
         if self.layout.mesh is not None:
             replicated, split = PartitionSpec(), PartitionSpec(parallel.AXIS)
@@ -256,7 +262,8 @@ class SACTrainer:
                     self.layout,
                     (replicated, replicated, split),
                     replicated,
-                )
+                ),
+                compiler_options=eval_options,
             )
 
     def _batched_env(self, impl: str) -> tuple[Any, Any]:
