@@ -51,8 +51,8 @@ class QuadrupedEnv(base.Env):
 
     Observation (paper §3.3): (v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8) — world-frame torso
     velocity (m/s), attitude (rad, pitch nose-up), joint angles (rad, Eq. 3 order); optionally the
-    slope estimate and (cos ψ, sin ψ); the filtered action (the
-    controller's command) when `action_filter_tau` > 0. Action: [−1, 1]^5 = (A_k, A_h, T, φ1, φ3) for the oscillator
+    slope estimate and (cos ψ, sin ψ); the filtered action (the controller's command) when
+    `action_filter_tau` > 0. Action: [−1, 1]^5 = (A_k, A_h, T, φ1, φ3) for the oscillator
     controller (then front and hind hip offsets with `posture_bound` > 0), [−1, 1]^8 joint targets
     (×0.5 rad) for the joint controller.
     """
@@ -116,7 +116,8 @@ class QuadrupedEnv(base.Env):
 
     def reset(self, rng: jax.Array) -> base.State:
         """A standing robot at the spawn point (0, 0) — or at x ~ U(0, `spawn_x_max`) — joints
-        perturbed by `reset_joint_noise`; on a lane terrain (`quadcos.courses`), on a random lane."""
+        perturbed by `reset_joint_noise`; on a lane terrain (`quadcos.courses`), on a random
+        lane."""
         lane = jnp.zeros((), jnp.int32)
         if self.terrain.num_lanes > 1:
             rng, rng_lane = jax.random.split(rng)

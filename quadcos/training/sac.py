@@ -515,7 +515,8 @@ class SACTrainer:
     def _sample_batches(self, replay: replay_lib.ReplayState, key: jax.Array) -> types.Transition:
         """(updates_per_step, batch_size) transitions; on several devices each device's ring
         gives its share of every batch."""
-        updates, batch, shards = self.config.updates_per_step, self.config.batch_size, self.layout.shards
+        updates, batch = self.config.updates_per_step, self.config.batch_size
+        shards = self.layout.shards
         if shards == 1:
             sample = self.replay.sample(replay, key, updates * batch)
             return jax.tree.map(lambda x: jnp.reshape(x, (updates, batch) + x.shape[1:]), sample)

@@ -3,7 +3,8 @@
 # default): `warp.graph_mode=jax`, `warp.graph_conditional=false`, `overlap_updates=true`
 # against the default, in the bench (flat and slope5, 1 and 8 updates) and in a run from nothing
 # (`--preset=scratch --seed=${SEED:-11}`, 20 M env steps). One GPU, after `source
-# experiments/gpu_setup.sh` with warp-lang installed; writes $OUT/bench_*, $OUT/scratch_*.
+# experiments/gpu_setup.sh` with warp-lang installed; writes $OUT/bench_*, $OUT/scratch_*. Seed 12:
+# `RUN_TIMEOUT=195 SEED=12 TERRAINS= bash benchmarks/h200/overlap/code.sh` (each run capped at 195 s).
 set -u
 O=${OUT:-/tmp/quadcos_out}; mkdir -p $O
 nvidia-smi --query-gpu=name --format=csv,noheader > $O/gpu.txt
@@ -20,7 +21,7 @@ for t in ${TERRAINS-flat slope5}; do
   b fast_$t $t $FAST
 done
 r() { local name=$1; shift
-  /usr/bin/time -f "%e s" timeout 420 python3 -m quadcos.train --preset=scratch --seed=${SEED:-11} \
+  /usr/bin/time -f "%e s" timeout ${RUN_TIMEOUT:-420} python3 -m quadcos.train --preset=scratch --seed=${SEED:-11} \
     --output_dir=$O/scratch_${name}_s${SEED:-11} --no_progress "$@" > $O/scratch_${name}_s${SEED:-11}.log 2>&1
   echo "$(date +%T) scratch_${name}_s${SEED:-11} exit $? $(tail -n 1 $O/scratch_${name}_s${SEED:-11}.log)"; }
 r default
