@@ -20,7 +20,6 @@ import concurrent.futures
 from collections.abc import Callable
 from typing import Any
 
-import flax
 import jax
 import jax.numpy as jnp
 import ml_collections
@@ -35,59 +34,13 @@ from jax.sharding import PartitionSpec
 
 from quadcos.training import curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import replay as replay_lib
+from quadcos.training import state as state_lib
 
 Metrics = dict[str, jax.Array]
-# A vectorised env step's transitions and which of them are finite (to be stored).
-Pending = tuple[types.Transition, jax.Array]
-# The TrainingState fields that SAC updates change.
-_LEARNER = (
-    "policy_params",
-    "policy_optimizer_state",
-    "q_params",
-    "q_optimizer_state",
-    "target_q_params",
-    "log_alpha",
-    "alpha_optimizer_state",
-    "gradient_steps",
-)
 PREFILL_ACTIONS = ("uniform", "policy")
 MIN_STD = networks.MIN_STD
 make_networks = networks.make_networks
-
-
-@flax.struct.dataclass
-class TrainingState:
-    """Everything that changes during training; a checkpoint stores all of it.
-
-    Parameters are flax param dicts; `log_alpha` is the log of the SAC
-    temperature; `env_state` is the batched state of the wrapped training envs;
-    `key` is the PRNG key of the next chunk. The counters are 64-bit (two
-    uint32 halves) so that they do not wrap in long GPU runs: `env_steps`
-    counts transitions (prefill included), `gradient_steps` SAC updates and
-    `nan_resets` envs reset by the NaN guard. `exploration_noise` (num_envs, action_size) is each
-    env's standard-normal exploration draw, held for `noise_hold_steps` steps on average.
-
-    On several devices `env_state`, `exploration_noise` and `replay` are split along their first
-    axis (the replay holds one ring per device, its positions one entry per device); everything
-    else is replicated. Global shapes do not depend on the device count except the replay's
-    positions.
-    """
-
-    policy_params: types.Params
-    policy_optimizer_state: optax.OptState
-    q_params: types.Params
-    q_optimizer_state: optax.OptState
-    target_q_params: types.Params
-    log_alpha: jax.Array
-    alpha_optimizer_state: optax.OptState
-    normalizer_params: running_statistics.RunningStatisticsState
-    env_state: envs.State
-    replay: replay_lib.ReplayState
-    key: jax.Array
-    env_steps: types.UInt64
-    gradient_steps: types.UInt64
-    nan_resets: types.UInt64
-    exploration_noise: jax.Array
+TrainingState = state_lib.TrainingState
 
 
 def env_keys(num_envs: int) -> jax.ShapeDtypeStruct:
@@ -109,41 +62,6 @@ def _optimizer(learning_rate: float, max_grad_norm: float | None) -> optax.Gradi
     if max_grad_norm is None:
         return adam
     return optax.chain(optax.clip_by_global_norm(max_grad_norm), adam)
-
-
-def _strongly_typed(tree: Any) -> Any:
-    """Drops weak types so a jitted function's outputs match its inputs.
-
-    A leaf that enters weakly typed (e.g. a Python float from `reset`) and
-    leaves strongly typed would make the next call retrace.
-    """
-    return jax.tree.map(lambda x: jax.lax.convert_element_type(x, jnp.asarray(x).dtype), tree)
-
-
-def _transitions(
-    env_state: envs.State, actions: jax.Array, next_env_state: envs.State
-) -> types.Transition:
-    return types.Transition(
-        observation=env_state.obs,
-        action=actions,
-        reward=next_env_state.reward,
-        discount=1 - next_env_state.done,
-        next_observation=next_env_state.obs,
-        extras={
-            "state_extras": {"truncation": next_env_state.info["truncation"]},
-            "policy_extras": {},
-        },
-    )
-
-
-def where_per_env(mask: jax.Array, new: jax.Array, old: jax.Array) -> jax.Array:
-    """`new` for the envs where the (num_envs,) `mask` holds, `old` elsewhere, for one leaf of a
-    batched state. Leaves without the env axis (MJX-Warp's shared, often zero-size, buffers) are
-    kept as they are."""
-    if old.ndim < mask.ndim or old.shape[: mask.ndim] != mask.shape:
-        return old
-    mask = jnp.reshape(mask, mask.shape + (1,) * (old.ndim - mask.ndim))
-    return jnp.where(mask, new, old).astype(old.dtype)
 
 
 class SACTrainer:
@@ -353,7 +271,7 @@ class SACTrainer:
                 key_noise, (self.config.num_envs, self.action_size)
             ),
         )
-        return _strongly_typed(state)
+        return state_lib.strongly_typed(state)
 
     # --- Acting ----------------------------------------------------------------
 
@@ -376,7 +294,7 @@ class SACTrainer:
 
     def _env_step(
         self, state: TrainingState, actions: jax.Array, key_reset: jax.Array
-    ) -> tuple[TrainingState, Metrics, Pending]:
+    ) -> tuple[TrainingState, Metrics, state_lib.Pending]:
         """Steps all training envs; returns their transitions for the replay buffer (`_store`),
         those with non-finite values marked.
 
@@ -386,7 +304,7 @@ class SACTrainer:
         """
         env_state = state.env_state
         next_env_state = self._step_envs(env_state, actions)
-        transitions = _transitions(env_state, actions, next_env_state)
+        transitions = state_lib.transitions(env_state, actions, next_env_state)
         finite = (
             jnp.all(jnp.isfinite(transitions.observation), axis=-1)
             & jnp.all(jnp.isfinite(transitions.next_observation), axis=-1)
@@ -409,7 +327,7 @@ class SACTrainer:
             state.normalizer_params,
         )
         state = state.replace(
-            env_state=_strongly_typed(next_env_state),
+            env_state=state_lib.strongly_typed(next_env_state),
             normalizer_params=normalizer_params,
             env_steps=state.env_steps + self.config.num_envs,
             nan_resets=state.nan_resets + (self.config.num_envs - num_finite).astype(jnp.uint32),
@@ -419,16 +337,16 @@ class SACTrainer:
             metrics["course_level"] = jnp.mean(next_env_state.info["course_level"].astype(float))
         return state, metrics, (transitions, finite)
 
-    def _store(self, state: TrainingState, pending: Pending) -> TrainingState:
+    def _store(self, state: TrainingState, pending: state_lib.Pending) -> TrainingState:
         """`state` with the finite ones of `pending`'s transitions in its replay buffer."""
         return state.replace(replay=self.replay.insert(state.replay, *pending))
 
-    def _nothing_pending(self, state: TrainingState) -> Pending:
+    def _nothing_pending(self, state: TrainingState) -> state_lib.Pending:
         """Transitions of the envs' shapes, all marked non-finite: storing them stores nothing."""
         env_state = state.env_state
         actions = jnp.zeros((self.config.num_envs, self.action_size))
-        transitions = jax.tree.map(jnp.zeros_like, _transitions(env_state, actions, env_state))
-        return transitions, jnp.zeros((self.config.num_envs,), bool)
+        transitions = state_lib.transitions(env_state, actions, env_state)
+        return jax.tree.map(jnp.zeros_like, transitions), jnp.zeros((self.config.num_envs,), bool)
 
     def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:
         """Replaces the whole state of the masked envs by a fresh reset state."""
@@ -437,7 +355,7 @@ class SACTrainer:
             fresh = self._reset_envs(jax.random.split(key, self.config.num_envs))
             fresh = fresh.replace(done=jnp.ones_like(fresh.done))
             return jax.tree.map(
-                lambda new, old: where_per_env(mask, new, old),
+                lambda new, old: state_lib.where_per_env(mask, new, old),
                 fresh,
                 env_state,
             )
@@ -456,7 +374,7 @@ class SACTrainer:
             return self._store(state, transitions), None
 
         state, _ = jax.lax.scan(step, state, None, length=self.num_prefill_steps)
-        return _strongly_typed(state)
+        return state_lib.strongly_typed(state)
 
     # --- Learning --------------------------------------------------------------
 
@@ -471,8 +389,8 @@ class SACTrainer:
         config = self.config
 
         def step(
-            carry: tuple[TrainingState, Pending | None], _
-        ) -> tuple[tuple[TrainingState, Pending | None], Metrics]:
+            carry: tuple[TrainingState, state_lib.Pending | None], _
+        ) -> tuple[tuple[TrainingState, state_lib.Pending | None], Metrics]:
             state, pending = carry
             key, key_action, key_reset, key_sample, key_sgd = jax.random.split(state.key, 5)
             if pending is not None:
@@ -489,7 +407,7 @@ class SACTrainer:
                 learner, sgd_metrics = self._learn(state, key_sample, key_sgd)
             else:
                 pending = transitions
-            state = state.replace(**{name: getattr(learner, name) for name in _LEARNER})
+            state = state.replace(**{name: getattr(learner, name) for name in state_lib.LEARNER})
             return (state, pending), {**env_metrics, **sgd_metrics}
 
         pending = self._nothing_pending(state) if config.overlap_updates else None
@@ -498,14 +416,14 @@ class SACTrainer:
         )
         if pending is not None:
             state = self._store(state, pending)
-        return _strongly_typed(state), jax.tree.map(jnp.mean, metrics)
+        return state_lib.strongly_typed(state), jax.tree.map(jnp.mean, metrics)
 
     def _learn(
         self, state: TrainingState, key_sample: jax.Array, key_sgd: jax.Array
     ) -> tuple[TrainingState, Metrics]:
         """`updates_per_step` SAC updates on batches drawn from `state.replay`: the state with
-        its `_LEARNER` fields updated (and no envs or replay: the updates carry only what they
-        change), and the updates' mean metrics."""
+        its `state_lib.LEARNER` fields updated (and no envs or replay: the updates carry only what
+        they change), and the updates' mean metrics."""
         batches = self._sample_batches(state.replay, key_sample)
         keys = jax.random.split(key_sgd, self.config.updates_per_step)
         learner = state.replace(env_state=None, replay=None, exploration_noise=None)

@@ -1,0 +1,99 @@
+"""The state of a SAC run (`TrainingState`) and the pieces of an env step the trainer keeps."""
+
+from typing import Any
+
+import flax
+import jax
+import jax.numpy as jnp
+import optax
+from brax import envs
+from brax.training import types
+from brax.training.acme import running_statistics
+
+from quadcos.training import replay as replay_lib
+
+
+@flax.struct.dataclass
+class TrainingState:
+    """Everything that changes during training; a checkpoint stores all of it.
+
+    Parameters are flax param dicts; `log_alpha` is the log of the SAC
+    temperature; `env_state` is the batched state of the wrapped training envs;
+    `key` is the PRNG key of the next chunk. The counters are 64-bit (two
+    uint32 halves) so that they do not wrap in long GPU runs: `env_steps`
+    counts transitions (prefill included), `gradient_steps` SAC updates and
+    `nan_resets` envs reset by the NaN guard. `exploration_noise` (num_envs, action_size) is each
+    env's standard-normal exploration draw, held for `noise_hold_steps` steps on average.
+
+    On several devices `env_state`, `exploration_noise` and `replay` are split along their first
+    axis (the replay holds one ring per device, its positions one entry per device); everything
+    else is replicated. Global shapes do not depend on the device count except the replay's
+    positions.
+    """
+
+    policy_params: types.Params
+    policy_optimizer_state: optax.OptState
+    q_params: types.Params
+    q_optimizer_state: optax.OptState
+    target_q_params: types.Params
+    log_alpha: jax.Array
+    alpha_optimizer_state: optax.OptState
+    normalizer_params: running_statistics.RunningStatisticsState
+    env_state: envs.State
+    replay: replay_lib.ReplayState
+    key: jax.Array
+    env_steps: types.UInt64
+    gradient_steps: types.UInt64
+    nan_resets: types.UInt64
+    exploration_noise: jax.Array
+
+
+# A vectorised env step's transitions and which of them are finite (to be stored).
+Pending = tuple[types.Transition, jax.Array]
+# The fields that SAC updates change.
+LEARNER = (
+    "policy_params",
+    "policy_optimizer_state",
+    "q_params",
+    "q_optimizer_state",
+    "target_q_params",
+    "log_alpha",
+    "alpha_optimizer_state",
+    "gradient_steps",
+)
+
+
+def transitions(
+    env_state: envs.State, actions: jax.Array, next_env_state: envs.State
+) -> types.Transition:
+    """The transitions of a vectorised env step, as Brax's SAC stores them."""
+    return types.Transition(
+        observation=env_state.obs,
+        action=actions,
+        reward=next_env_state.reward,
+        discount=1 - next_env_state.done,
+        next_observation=next_env_state.obs,
+        extras={
+            "state_extras": {"truncation": next_env_state.info["truncation"]},
+            "policy_extras": {},
+        },
+    )
+
+
+def where_per_env(mask: jax.Array, new: jax.Array, old: jax.Array) -> jax.Array:
+    """`new` for the envs where the (num_envs,) `mask` holds, `old` elsewhere, for one leaf of a
+    batched state. Leaves without the env axis (MJX-Warp's shared, often zero-size, buffers) are
+    kept as they are."""
+    if old.ndim < mask.ndim or old.shape[: mask.ndim] != mask.shape:
+        return old
+    mask = jnp.reshape(mask, mask.shape + (1,) * (old.ndim - mask.ndim))
+    return jnp.where(mask, new, old).astype(old.dtype)
+
+
+def strongly_typed(tree: Any) -> Any:
+    """Drops weak types so a jitted function's outputs match its inputs.
+
+    A leaf that enters weakly typed (e.g. a Python float from `reset`) and
+    leaves strongly typed would make the next call retrace.
+    """
+    return jax.tree.map(lambda x: jax.lax.convert_element_type(x, jnp.asarray(x).dtype), tree)
