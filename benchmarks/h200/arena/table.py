@@ -31,31 +31,36 @@ def rates(path: pathlib.Path) -> tuple[float | None, dict[int, float]]:
     return physics, train
 
 
-def main(folders: list[pathlib.Path]) -> None:
-    print(
-        "| campaign | terrain | row | raw physics (k env-steps/s) | train, 1 update"
-        " | / default's physics | train, 8 updates |"
-    )
-    print("|---|---|---|---:|---:|---:|---:|")
+def rows(folders: list[pathlib.Path], settings: dict[str, str]):
+    """(folder, terrain, label, raw physics, training by updates, the default row's raw physics)
+    of each row of `settings` (row name without its terrain -> label) found in the folders."""
     for folder in folders:
         for terrain in ("flat", "slope5"):
             default = folder / f"bench_default_{terrain}.json"
             if not default.exists():
                 continue
             base, _ = rates(default)
-            for name, label in SETTINGS.items():
+            for name, label in settings.items():
                 path = folder / f"bench_{name}_{terrain}.json"
-                if not path.exists():
-                    continue
-                physics, train = rates(path)
-                eight = f"{train[8] / 1e3:.0f} k" if 8 in train else "—"
-                raw = f"{physics / 1e3:.0f}" if physics else "—"
-                ratio = f"{train[1] / base:.2f}" if base else "—"
-                campaign = f"{folder.parent.name}/{folder.name}"
-                print(
-                    f"| {campaign} | {terrain} | {label} | {raw} | {train[1] / 1e3:.0f} k"
-                    f" | {ratio} | {eight} |"
-                )
+                if path.exists():
+                    yield (folder, terrain, label, *rates(path), base)
+
+
+def main(folders: list[pathlib.Path]) -> None:
+    print(
+        "| campaign | terrain | row | raw physics (k env-steps/s) | train, 1 update"
+        " | / default's physics | train, 8 updates |"
+    )
+    print("|---|---|---|---:|---:|---:|---:|")
+    for folder, terrain, label, physics, train, base in rows(folders, SETTINGS):
+        eight = f"{train[8] / 1e3:.0f} k" if 8 in train else "—"
+        raw = f"{physics / 1e3:.0f}" if physics else "—"
+        ratio = f"{train[1] / base:.2f}" if base else "—"
+        campaign = f"{folder.parent.name}/{folder.name}"
+        print(
+            f"| {campaign} | {terrain} | {label} | {raw} | {train[1] / 1e3:.0f} k"
+            f" | {ratio} | {eight} |"
+        )
 
 
 if __name__ == "__main__":

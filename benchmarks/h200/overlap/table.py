@@ -6,9 +6,16 @@ env step, and training against the raw physics of the default row of the same fo
     python benchmarks/h200/overlap/table.py benchmarks/h200/overlap/{code,barrier,main}
 """
 
-import json
+import importlib.util
 import pathlib
 import sys
+
+# The bench JSONs' rows as the arena table reads them.
+_spec = importlib.util.spec_from_file_location(
+    "arena_table", pathlib.Path(__file__).parents[1] / "arena" / "table.py"
+)
+_arena = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_arena)
 
 _CONC = "XLA's graphs concurrent"
 SETTINGS = {  # row name without its terrain -> what it sets
@@ -27,43 +34,22 @@ SETTINGS = {  # row name without its terrain -> what it sets
 }
 
 
-def rates(path: pathlib.Path) -> tuple[float, dict[int, float]]:
-    """Raw physics (env steps/s at 4096 envs) and training (env steps/s by updates per step)."""
-    bench = json.loads(path.read_text())
-    physics = bench["physics_steps_per_s"]["4096"] / bench["substeps_per_env_step"]
-    train = {row["updates_per_step"]: row["quadcos_env_steps_per_s"] for row in bench["train"]}
-    return physics, train
-
-
 def main(folders: list[pathlib.Path]) -> None:
     print(
         "| campaign | terrain | row | raw physics, own settings (k env-steps/s) | train, 1 update"
         " | / default's physics | train, 8 updates | / default's physics |"
     )
     print("|---|---|---|---:|---:|---:|---:|---:|")
-    for folder in folders:
-        for terrain in ("flat", "slope5"):
-            default = folder / f"bench_default_{terrain}.json"
-            if not default.exists():
-                continue
-            base, _ = rates(default)
-            for name, label in SETTINGS.items():
-                path = folder / f"bench_{name}_{terrain}.json"
-                if not path.exists():
-                    continue
-                physics, train = rates(path)
-                cells = []
-                for updates in (1, 8):
-                    rate = train.get(updates)
-                    if rate is None:
-                        cells += ["—", "—"]
-                    else:
-                        cells += [f"{rate / 1e3:.0f} k", f"{rate / base:.2f}"]
-                print(
-                    f"| {folder.name} | {terrain} | {label} | {physics / 1e3:.0f} | "
-                    + " | ".join(cells)
-                    + " |"
-                )
+    for folder, terrain, label, physics, train, base in _arena.rows(folders, SETTINGS):
+        cells = []
+        for updates in (1, 8):
+            rate = train.get(updates)
+            if rate is None:
+                cells += ["—", "—"]
+            else:
+                cells += [f"{rate / 1e3:.0f} k", f"{rate / base:.2f}"]
+        cells = " | ".join(cells)
+        print(f"| {folder.name} | {terrain} | {label} | {physics / 1e3:.0f} | {cells} |")
 
 
 if __name__ == "__main__":
