@@ -7,7 +7,10 @@
 
 Sections (each can be left out with --skip or chosen with --only):
   physics  raw MJX physics steps/s: `mjx.step` of the env's model, vmapped over the envs, one
-           call = `substeps` physics steps (one env step's worth).
+           call = `substeps` physics steps (one env step's worth), the robots standing.
+  gait     the same physics of robots walking the fixed trot (the zero action's joint targets,
+           set at each env step's start), 16 env steps a call: the motion that the env and the
+           trainer step, stepped as a training chunk steps it.
   env      env-steps/s of `jax.vmap(env.step)` (oscillator, estimator, reward inside) with the
            constant zero action (the action centre: the fixed trot).
   train    our trainer (`SACTrainer.train_chunk`) per row NUM_ENVSxBATCHxUPDATES.
@@ -185,7 +188,7 @@ def run(
 
     save()
     sections = settings.sections
-    if "physics" in sections or "env" in sections:
+    if {"physics", "gait", "env"} & set(sections):
         env = make_bench_env(
             settings.terrain,
             settings.training_preset,
@@ -199,6 +202,11 @@ def run(
         def simulation(section: str, count: int) -> str:
             measure, table, unit_steps = {
                 "physics": (physics.measure_physics, "physics_steps_per_s", env.substeps),
+                "gait": (
+                    physics.measure_gait_physics,
+                    "gait_physics_steps_per_s",
+                    env.substeps * physics.GAIT_STEPS_PER_CALL,
+                ),
                 "env": (physics.measure_env, "env_steps_per_s", 1),
             }[section]
             timing = measure(env, reset_batch(count), settings.steps)
@@ -210,7 +218,7 @@ def run(
             )
 
         for count in settings.env_counts:
-            for section in ("physics", "env"):
+            for section in ("physics", "gait", "env"):
                 if section in sections:
                     attempt(
                         f"{section} {count} envs", functools.partial(simulation, section, count)
@@ -235,10 +243,11 @@ def run(
         )
         entry = results_lib.train_row(results, row)
         entry["quadcos_env_steps_per_s"] = measured["env_steps_per_s"]
-        # Raw physics at the row's envs, measured in this process (the physics section).
-        physics_rate = results["physics_steps_per_s"].get(str(row.num_envs))
-        if physics_rate is not None:
-            entry["physics_env_steps_per_s"] = physics_rate / results["substeps_per_env_step"]
+        # Raw physics at the row's envs, measured in this process (the physics and gait sections).
+        for table in ("physics", "gait_physics"):
+            physics_rate = results[f"{table}_steps_per_s"].get(str(row.num_envs))
+            if physics_rate is not None:
+                entry[f"{table}_env_steps_per_s"] = physics_rate / results["substeps_per_env_step"]
         entry["quadcos_first_chunk_s"] = measured["first_chunk_s"]
         entry["quadcos_start_to_first_step_s"] = measured["start_to_first_step_s"]
         if results["compile_s"]["quadcos"] is None:

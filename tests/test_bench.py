@@ -239,13 +239,16 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
         assert key in results, key
     assert results["device"] == jax.devices()[0].device_kind
     assert results["substeps_per_env_step"] == 10  # 20 Hz control, 200 Hz physics
-    assert set(results["physics_steps_per_s"]) == set(results["env_steps_per_s"]) == {"4"}
+    tables = ("physics_steps_per_s", "gait_physics_steps_per_s", "env_steps_per_s")
+    assert all(set(results[table]) == {"4"} for table in tables)
     assert _finite_positive(results["physics_steps_per_s"]["4"])
+    assert _finite_positive(results["gait_physics_steps_per_s"]["4"])
     assert _finite_positive(results["env_steps_per_s"]["4"])
     (row,) = results["train"]
     assert (row["num_envs"], row["batch_size"], row["updates_per_step"]) == (4, 32, 1)
     assert _finite_positive(row["quadcos_env_steps_per_s"])
     assert row["physics_env_steps_per_s"] == results["physics_steps_per_s"]["4"] / 10
+    assert row["gait_physics_env_steps_per_s"] == results["gait_physics_steps_per_s"]["4"] / 10
     assert row["stock_brax_env_steps_per_s"] is None  # skipped
     assert _finite_positive(results["compile_s"]["quadcos"])
     assert results["compile_s"]["stock_brax"] is None
@@ -256,6 +259,7 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
     assert "| 4 |" in table and "| 4 | 32 | 1 |" in table
     printed = capsys.readouterr().out
     assert "physics 4 envs: " in printed and "train 4x32x1: " in printed
+    assert "gait 4 envs: " in printed
     assert "FAILED" not in printed and "errors" not in results["details"]
 
 

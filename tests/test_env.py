@@ -174,6 +174,25 @@ def test_command_follows_the_action_with_the_filter_time_constant(
     np.testing.assert_allclose(state.obs[:, 14:], np.clip(action, -1, 1) * reached, atol=1e-5)
 
 
+def test_zero_action_targets_are_the_envs_own_under_the_zero_action(
+    flat_env, flat_reset, flat_step
+):
+    """What the bench's walking physics sets (`zero_action_targets` at a time) is what the env
+    commands after holding the zero action from its reset: the last substep's controls."""
+    state = flat_reset(jax.random.split(jax.random.PRNGKey(5), FLAT_ROBOTS))
+    zero = jnp.zeros((FLAT_ROBOTS, flat_env.action_size))
+    for _ in range(3):
+        state = flat_step(state, zero)
+    data = state.pipeline_state
+    last_substep = data.time - flat_env.config.physics_dt
+    targets = jax.vmap(flat_env.zero_action_targets)(last_substep)
+    assert np.ptp(np.asarray(targets), axis=0).max() < 1e-6  # robots reset together move alike
+    assert np.abs(targets - flat_env.layout.home).max() > 0.05  # the trot, not the home pose
+    np.testing.assert_allclose(
+        jax.vmap(flat_env.layout.controls)(targets, data), data.ctrl, atol=1e-4
+    )
+
+
 def _ramps(x, y):
     """Side-by-side planes through the origin, one per slope, each RAMP_BAND wide in y."""
     band = np.clip(

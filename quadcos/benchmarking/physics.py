@@ -1,6 +1,7 @@
 """Simulation throughput: raw MJX physics steps and env steps (oscillator, estimator, reward
 inside) of a batch of robots."""
 
+import functools
 from collections.abc import Callable
 
 import jax
@@ -22,20 +23,47 @@ def make_batch_reset(env: base.Env) -> Callable[[int], base.State]:
 def measure_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: int) -> Timing:
     """Raw `mjx.step` of `env.model` over the batch `states.pipeline_state`; one call =
     `env.substeps` physics steps (an env step's worth), looped as the env loops them
-    (`substep_unroll`)."""
+    (`substep_unroll`). The robots keep the controls they were reset with: they stand."""
+    return time_calls(functools.partial(_substeps, env), states.pipeline_state, calls)
+
+
+# Env steps a call of the gait measurement: stepped a call an env step, the XLA kernels that set
+# the controls before MJX-Warp's physics calls stall the host's launches (~0.78 of the rate of
+# 16 a call, one H200, flat); a training chunk steps its env steps in one call.
+GAIT_STEPS_PER_CALL = 16
+
+
+def measure_gait_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: int) -> Timing:
+    """`measure_physics` of robots walking the env's motion under the zero action (the action
+    centre: the fixed trot), `GAIT_STEPS_PER_CALL` env steps a call (a `lax.scan`, as a training
+    chunk runs them); each env step sets the controls of the targets at its start
+    (`QuadrupedEnv.zero_action_targets`), held over its substeps. Robots in motion make the solver
+    iterate more than standing ones (its early exit comes later), as in training."""
+    targets_at = jax.vmap(env.zero_action_targets)
+    controls = jax.vmap(env.layout.controls)
+
+    def walking(data: mjx.Data, _) -> tuple[mjx.Data, None]:
+        data = data.replace(ctrl=controls(targets_at(data.time), data))
+        return _substeps(env, data), None
+
+    return time_calls(
+        lambda data: jax.lax.scan(walking, data, None, GAIT_STEPS_PER_CALL)[0],
+        states.pipeline_state,
+        calls,
+    )
+
+
+def _substeps(env: env_lib.QuadrupedEnv, data: mjx.Data) -> mjx.Data:
+    """`env.substeps` vmapped `mjx.step`s of `env.model`, looped as the env loops them."""
     step_all = jax.vmap(mjx.step, in_axes=(None, 0))
-
-    def env_step_of_physics(data: mjx.Data) -> mjx.Data:
-        data, _ = jax.lax.scan(
-            lambda data, _: (step_all(env.model, data), None),
-            data,
-            None,
-            length=env.substeps,
-            unroll=env.substep_unroll,
-        )
-        return data
-
-    return time_calls(env_step_of_physics, states.pipeline_state, calls)
+    data, _ = jax.lax.scan(
+        lambda data, _: (step_all(env.model, data), None),
+        data,
+        None,
+        length=env.substeps,
+        unroll=env.substep_unroll,
+    )
+    return data
 
 
 def measure_env(env: env_lib.QuadrupedEnv, states: base.State, calls: int) -> Timing:

@@ -38,6 +38,7 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "host": {"cpu": _cpu_model(), "cores": os.cpu_count()},
         "substeps_per_env_step": substeps,
         "physics_steps_per_s": {},
+        "gait_physics_steps_per_s": {},
         "env_steps_per_s": {},
         "train": [],
         "compile_s": {"quadcos": None, "stock_brax": None},
@@ -66,6 +67,15 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
     }
 
 
+_MERGED_TABLES = (
+    "physics_steps_per_s",
+    "gait_physics_steps_per_s",
+    "env_steps_per_s",
+    "details",
+    "compile_s",
+)
+
+
 def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     """`old` updated with what `new` measured: dict entries and train rows are merged key by key
     (a None in `new` keeps `old`'s value); the commands, dates and settings of both runs are kept
@@ -92,7 +102,7 @@ def merge_results(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
                 else:
                     rows[_row_key(row)] = dict(row)
             merged["train"] = list(rows.values())
-        elif key in ("physics_steps_per_s", "env_steps_per_s", "details", "compile_s"):
+        elif key in _MERGED_TABLES:
             merged[key] = {**old.get(key, {}), **{k: v for k, v in value.items() if v is not None}}
             if key == "details" and "errors" in old.get(key, {}):
                 merged[key]["errors"] = {**old[key]["errors"], **value.get("errors", {})}
@@ -193,27 +203,30 @@ def markdown_table(results: dict[str, Any]) -> str:
     lines = [
         header,
         "",
-        "| envs | raw MJX physics steps/s | env steps/s (`make_env`) |",
-        "|---:|---:|---:|",
+        "| envs | raw MJX physics steps/s, standing | the same, walking the trot | env steps/s"
+        " (`make_env`) |",
+        "|---:|---:|---:|---:|",
     ]
-    counts = sorted(
-        {*results["physics_steps_per_s"], *results["env_steps_per_s"]}, key=lambda count: int(count)
-    )
+    tables = ("physics_steps_per_s", "gait_physics_steps_per_s", "env_steps_per_s")
+    # Results written before the gait section was measured have no such table.
+    counts = sorted({count for table in tables for count in results.get(table, {})}, key=int)
     for count in counts:
-        physics = format_rate(results["physics_steps_per_s"].get(count))
-        env = format_rate(results["env_steps_per_s"].get(count))
-        lines.append(f"| {int(count):,} | {physics} | {env} |")
+        rates = " | ".join(format_rate(results.get(table, {}).get(count)) for table in tables)
+        lines.append(f"| {int(count):,} | {rates} |")
     lines += [
         "",
         "| robot | terrain | impl | envs | batch | updates/step | quadcos env-steps/s | stock Brax"
-        " env-steps/s | ours / stock | ours / raw physics | quadcos start → first step |",
+        " env-steps/s | ours / stock | ours / raw physics (standing, walking) | quadcos start →"
+        " first step |",
         "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in sorted(results["train"], key=lambda row: (_row_key(row)[3:], _row_key(row))):
         ours, stock = row["quadcos_env_steps_per_s"], row["stock_brax_env_steps_per_s"]
         ratio = f"{ours / stock:.2f}" if ours and stock else "—"
-        physics = row.get("physics_env_steps_per_s")
-        of_physics = f"{ours / physics:.2f}" if ours and physics else "—"
+        of_physics = ", ".join(
+            f"{ours / row[key]:.2f}" if ours and row.get(key) else "—"
+            for key in ("physics_env_steps_per_s", "gait_physics_env_steps_per_s")
+        )
         robot, terrain, impl, cache, randomized, env, sac = _row_key(row)[3:]
         context = f"{robot} | {terrain} | {impl}{', randomised' if randomized else ''}"
         context += "".join(f", {overrides}" for overrides in (env, sac) if overrides)

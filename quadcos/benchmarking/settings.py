@@ -13,7 +13,7 @@ from quadcos._util.overrides import apply_overrides, parse_value
 from quadcos.equations import oscillator
 from quadcos.training.presets import PRESETS as TRAIN_PRESETS
 
-SECTIONS = ("physics", "env", "train", "stock", "walk", "slope5")
+SECTIONS = ("physics", "gait", "env", "train", "stock", "walk", "slope5")
 
 
 @dataclasses.dataclass(frozen=True)

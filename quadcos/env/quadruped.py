@@ -252,6 +252,14 @@ class QuadrupedEnv(base.Env):
             self.config.action_scale,
         )
 
+    def zero_action_targets(self, time: jax.Array) -> jax.Array:
+        """(J,) joint targets of a robot that has held the zero action (the action centre) since
+        its reset, at time t (s since the episode's start): its command stays at the centre and its
+        phase is 2π·t/T, T the centre's period."""
+        command = jnp.zeros(self.action_size)
+        phase = oscillator.advance_phase(jnp.zeros(()), self._period(command), time)
+        return self.joint_targets(command, phase, time)
+
     # --- pieces of a step ---------------------------------------------------------------------
 
     def joint_targets(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
