@@ -198,9 +198,9 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
     tmp_path, capsys, monkeypatch, smoke_run
 ):
     # XLA_FLAGS as conftest set it (main() keeps a set value, as `quadcos.train` does, and is
-    # restored after the test), so the smoke-sized trainer it compiles is the one the CLI tests'
-    # smoke run put in the cache (`smoke_run`: waits for that run, so that this test loads those
-    # programs rather than compiling them beside it).
+    # restored after the test), so that the smoke-sized trainer's init and prefill are the ones
+    # the CLI tests' smoke run put in the cache (`smoke_run`: waits for that run, so that this
+    # test loads those programs rather than compiling them beside it).
     del smoke_run
     monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
     # JAX names a program's inner functions after what this process traced before: the rollouts
@@ -218,6 +218,10 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
         "--train_seconds=0",
         "--skip=stock,walk,slope5",
         f"--profile_dir={tmp_path / 'profile'}",
+        # Traced chunks of 4 env steps: a chunk of the smoke preset's 32 made the CPU's trace
+        # (every XLA op a host event) take ~30 s to write.
+        "--sac",
+        "steps_per_chunk=4",
     ]
     assert bench.main(argv) == 0
     results = json.loads(out.read_text())
