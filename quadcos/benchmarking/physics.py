@@ -24,12 +24,12 @@ def measure_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: int) -
     """Raw `mjx.step` of `env.model` over the batch `states.pipeline_state`; one call =
     `env.substeps` physics steps (an env step's worth), looped as the env loops them
     (`substep_unroll`). The robots keep the controls they were reset with: they stand."""
-    return time_calls(functools.partial(_substeps, env), states.pipeline_state, calls)
+    return time_calls(functools.partial(env_step_of_physics, env), states.pipeline_state, calls)
 
 
-# Env steps a call of the gait measurement: stepped a call an env step, the XLA kernels that set
-# the controls before MJX-Warp's physics calls stall the host's launches (~0.78 of the rate of
-# 16 a call, one H200, flat); a training chunk steps its env steps in one call.
+# Env steps a call of the gait measurement, as a training chunk steps its env steps in one call:
+# stepped a call an env step, walking robots ran at 0.78 of the rate of 16 a call (MJX-Warp, one
+# H200, flat; standing robots, with no XLA kernels before the physics' calls, at 1.00).
 GAIT_STEPS_PER_CALL = 16
 
 
@@ -44,7 +44,7 @@ def measure_gait_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: i
 
     def walking(data: mjx.Data, _) -> tuple[mjx.Data, None]:
         data = data.replace(ctrl=controls(targets_at(data.time), data))
-        return _substeps(env, data), None
+        return env_step_of_physics(env, data), None
 
     return time_calls(
         lambda data: jax.lax.scan(walking, data, None, GAIT_STEPS_PER_CALL)[0],
@@ -53,7 +53,7 @@ def measure_gait_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: i
     )
 
 
-def _substeps(env: env_lib.QuadrupedEnv, data: mjx.Data) -> mjx.Data:
+def env_step_of_physics(env: env_lib.QuadrupedEnv, data: mjx.Data) -> mjx.Data:
     """`env.substeps` vmapped `mjx.step`s of `env.model`, looped as the env loops them."""
     step_all = jax.vmap(mjx.step, in_axes=(None, 0))
     data, _ = jax.lax.scan(

@@ -35,10 +35,11 @@ def main(out: pathlib.Path, terrain: str, overrides: list[str]) -> None:
     action = jnp.zeros((ENVS, env.action_size))
 
     def standing(data):
-        return physics._substeps(env, data)
+        return physics.env_step_of_physics(env, data)
 
     def walking(data):
-        return physics._substeps(env, data.replace(ctrl=controls(targets_at(data.time), data)))
+        data = data.replace(ctrl=controls(targets_at(data.time), data))
+        return physics.env_step_of_physics(env, data)
 
     def env_step(state):
         return env_step_all(state, action)
