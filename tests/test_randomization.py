@@ -218,18 +218,19 @@ def test_observation_noise_reaches_the_policy_not_the_robot():
         **{f"randomization.{name}": (1.0, 1.0) for name in ("damping_scale", "strength_scale")},
         "randomization.latency_s": (0.0, 0.0),
     }
-    keys = jax.random.split(jax.random.PRNGKey(4), 8)
-    states = {}
-    for noise in (0.0, 0.05):
-        env = quadcos.make_env("flat", **fixed, **{"randomization.obs_noise": noise})
-        state = jax.jit(jax.vmap(env.reset))(keys)
-        states[noise] = jax.jit(jax.vmap(env.step))(state, jnp.zeros((8, env.action_size)))
-    clean, noisy = states[0.0], states[0.05]
+    # The same 8 robots twice, their noise drawn from other keys (one program compiled, not two).
+    env = quadcos.make_env("flat", **fixed, **{"randomization.obs_noise": 0.05})
+    state = jax.jit(jax.vmap(env.reset))(
+        jnp.tile(jax.random.split(jax.random.PRNGKey(4), 8), (2, 1))
+    )
+    state.info["rng"] = jax.random.split(jax.random.PRNGKey(5), 16)
+    state = jax.jit(jax.vmap(env.step))(state, jnp.zeros((16, env.action_size)))
+    one, other = jax.tree.map(lambda x: x[:8], state), jax.tree.map(lambda x: x[8:], state)
     np.testing.assert_allclose(
-        noisy.pipeline_state.qpos, clean.pipeline_state.qpos, atol=1e-6
-    )  # the robot moves as without noise
-    difference = np.asarray(noisy.obs - clean.obs)
-    assert 0.04 < difference.std() < 0.06 and abs(difference.mean()) < 0.01, difference.std()
+        one.pipeline_state.qpos, other.pipeline_state.qpos, atol=1e-6
+    )  # the robot moves whatever its noise
+    difference = np.asarray(one.obs - other.obs)  # two draws: 0.05·√2 apart
+    assert 0.06 < difference.std() < 0.08 and abs(difference.mean()) < 0.01, difference.std()
 
 
 @pytest.mark.slow
