@@ -38,13 +38,17 @@ def measure_gait_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: i
     centre: the fixed trot), `GAIT_STEPS_PER_CALL` env steps a call (a `lax.scan`, as a training
     chunk runs them); each env step sets the controls of the targets at its start
     (`QuadrupedEnv.zero_action_targets`), held over its substeps. Robots in motion make the solver
-    iterate more than standing ones (its early exit comes later), as in training."""
+    iterate more than standing ones (its early exit comes later), as in training. A robot with
+    motors gets its PD torques towards those targets every substep, as the env computes them."""
     targets_at = jax.vmap(env.zero_action_targets)
     controls = jax.vmap(env.layout.controls)
 
     def walking(data: mjx.Data, _) -> tuple[mjx.Data, None]:
-        data = data.replace(ctrl=controls(targets_at(data.time), data))
-        return env_step_of_physics(env, data), None
+        targets = targets_at(data.time)
+        if env.layout.motor:
+            actuate = lambda data: data.replace(ctrl=controls(targets, data))  # noqa: E731
+            return env_step_of_physics(env, data, actuate), None
+        return env_step_of_physics(env, data.replace(ctrl=controls(targets, data))), None
 
     return time_calls(
         lambda data: jax.lax.scan(walking, data, None, GAIT_STEPS_PER_CALL)[0],
@@ -53,11 +57,16 @@ def measure_gait_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: i
     )
 
 
-def env_step_of_physics(env: env_lib.QuadrupedEnv, data: mjx.Data) -> mjx.Data:
-    """`env.substeps` vmapped `mjx.step`s of `env.model`, looped as the env loops them."""
+def env_step_of_physics(
+    env: env_lib.QuadrupedEnv,
+    data: mjx.Data,
+    actuate: Callable[[mjx.Data], mjx.Data] | None = None,
+) -> mjx.Data:
+    """`env.substeps` vmapped `mjx.step`s of `env.model`, looped as the env loops them; with
+    `actuate`, each after `actuate` set the batch's controls."""
     step_all = jax.vmap(mjx.step, in_axes=(None, 0))
     data, _ = jax.lax.scan(
-        lambda data, _: (step_all(env.model, data), None),
+        lambda data, _: (step_all(env.model, actuate(data) if actuate else data), None),
         data,
         None,
         length=env.substeps,
