@@ -45,10 +45,13 @@ def measure_gait_physics(env: env_lib.QuadrupedEnv, states: base.State, calls: i
 
     def walking(data: mjx.Data, _) -> tuple[mjx.Data, None]:
         targets = targets_at(data.time)
+
+        def actuate(data: mjx.Data) -> mjx.Data:
+            return data.replace(ctrl=controls(targets, data))
+
         if env.layout.motor:
-            actuate = lambda data: data.replace(ctrl=controls(targets, data))  # noqa: E731
             return env_step_of_physics(env, data, actuate), None
-        return env_step_of_physics(env, data.replace(ctrl=controls(targets, data))), None
+        return env_step_of_physics(env, actuate(data)), None
 
     return time_calls(
         lambda data: jax.lax.scan(walking, data, None, GAIT_STEPS_PER_CALL)[0],
