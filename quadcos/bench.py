@@ -353,7 +353,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # The same XLA flags as `python -m quadcos.train`, set before the backend starts.
     os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
-    caches.enable()
+    cache_state = caches.enable()["state"]  # before anything compiles into it
     try:
         args = cli.raising(_parser()).parse_args(argv)
         if args.table:
@@ -371,7 +371,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         jax.devices()  # starts the backend: part of the start-up
         startup_s = since_start()
         substeps = make_bench_env("flat", settings.training_preset, robot=settings.robot).substeps
-        results = results_lib.empty_results(settings, argv, substeps)
+        results = results_lib.empty_results(settings, argv, substeps, cache_state)
         if previous is not None:
             # Fails for another device, before measuring.
             results_lib.merge_results(previous, results)

@@ -106,9 +106,10 @@ def test_xla_records_loops_and_runs_branches_side_by_side_only_with_warps_jax_gr
     warp.graph_mode = "jax"
     options = backends.compiler_options("warp", warp)
     assert options["xla_gpu_command_buffer_scheduling_mode"] == "CONCURRENT"
-    assert {"WHILE", "CONDITIONAL", "FUSION", "CUSTOM_CALL"} <= set(
-        options["xla_gpu_enable_command_buffer"].split(",")
-    )
+    recorded = set(options["xla_gpu_enable_command_buffer"].split(","))
+    assert {"WHILE", "FUSION", "CUSTOM_CALL"} <= recorded
+    # Not branches: an MJX-Warp call under lax.cond in a conditional node hung a course run.
+    assert "CONDITIONAL" not in recorded
     # Names and values XLA knows (a misspelt one fails to compile on any backend).
     compiled = jax.jit(jnp.sin, compiler_options=options).lower(jnp.ones(3)).compile()
     assert float(compiled(jnp.zeros(3))[0]) == 0.0

@@ -207,6 +207,10 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
     # of earlier tests (test_courses') make the trainer's programs text-wise other than the CLI's,
     # and the persistent cache misses them (~30 s of compiling). Traced afresh, they are the CLI's.
     jax.clear_caches()
+    # The cache's state is the one the CLI found when it switched the caches on (said "cold"
+    # here), not what its own compiling left there later.
+    enable = bench.caches.enable
+    monkeypatch.setattr(bench.caches, "enable", lambda: {**enable(), "state": "cold"})
     out = tmp_path / "cpu.json"
     argv = [
         "--preset=cpu",
@@ -254,6 +258,7 @@ def test_cpu_preset_at_the_smallest_sizes_writes_the_issues_schema(
     assert row["physics_env_steps_per_s"] == results["physics_steps_per_s"]["4"] / 10
     assert row["gait_physics_env_steps_per_s"] == results["gait_physics_steps_per_s"]["4"] / 10
     assert row["stock_brax_env_steps_per_s"] is None  # skipped
+    assert results["cache"] == row["cache"] == "cold"
     assert _finite_positive(results["compile_s"]["quadcos"])
     assert results["compile_s"]["stock_brax"] is None
     assert results["time_to_walk_flat_s"] is None and results["time_to_cross_slope5_s"] is None

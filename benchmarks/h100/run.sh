@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The paper robot's throughput rows on one H100 (after `source experiments/gpu_setup.sh`, warp-lang
 # installed): our trainer with Warp and with JAX physics on flat and slope5, each row beside the raw
-# physics rate its own process measures at the same envs, and stock Brax SAC on the JAX env (as a user
-# runs it today) and on Warp; one JSON per (impl, terrain) process. IMPLS: the physics to run
-# (default "warp jax"). Then: python benchmarks/h100/merge.py $OUT/bench_*.json --into benchmarks/h100.json
+# physics rates its own process measures at the same envs (robots standing, and robots walking the
+# trot), and stock Brax SAC on the JAX env (as a user runs it today) and on Warp; one JSON per
+# (impl, terrain) process. IMPLS: the physics to run (default "warp jax"). Then:
+# python benchmarks/h100/merge.py $OUT/bench_*.json --into benchmarks/h100.json
 set -uo pipefail
 export OUT=${OUT:-/tmp/quadcos_out}
 mkdir -p "$OUT"
@@ -15,8 +16,8 @@ bench() {  # NAME FLAGS...
 for impl in ${IMPLS:-warp jax}; do
   rows=4096x8192x1,4096x8192x8
   [ $impl = warp ] && rows=$rows,16384x16384x4
-  bench ${impl}_flat --impl $impl --terrain flat --train_rows $rows --only physics,train,stock \
+  bench ${impl}_flat --impl $impl --terrain flat --train_rows $rows --only physics,gait,train,stock \
     --stock_rows 4096x8192x1
   bench ${impl}_slope5 --impl $impl --terrain slope5 --train_rows 4096x8192x1,4096x8192x8 \
-    --only physics,train
+    --only physics,gait,train
 done

@@ -11,7 +11,7 @@ from typing import Any
 import jax
 
 from quadcos import robot as robot_lib
-from quadcos._util import caches, provenance
+from quadcos._util import provenance
 from quadcos.benchmarking.settings import Settings, TrainRow
 from quadcos.env import backends
 
@@ -28,7 +28,9 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dict[str, Any]:
+def empty_results(
+    settings: Settings, argv: Sequence[str], substeps: int, cache: str
+) -> dict[str, Any]:
     """The results skeleton: every key of the issue's schema, numbers still None/empty."""
     device = jax.devices()[0]
     return {
@@ -58,7 +60,7 @@ def empty_results(settings: Settings, argv: Sequence[str], substeps: int) -> dic
         "impl": backends.resolve_impl(
             settings.impl, robot_lib.load(settings.robot).preset.gpu_physics
         ),
-        "cache": caches.state(jax.config.jax_compilation_cache_dir),
+        "cache": cache,
         "settings": {
             **dataclasses.asdict(settings),
             "train_rows": [str(row) for row in settings.train_rows],

@@ -117,16 +117,19 @@ def default_warp_config() -> ml_collections.ConfigDict:
 GRAPH_MODES = ("auto", "warp", "warp_staged", "jax", "none")
 
 
-# XLA's default command buffers (xla/debug_options_flags.cc) with loops and branches added.
-_COMMAND_BUFFERS = "FUSION,CUBLAS,CUBLASLT,CUSTOM_CALL,CUDNN,DYNAMIC_SLICE_FUSION,WHILE,CONDITIONAL"
+# XLA's default command buffers (xla/debug_options_flags.cc) with loops added. Not branches: with
+# them (the course curriculum's resets, an MJX-Warp call under `lax.cond`, in a conditional node)
+# and concurrent scheduling a --preset=any_slope run hung after its first chunk; without either it
+# ran, and the bench's rows run as fast without branches (benchmarks/h100/gait/).
+_COMMAND_BUFFERS = "FUSION,CUBLAS,CUBLASLT,CUSTOM_CALL,CUDNN,DYNAMIC_SLICE_FUSION,WHILE"
 
 
 def compiler_options(impl: str, warp_config: ml_collections.ConfigDict) -> dict[str, str]:
     """XLA options (`jax.jit(compiler_options=...)`) for the programs that step this physics.
-    With MJX-Warp's calls recorded by XLA (graph mode "jax"): loops and branches in XLA's command
-    buffers too, so that a chunk of env steps is one graph launch, and work that does not depend
-    on other work in a graph's branches side by side (CONCURRENT: e.g. the SAC updates beside the
-    physics, `overlap_updates`). Otherwise none."""
+    With MJX-Warp's calls recorded by XLA (graph mode "jax"): loops in XLA's command buffers too,
+    so that a chunk of env steps is one graph launch where its loop holds no branch
+    (`_COMMAND_BUFFERS`), and work that does not depend on other work in a graph's branches side by
+    side (CONCURRENT: e.g. the SAC updates beside the physics, `overlap_updates`). Otherwise none."""
     if impl != "warp" or warp_config.graph_mode != "jax":
         return {}
     return {

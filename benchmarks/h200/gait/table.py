@@ -1,8 +1,10 @@
 """The gait campaign's table: each row's trainer against the raw physics of standing robots and
 of robots walking the fixed trot, both measured in the row's own process, and against the
-default's walking physics on the same terrain.
+default's walking physics on the same terrain. Each folder's rows are the `bench_NAME_TERRAIN.json`
+it holds (NAME one of ROWS; `warp`, as `benchmarks/h100/run.sh` names its files, is the default).
 
     python benchmarks/h200/gait/table.py benchmarks/h200/gait/main
+    python benchmarks/h200/gait/table.py benchmarks/h100/gait/default benchmarks/h100/gait/jax
 """
 
 import json
@@ -11,22 +13,29 @@ import sys
 
 ROWS = {
     "default": "MJX's default (Warp's own graphs, the solver's early exit)",
+    "warp": "MJX's default (Warp's own graphs, the solver's early exit)",
     "gc0": "`warp.graph_conditional=false`",
     "jax": "`warp.graph_mode=jax`, `graph_conditional=false`",
     "jax_overlap": "the same, `sac.overlap_updates=true`",
 }
 
 
-def main(folder: pathlib.Path) -> None:
+def main(folders: list[pathlib.Path]) -> None:
     print(
         "| terrain | row | raw physics, standing (k env-steps/s) | walking | train, 1 update |"
         " / standing | / walking | / the default's walking | train, 8 updates | / walking |"
     )
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    many = len(folders) > 1
     for terrain in ("flat", "slope5"):
         default_walking = None
-        for name, label in ROWS.items():
-            results = json.loads((folder / f"bench_{name}_{terrain}.json").read_text())
+        found = [  # several folders: each row names its own
+            (folder / f"bench_{name}_{terrain}.json", label + f" (`{folder.name}/`)" * many)
+            for folder in folders
+            for name, label in ROWS.items()
+        ]
+        for path, label in [(path, label) for path, label in found if path.exists()]:
+            results = json.loads(path.read_text())
             rows = {row["updates_per_step"]: row for row in results["train"]}
             one, eight = rows[1], rows[8]
             standing, walking = one["physics_env_steps_per_s"], one["gait_physics_env_steps_per_s"]
@@ -41,4 +50,4 @@ def main(folder: pathlib.Path) -> None:
 
 
 if __name__ == "__main__":
-    main(pathlib.Path(sys.argv[1]))
+    main([pathlib.Path(arg) for arg in sys.argv[1:]])
