@@ -128,8 +128,9 @@ def compiler_options(impl: str, warp_config: ml_collections.ConfigDict) -> dict[
     """XLA options (`jax.jit(compiler_options=...)`) for the programs that step this physics.
     With MJX-Warp's calls recorded by XLA (graph mode "jax"): loops in XLA's command buffers too,
     so that a chunk of env steps is one graph launch where its loop holds no branch
-    (`_COMMAND_BUFFERS`), and work that does not depend on other work in a graph's branches side by
-    side (CONCURRENT: e.g. the SAC updates beside the physics, `overlap_updates`). Otherwise none."""
+    (`_COMMAND_BUFFERS`), and work that does not depend on other work in a graph's branches side
+    by side (CONCURRENT: e.g. the SAC updates beside the physics, `overlap_updates`). Otherwise
+    none."""
     if impl != "warp" or warp_config.graph_mode != "jax":
         return {}
     return {
