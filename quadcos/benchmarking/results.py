@@ -31,7 +31,8 @@ def _cpu_model() -> str:
 def empty_results(
     settings: Settings, argv: Sequence[str], substeps: int, cache: str
 ) -> dict[str, Any]:
-    """The results skeleton: every key of the issue's schema, numbers still None/empty."""
+    """The results skeleton: every key of the issue's schema, numbers still None/empty. `cache`:
+    the JAX compilation cache's state when the process switched it on ("cold" or "warm")."""
     device = jax.devices()[0]
     return {
         "device": device.device_kind,
