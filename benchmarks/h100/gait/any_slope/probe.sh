@@ -11,6 +11,7 @@ v() { local name=$1; shift
   env "$@" DUMP_EVERY=50 timeout -s KILL 170 python3 benchmarks/h100/gait/any_slope/probe.py \
     --preset=any_slope --seed=99 --max_seconds=120 --output_dir=/tmp/probe_runs/$name \
     --config.sac.eval_interval=2000000 $FAST 2>&1 | grep -v "^Module" > $O/probe_$name.log
+  cp /tmp/probe_runs/$name/startup.json $O/probe_$name.startup.json
   echo "$(date +%T) $name: $(grep -c '^step' $O/probe_$name.log) evaluations;" \
     "$(grep '^step' $O/probe_$name.log | tail -n 1)"; }
 v shipped X=1
