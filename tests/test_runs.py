@@ -60,7 +60,8 @@ def test_a_config_from_a_newer_quadcos_is_refused():
 @pytest.mark.parametrize(
     ("name", "runs", "seeds"),
     [
-        ("seeds", r"any_slope_top50_s\d+", [0, 1, 2]),
+        ("seeds", r"any_slope_top50_s\d+", [0, 1, 2, 3]),
+        ("seeds_jax", r"any_slope_jax_s\d+", [0, 1, 2]),
         ("seeds_restart_all", r"any_slope_ramp_s\d+", [0, 1, 2]),
         ("seeds_no_ramp", r"any_slope_promote2_s\d+", [0, 1, 2, 3]),
         ("seeds_promote1", None, [0, 1, 2]),
