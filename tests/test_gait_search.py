@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+import quadcos
 from quadcos import train
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from quadcos.equations import oscillator
@@ -118,9 +119,12 @@ def test_a_confirmation_that_does_not_fill_the_search_batch_is_named():
 
 @pytest.mark.slow
 def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path):
+    # On the test robot quad12 (12 joints): one end-to-end run for both paths, the
+    # search and a robot other than the paper's (each alone compiles a trainer of its own).
     run_dir = tmp_path / "scratch"
     result = run_cli(
         "--preset=smoke",
+        "--robot=quad12",
         "--config.env.action_centre=search",
         "--config.env.survival_min_speed=0.1",
         "--config.env.action_scale=0.5",
@@ -163,3 +167,8 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     # The run's clock counts from process start: the search's seconds come before step 0.
     assert rows[0]["wall_time_s"] >= config["run_info"]["gait_search_s"] > 0
+    # The robot is the run's, recorded, and its policy acts on that robot's observation.
+    assert config["run_info"]["env"]["robot"] == "quad12"
+    assert config["run_info"]["robot"]["name"] == "quad12"
+    policy = quadcos.load_policy(run_dir / "policy")
+    assert policy.act(np.zeros(3 + 3 + 12 + 5)).shape == (5,)

@@ -260,19 +260,6 @@ def test_the_env_drives_the_test_robot(quad12_env):
     assert float(targets[abduction]) == legs.home[abduction]  # abduction held at home
 
 
-@pytest.mark.slow
-def test_a_smoke_run_trains_the_test_robot_and_records_it(tmp_path):
-    from quadcos import train
-
-    run_dir = tmp_path / "run"
-    assert train.main(["--preset=smoke", "--robot=quad12", f"--output_dir={run_dir}"]) == 0
-    saved = json.loads((run_dir / "config.json").read_text())
-    assert saved["run_info"]["env"]["robot"] == "quad12"
-    assert saved["run_info"]["robot"]["name"] == "quad12"
-    policy = quadcos.load_policy(run_dir / "policy")
-    assert policy.act(np.zeros(3 + 3 + 12 + 5)).shape == (5,)
-
-
 def test_a_bad_robot_stops_train_before_anything_is_written(tmp_path, capsys):
     from quadcos import train
 
