@@ -54,7 +54,7 @@ _SMOKE_ARGS = ("--preset=smoke", "--no_progress", "--seed=3")
 # (From a cold cache on two cores: test_bench about 100 s, test_env, test_evaluate, test_faults
 # and test_notebooks 70-90 s each, test_gait_search about 70 s, test_robot about 45 s, the rest
 # less. Taken third, beside the smoke run, test_gait_search's end-to-end run took 90 s, not 66 s,
-# and the suite 75 s longer.)
+# and the suite 73 s longer, in one run each.)
 FILE_ORDER = (
     "test_env.py",
     "test_evaluate.py",
