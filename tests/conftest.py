@@ -53,8 +53,7 @@ _SMOKE_ARGS = ("--preset=smoke", "--no_progress", "--seed=3")
 # before the notebooks, which reuse its rollouts. The other files follow in their usual order.
 # (From a cold cache on two cores: test_bench about 100 s, test_env, test_evaluate, test_faults
 # and test_notebooks 70-90 s each, test_gait_search about 70 s, test_robot about 45 s, the rest
-# less. Taken third, beside the smoke run, test_gait_search's end-to-end run took 90 s, not 66 s,
-# and the suite 73 s longer, in one run each.)
+# less; each varies by 10-20 % between runs of the same suite.)
 FILE_ORDER = (
     "test_env.py",
     "test_evaluate.py",
