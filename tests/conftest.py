@@ -33,7 +33,8 @@ _CACHE = pathlib.Path(
 jax.config.update("jax_compilation_cache_dir", str(_CACHE))
 # Every program, however quick to compile, as the CLI caches them (quadcos._util.caches): the
 # workers, CLI runs and notebook kernels then compile each small program once between them, not
-# once each (a fresh clone's suite: 55 s less CPU time than with a 0.5-s floor).
+# once each (one pair of fresh-clone runs: 14.2 CPU-minutes against 15.2 with a 0.5-s floor, within
+# this machine's spread between runs of one suite).
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
 jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
 
