@@ -36,7 +36,6 @@ def main() -> None:
         )
         rows[name] = {"env_overrides": overrides, "terrain": terrain}
         rows[name] |= {key: result[key] for key in KEYS}
-        rows[name]["success"] = [episode["success"] for episode in result["episodes"]]
         print(name, {key: round(result[key], 3) for key in KEYS}, flush=True)
     evaluation.write_json(args.out, {"episodes": args.episodes, "seconds": 30.0, "variants": rows})
 
