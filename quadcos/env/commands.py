@@ -137,7 +137,9 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
             f" {config.speed_min}, {config.speed_max}"
         )
     if not 0 <= config.yaw_rate_max < math.inf:
-        raise ValueError(f"commands.yaw_rate_max must be finite and >= 0; got {config.yaw_rate_max}")
+        raise ValueError(
+            f"commands.yaw_rate_max must be finite and >= 0; got {config.yaw_rate_max}"
+        )
     if not 0 <= config.zero_yaw_rate_probability <= 1:
         raise ValueError(
             "commands.zero_yaw_rate_probability must be in [0, 1]; got"
@@ -148,7 +150,9 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
             f"commands.resample_seconds must be finite and > 0; got {config.resample_seconds}"
         )
     if not 0 < config.heading_leash <= math.pi:
-        raise ValueError(f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}")
+        raise ValueError(
+            f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}"
+        )
     return parsed
 
 

@@ -408,20 +408,14 @@ class QuadrupedEnv(base.Env):
         return self.commands.spec.enabled
 
     def with_commands(self, spec: str) -> "QuadrupedEnv":
-        """This env following command spec `spec` ("random" or a schedule, `commands.parse_commands`)
-        instead of its own: a shallow copy sharing the models (for evaluating a commanded policy
-        on a schedule).
-
-        Raises:
-          ValueError: a bad spec, "" (the observation would lose the command), or an env without
-            commands (its policies observe none).
-        """
+        """This env (a shallow copy sharing its models) following command spec `spec` ("random"
+        or a schedule) instead of its own. Raises ValueError for a bad spec, "", or an env without
+        commands (its policy observes none)."""
         parsed = commands.parse_commands(spec)
         if not (parsed.enabled and self.commanded):
             raise ValueError(
                 f"commands {spec!r}: only an env with commands can take other ones (its policy"
-                " observes the command); this one has commands.spec"
-                f" {self.config.commands.spec!r}, and '' turns them off"
+                f" observes them); this one has commands.spec {self.config.commands.spec!r}"
             )
         config = ml_collections.ConfigDict(self.config.to_dict())
         config.commands.spec = spec
@@ -431,20 +425,16 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
-    def _track(
-        self, info: dict[str, Any], yaw: jax.Array, time_before: jax.Array, time_now: jax.Array
-    ) -> tuple[dict[str, jax.Array], dict[str, Any]]:
-        """The reward's command arguments for this step (none without commands: Eqs. 8–13) and
-        `info` with the command advanced: the heading ψ* by the step's ω*·dt (leashed to `yaw`),
-        then the command for the next step."""
+    def _track(self, info: dict[str, Any], yaw: jax.Array, before: jax.Array, now: jax.Array):
+        """The reward's command arguments for a step from time `before` to `now` (s; none
+        without commands: Eqs. 8–13) and `info` with the command advanced (`commands.Plan`)."""
         if not self.commanded:
             return {}, info
         command = info["velocity_command"]
-        speed, yaw_rate = command.velocity[0], command.velocity[1]
-        leash = self.config.commands.heading_leash
+        yaw_rate, leash = command.velocity[1], self.config.commands.heading_leash
         heading = commands.advance_heading(command.heading, yaw_rate, yaw, self.dt, leash)
-        tracking = {"heading": heading, "commanded_progress": speed * self.dt}
-        following = self.commands.advance(command.replace(heading=heading), time_before, time_now)
+        tracking = {"heading": heading, "commanded_progress": command.velocity[0] * self.dt}
+        following = self.commands.advance(command.replace(heading=heading), before, now)
         return tracking, {**info, "velocity_command": following}
 
     def _moving(self, mean_speed: jax.Array, tracking: dict[str, jax.Array]) -> jax.Array | bool:

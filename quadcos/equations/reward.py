@@ -126,7 +126,7 @@ def reward_terms(
     weights: RewardWeights = RewardWeights(),
     variant: str = "full",
     max_progress: float = jnp.inf,
-    heading: jnp.ndarray = 0.0,
+    heading: jnp.ndarray | None = None,
     commanded_progress: jnp.ndarray | None = None,
 ) -> dict[str, jnp.ndarray]:
     """Eq. 13's terms, each weighted by α or β; their sum is the step reward. `moving`: whether
@@ -134,7 +134,7 @@ def reward_terms(
 
     Velocity commands: `heading` ψ* (rad) turns the forward, lateral and yaw terms to the
     commanded heading; `commanded_progress` v*·dt (m), where given, makes the forward term
-    `forward_tracking`. Their defaults (ψ* = 0, no v*) are Eqs. 8–13.
+    `forward_tracking`. Without them (as with ψ* = 0, bit for bit) the terms are Eqs. 8–13.
 
     variant "full" is Eq. 13. variant "xy" is Fig. 9's r_xy: only r_y + r_x while walking (no r_s,
     no r_o); a fall still gives r_p and ends the episode, as in the full reward.
@@ -147,7 +147,10 @@ def reward_terms(
     alpha = jnp.asarray(fell, jnp.float32)
     beta = 1.0 - alpha
     walking = beta if variant == "full" else jnp.zeros_like(beta)
-    progress, sideways = along_heading(x_now - x_last, y_now - y_last, heading)
+    progress, sideways = x_now - x_last, y_now - y_last
+    if heading is not None:
+        progress, sideways = along_heading(progress, sideways, heading)
+        yaw = yaw_error(yaw, heading)
     if commanded_progress is None:
         forward = forward_progress(progress, 0.0, weights, max_progress)
     else:
@@ -157,5 +160,5 @@ def reward_terms(
         "survival": walking * survival(weights, moving),
         "forward": beta * forward,
         "lateral": beta * lateral_drift(sideways, 0.0, weights),
-        "orientation": walking * orientation(pitch, yaw_error(yaw, heading), roll, slope, weights),
+        "orientation": walking * orientation(pitch, yaw, roll, slope, weights),
     }
