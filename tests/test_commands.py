@@ -305,9 +305,8 @@ def test_gait_metrics_on_a_synthetic_trace():
     (commanded 0), one foot on the ground slipping 0.05 m/s; robot 1 falls at its first step."""
     dt, n = 0.1, 2
     layout = types.SimpleNamespace(
-        foot_positions_world=lambda data: data.geom_xpos,
+        foot_geoms=jnp.arange(4),
         foot_radius=jnp.full(4, 0.02),
-        joint_torques=lambda data: data.qfrc_actuator,
         joint_qvel=jnp.arange(2),
         torque_limit=jnp.array([10.0, 20.0]),
         mass=4.0,

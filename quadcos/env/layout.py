@@ -109,14 +109,6 @@ class Layout:
         # Elementwise, not a matrix product: exact in float32 (no TF32 on a GPU).
         return self.home + (self.rhythm_map * rhythm).sum(-1)
 
-    def foot_positions_world(self, data):
-        """(4, 3) the feet's centres in the world frame, m (MuJoCo's, as of the last step)."""
-        return data.geom_xpos[self.foot_geoms]
-
-    def joint_torques(self, data):
-        """(J,) the actuators' torques on the leg joints, N m."""
-        return data.qfrc_actuator[self.joint_qvel]
-
     def controls(self, targets, data):
         """(nu,) actuator controls for (J,) joint targets: the targets for position servos, PD
         torques (clipped to the torque limits) for motors."""

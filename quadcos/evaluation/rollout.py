@@ -147,8 +147,9 @@ def _initial_stats(state: Any, lanes: jax.Array) -> EpisodeStats:
 
 
 def _feet(env: env_lib.QuadrupedEnv, data: Any) -> tuple[jax.Array, jax.Array]:
-    """(n, 4, 2) m the feet's horizontal positions, (n, 4) whether each touches the ground."""
-    feet = jax.vmap(env.layout.foot_positions_world)(data)
+    """(n, 4, 2) m the feet's horizontal positions, (n, 4) whether each touches the ground.
+    Batched data is indexed, not vmapped: MJX-Warp's Data has fields without a batch axis."""
+    feet = data.geom_xpos[:, env.layout.foot_geoms]
     ground = env.terrain.height_at(feet[..., 0], feet[..., 1])
     touching = feet[..., 2] - env.layout.foot_radius - ground < CONTACT_CLEARANCE
     return feet[..., :2], touching
@@ -200,7 +201,7 @@ def _update_gait_stats(
     slipping = touching & gait.foot_contact
     foot_speed = jnp.linalg.norm(feet - gait.foot_xy, axis=-1) / dt
     slip = (foot_speed * slipping).sum(-1) / jnp.maximum(slipping.sum(-1), 1)
-    torque = jax.vmap(layout.joint_torques)(data)
+    torque = data.qfrc_actuator[:, layout.joint_qvel]  # N m
     power = jnp.abs(torque * data.qvel[:, layout.joint_qvel]).sum(-1)
     ratio = (jnp.abs(torque) / layout.torque_limit).max(-1)
     if not np.isfinite(np.asarray(layout.torque_limit)).any():
