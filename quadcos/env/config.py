@@ -8,7 +8,7 @@ import math
 import ml_collections
 
 from quadcos import robot as robot_lib
-from quadcos.env import backends, randomization
+from quadcos.env import backends, commands, randomization
 from quadcos.equations import oscillator, reward
 
 CONTROLLERS = ("oscillator", "joint")
@@ -56,6 +56,15 @@ def default_config() -> ml_collections.ConfigDict:
     # beyond §3.3's rhythm, for leaning back on steep descents: oscillator.posture_offsets);
     # 0 = the paper's five-value action.
     config.posture_bound = 0.0
+    # Turning (beyond §3.3): "none" (the paper), or one more action value u ∈ [−1, 1] that makes
+    # the rhythm asymmetric: "hip_amplitude_difference" (right hips' swing × (1 + turn_bound·u),
+    # left × (1 − turn_bound·u)) or "abduction_stride" (12-joint robots: each leg's abduction
+    # follows its hip swing × ±turn_bound·u, rotating the strides). oscillator.TURN_MODES.
+    config.turn_mode = "none"
+    config.turn_bound = 0.5  # the largest share (amplitude difference, stride rotation) u reaches
+    # Velocity commands (v*, ω*) the policy observes and the reward tracks; off ("") by default:
+    # quadcos.env.commands.
+    config.commands = commands.default_config()
     config.reward_variant = "full"  # "full" (Eq. 13) or "xy" (Fig. 9's r_xy)
     # m/s: Eq. 9 pays r_s "for every step of movement". 0 reads that as every control step
     # alive, standing still included; > 0 pays r_s only on steps whose forward speed reaches
@@ -121,6 +130,14 @@ def resolve(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
         resolved.ls_iterations = robot.preset.ls_iterations
     if not resolved.warp.hfield_contacts:
         resolved.warp.hfield_contacts = robot.preset.hfield_contacts
+    if not resolved.commands.speed_max:
+        resolved.commands.speed_max = commands.speed_range(
+            robot.preset.command_speed_max, robot.description.standing_height
+        )
+    if not resolved.commands.yaw_rate_max:
+        resolved.commands.yaw_rate_max = commands.yaw_rate_range(
+            robot.preset.command_yaw_rate_max, resolved.commands.speed_max
+        )
     return resolved
 
 
@@ -128,7 +145,9 @@ def action_size(config: ml_collections.ConfigDict) -> int:
     """Values in an action of an env with this config."""
     if config.controller == "joint":
         return len(robot_lib.load(config.robot).description.joint_names)
-    return oscillator.RHYTHM_SIZE + (oscillator.POSTURE_SIZE if config.posture_bound > 0 else 0)
+    posture = oscillator.POSTURE_SIZE if config.posture_bound > 0 else 0
+    turn = oscillator.TURN_SIZE if config.turn_mode != "none" else 0
+    return oscillator.RHYTHM_SIZE + posture + turn
 
 
 def validate_config(config: ml_collections.ConfigDict) -> None:
@@ -226,6 +245,22 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError("start_ramp_s > 0 needs controller='oscillator' (it ramps the rhythm in)")
     if config.posture_bound > 0 and config.controller != "oscillator":
         raise ValueError("posture_bound > 0 needs controller='oscillator' (it offsets the rhythm)")
+    commands.validate(config.commands)
+    if config.turn_mode not in oscillator.TURN_MODES:
+        raise ValueError(
+            f"unknown turn_mode {config.turn_mode!r}; known: {', '.join(oscillator.TURN_MODES)}"
+        )
+    if config.turn_mode != "none" and config.controller != "oscillator":
+        raise ValueError(f"turn_mode {config.turn_mode!r} needs controller='oscillator'")
+    if not 0.0 < config.turn_bound <= 1.0:
+        raise ValueError(f"turn_bound must be in (0, 1]; got {config.turn_bound}")
+    if config.turn_mode == "abduction_stride":
+        legs = robot_lib.load(config.robot).description.legs
+        if any(leg.abduction is None for leg in legs):
+            raise ValueError(
+                f"turn_mode 'abduction_stride' needs a robot with abduction joints (12 joints);"
+                f" robot {config.robot!r} has none: use 'hip_amplitude_difference'"
+            )
     if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
         raise ValueError(
             f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"

@@ -29,6 +29,9 @@ class Layout:
     joint_qvel: Any  # (J,)
     home: Any  # (J,) rad
     rhythm_map: Any  # (J, 8): Eq. 3's outputs onto the joints, with each joint's sign
+    # (J, 4): each leg's abduction angle (positive: foot to the left) onto its abduction joint,
+    # with the joint's sign; zeros for legs without one
+    abduction_map: Any
     actuator_joint: Any  # (nu,) index into the joints of each actuator's joint
     motor: bool  # torque actuators: quadcos closes the PD loop
     kp: Any  # (J,)
@@ -38,6 +41,9 @@ class Layout:
     standing_height: float
     torso_centre: Any  # (3,)
     torso_half_size: Any  # (3,)
+    foot_geoms: Any  # (4,) geom ids of the feet
+    foot_radius: Any  # (4,) m
+    mass: float  # kg, the whole robot
 
     @classmethod
     def of(cls, description: RobotDescription, model: mujoco.MjModel, xp=jnp) -> "Layout":
@@ -51,6 +57,7 @@ class Layout:
         for index, leg in enumerate(description.legs):
             rhythm_map[description.hip_joint[index], 2 * index] = leg.hip_sign
             rhythm_map[description.knee_joint[index], 2 * index + 1] = leg.knee_sign
+        abduction_map = _abduction_map(description, model)
         real = xp.float32 if xp is jnp else xp.float64
 
         def array(values, dtype=real):
@@ -66,6 +73,7 @@ class Layout:
             joint_qvel=array(description.joint_qvel, xp.int32),
             home=array(description.home),
             rhythm_map=array(rhythm_map),
+            abduction_map=array(abduction_map),
             actuator_joint=array(description.actuator_joint, xp.int32),
             motor=description.actuator_kind == "motor",
             kp=array(description.gains.kp),
@@ -80,7 +88,20 @@ class Layout:
             standing_height=description.standing_height,
             torso_centre=array(description.torso_centre),
             torso_half_size=array(description.torso_half_size),
+            foot_geoms=array([leg.foot_geom for leg in description.legs], xp.int32),
+            foot_radius=array([leg.foot_radius for leg in description.legs]),
+            mass=description.mass,
         )
+
+    @property
+    def has_abduction(self) -> bool:
+        """Whether every leg has an abduction joint (a 12-joint robot)."""
+        return bool((np.abs(np.asarray(self.abduction_map)).sum(0) > 0).all())
+
+    def abduction_targets(self, abduction):
+        """(J,) joint offsets (rad) for (4,) abduction angles per leg (LF, RF, LB, RB; positive
+        moves the foot to the left, `oscillator.abduction_stride`); other joints none."""
+        return (self.abduction_map * abduction).sum(-1)
 
     def rhythm_targets(self, rhythm):
         """(J,) joint targets, rad: the home pose moved by Eq. 3's (8,) oscillator outputs (LF hip,
@@ -107,3 +128,20 @@ class Layout:
         if self.orientation_sensor is not None:
             return data.sensordata[self.orientation_sensor]
         return data.qpos[self.quaternion]
+
+
+def _abduction_map(description: RobotDescription, model: mujoco.MjModel) -> np.ndarray:
+    """(J, 4): +1 / −1 where leg i's abduction joint moves its foot to the left / right with a
+    larger angle (at the home pose), 0 elsewhere."""
+    mapping = np.zeros((len(description.joint_names), 4))
+    data = mujoco.MjData(model)
+    data.qpos[np.asarray(description.joint_qpos)] = description.home
+    mujoco.mj_kinematics(model, data)
+    for index, leg in enumerate(description.legs):
+        if leg.abduction is None:
+            continue
+        joint = model.joint(leg.abduction).id
+        lever = data.geom_xpos[leg.foot_geom] - data.xanchor[joint]
+        sideways = np.cross(data.xaxis[joint], lever)[1]
+        mapping[description.joint_names.index(leg.abduction), index] = np.sign(sideways)
+    return mapping

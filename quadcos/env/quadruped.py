@@ -17,7 +17,7 @@ from quadcos import robot
 from quadcos import terrain as terrain_lib
 from quadcos._util.overrides import apply_overrides
 from quadcos._util.quiet import warp_absence_unprinted
-from quadcos.env import backends, randomization
+from quadcos.env import backends, commands, randomization
 from quadcos.env.config import (  # noqa: F401 (the config's home; re-exported as quadcos.env's)
     CONTROLLERS,
     OSCILLATOR_FORMS,
@@ -52,9 +52,10 @@ class QuadrupedEnv(base.Env):
     Observation (paper §3.3): (v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8) — world-frame torso
     velocity (m/s), attitude (rad, pitch nose-up), joint angles (rad, Eq. 3 order); optionally the
     slope estimate and (cos ψ, sin ψ); the filtered action (the controller's command) when
-    `action_filter_tau` > 0. Action: [−1, 1]^5 = (A_k, A_h, T, φ1, φ3) for the oscillator
-    controller (then front and hind hip offsets with `posture_bound` > 0), [−1, 1]^8 joint targets
-    (×0.5 rad) for the joint controller.
+    `action_filter_tau` > 0; the velocity command (v* m/s, ω* rad/s) when `commands.spec` is
+    set. Action: [−1, 1]^5 = (A_k, A_h, T, φ1, φ3) for the oscillator controller (then front and
+    hind hip offsets with `posture_bound` > 0, then the turn value with a `turn_mode`), [−1, 1]^8
+    joint targets (×0.5 rad) for the joint controller.
     """
 
     def __init__(
@@ -91,6 +92,7 @@ class QuadrupedEnv(base.Env):
         tau = config.survival_speed_tau
         self._speed_blend = 1.0 - math.exp(-self.dt / tau) if tau > 0 else 1.0
         self.weights = reward.RewardWeights(**config.reward.to_dict())
+        self.commands = commands.Plan(commands.validate(config.commands), config.commands)
         self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
         self.layout = Layout.of(self.robot.description, self.mj_model)
         self._torso_body = self.mj_model.body(self.robot.description.root_body).id
@@ -153,6 +155,9 @@ class QuadrupedEnv(base.Env):
         data = data.replace(qpos=qpos)
         data = data.replace(ctrl=layout.controls(joints, data))
         info = {}
+        if self.commanded:
+            rng, command_key = jax.random.split(rng)
+            info["velocity_command"] = self.commands.start(command_key)
         if self.randomized:
             rng, draw_key = jax.random.split(rng)
             physics = randomization.sample(
@@ -162,7 +167,7 @@ class QuadrupedEnv(base.Env):
         data = mjx.forward(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
-        observed = self._observe(data, phase, command)
+        observed = self._observe(data, phase, command, info)
         obs, info = self._seen(observed.obs, info)
         zero = jnp.zeros(())
         metrics = {f"reward/{name}": zero for name in reward.TERM_NAMES}
@@ -187,6 +192,8 @@ class QuadrupedEnv(base.Env):
         command = jnp.where(just_reset, 0.0, state.info["command"])
         mean_speed = jnp.where(just_reset, 0.0, state.info["mean_speed"])
         info = self._perturb(state.info, just_reset)
+        if self.commanded:
+            info["velocity_command"] = self.commands.restart(info["velocity_command"], just_reset)
         if self.randomized:
             push = randomization.push_force(info["physics"])
             torso_force = before.xfrc_applied.at[self._torso_body, :3].set(push)
@@ -194,14 +201,16 @@ class QuadrupedEnv(base.Env):
         data, phase, command = self._actuate(before, phase, command, action, info)
         if self.randomized:
             info["action"] = jnp.clip(action, -1.0, 1.0)
-        observed = self._observe(data, phase, command)
+        attitude = slope.attitude(self.layout.orientation(data))
         position = data.qpos[self.layout.position]
         slope_truth = self.terrain.slope_at(position[0], position[1])
         finite = jnp.isfinite(data.qpos).all() & jnp.isfinite(data.qvel).all()
-        fell = self._fell(data, observed.attitude, slope_truth) | ~finite
+        fell = self._fell(data, attitude, slope_truth) | ~finite
         last = before.qpos[self.layout.position]
         forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
+        tracking, info = self._track(info, attitude.yaw, before.time, data.time)
+        observed = self._observe(data, phase, command, info)
         terms = reward.reward_terms(
             x_now=position[0],
             x_last=last[0],
@@ -212,10 +221,11 @@ class QuadrupedEnv(base.Env):
             roll=observed.attitude.roll,
             slope=observed.slope_estimate,
             fell=fell,
-            moving=self._moving(mean_speed),
+            moving=self._moving(mean_speed, tracking),
             weights=self.weights,
             variant=self.config.reward_variant,
             max_progress=max_progress(self.config, self.dt),
+            **tracking,
         )
         metrics = {f"reward/{name}": value for name, value in terms.items()}
         metrics |= {
@@ -268,12 +278,41 @@ class QuadrupedEnv(base.Env):
         pose moved by the rhythm."""
         if self.config.controller == "joint":
             return self.layout.home + JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
-        return self.layout.rhythm_targets(self.rhythm(action, phase, time))
+        targets = self.layout.rhythm_targets(self.rhythm(action, phase, time))
+        if self.config.turn_mode == "abduction_stride":
+            swing = self._swing(action, phase, time) * self._ramp(time)
+            turn = action[..., self._turn_index]
+            abduction = oscillator.abduction_stride(swing, turn, self.config.turn_bound)
+            targets = targets + self.layout.abduction_targets(abduction)
+        return targets
 
     def rhythm(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
         """(8,) Eq. 3's oscillator outputs (rad; LF hip, LF knee, ..., RB knee) that the oscillator
         controller's `action` commands at phase ψ / time t (s since the episode's start), hip
-        offsets included and, with `start_ramp_s`, a growing share of it in the first seconds."""
+        offsets included and, with `start_ramp_s`, a growing share of it in the first seconds
+        (the "abduction_stride" turn acts on other joints: `joint_targets`)."""
+        targets = self._swing(action, phase, time)
+        if self.config.posture_bound > 0:
+            targets += oscillator.posture_offsets(
+                action[..., oscillator.RHYTHM_SIZE :], self.config.posture_bound
+            )
+        return targets * self._ramp(time)
+
+    @property
+    def _turn_index(self) -> int:
+        """Where the turn value sits in an action (after the rhythm and the posture values)."""
+        posture = oscillator.POSTURE_SIZE if self.config.posture_bound > 0 else 0
+        return oscillator.RHYTHM_SIZE + posture
+
+    def _ramp(self, time: jax.Array) -> jax.Array | float:
+        """The share of the rhythm acting at time t (`start_ramp_s`; 1 without a ramp)."""
+        if self.config.start_ramp_s > 0:  # a growing share in an episode's first seconds
+            return oscillator.start_ramp(time, self.config.start_ramp_s)
+        return 1.0
+
+    def _swing(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
+        """(8,) Eq. 3's outputs for `action`, left and right hips apart with the
+        "hip_amplitude_difference" turn; no posture offsets, no ramp."""
         params = self.rhythm_parameters(action)
         phases = oscillator.trot_phases(params.phi1, params.phi3)
         if self.config.oscillator_form == "literal":
@@ -284,12 +323,9 @@ class QuadrupedEnv(base.Env):
             targets = oscillator.rhythm_at_phase(
                 phase, params.amplitude_hip, params.amplitude_knee, phases
             )
-        if self.config.posture_bound > 0:
-            targets += oscillator.posture_offsets(
-                action[..., oscillator.RHYTHM_SIZE :], self.config.posture_bound
-            )
-        if self.config.start_ramp_s > 0:  # a growing share in an episode's first seconds
-            targets = targets * oscillator.start_ramp(time, self.config.start_ramp_s)
+        if self.config.turn_mode == "hip_amplitude_difference":
+            turn = action[..., self._turn_index]
+            targets = oscillator.hip_amplitude_difference(targets, turn, self.config.turn_bound)
         return targets
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
@@ -366,12 +402,51 @@ class QuadrupedEnv(base.Env):
             phase = jnp.mod(oscillator.TWO_PI * data.time / periods[-1], oscillator.TWO_PI)
         return data, phase, command
 
-    def _moving(self, mean_speed: jax.Array) -> jax.Array | bool:
+    @property
+    def commanded(self) -> bool:
+        """Whether the robots follow velocity commands (`commands.spec` set)."""
+        return self.commands.spec.enabled
+
+    def with_commands(self, spec: str) -> "QuadrupedEnv":
+        """This env (a shallow copy sharing its models) following command spec `spec` ("random"
+        or a schedule) instead of its own. Raises ValueError for a bad spec, "", or an env without
+        commands (its policy observes none)."""
+        parsed = commands.parse_commands(spec)
+        if not (parsed.enabled and self.commanded):
+            raise ValueError(
+                f"commands {spec!r}: only an env with commands can take other ones (its policy"
+                f" observes them); this one has commands.spec {self.config.commands.spec!r}"
+            )
+        config = ml_collections.ConfigDict(self.config.to_dict())
+        config.commands.spec = spec
+        copy = object.__new__(type(self))
+        copy.__dict__.update(self.__dict__)
+        copy.config = config
+        copy.commands = commands.Plan(parsed, config.commands)
+        return copy
+
+    def _track(self, info: dict[str, Any], yaw: jax.Array, before: jax.Array, now: jax.Array):
+        """The reward's command arguments for a step from time `before` to `now` (s; none
+        without commands: Eqs. 8–13) and `info` with the command advanced (`commands.Plan`)."""
+        if not self.commanded:
+            return {}, info
+        command = info["velocity_command"]
+        yaw_rate, leash = command.velocity[1], self.config.commands.heading_leash
+        heading = commands.advance_heading(command.heading, yaw_rate, yaw, self.dt, leash)
+        tracking = {"heading": heading, "commanded_progress": command.velocity[0] * self.dt}
+        following = self.commands.advance(command.replace(heading=heading), before, now)
+        return tracking, {**info, "velocity_command": following}
+
+    def _moving(self, mean_speed: jax.Array, tracking: dict[str, jax.Array]) -> jax.Array | bool:
         """Whether a step earns Eq. 9's r_s: every step (survival_min_speed 0), or a step whose
-        low-passed forward speed (m/s) reaches survival_min_speed."""
+        low-passed forward speed (m/s) reaches survival_min_speed — with commands, or half the
+        commanded speed where that is less (a robot asked to stand earns r_s standing)."""
         if self.config.survival_min_speed == 0:
             return True
-        return mean_speed >= self.config.survival_min_speed
+        threshold = self.config.survival_min_speed
+        if tracking:
+            threshold = jnp.minimum(threshold, 0.5 * tracking["commanded_progress"] / self.dt)
+        return mean_speed >= threshold
 
     def _period(self, command: jax.Array) -> jax.Array:
         """The oscillator period T (s) that `command` sets; the joint controller has none, so its
@@ -380,7 +455,9 @@ class QuadrupedEnv(base.Env):
             return jnp.asarray(oscillator.FIXED_TROT.period, jnp.float32)
         return self.rhythm_parameters(command).period
 
-    def _observe(self, data: mjx.Data, phase: jax.Array, command: jax.Array) -> _Observed:
+    def _observe(
+        self, data: mjx.Data, phase: jax.Array, command: jax.Array, info: dict[str, Any]
+    ) -> _Observed:
         layout = self.layout
         quaternion = layout.orientation(data)
         body = slope.attitude(quaternion)
@@ -398,6 +475,8 @@ class QuadrupedEnv(base.Env):
             parts.append(jnp.stack([jnp.cos(phase), jnp.sin(phase)]))
         if self.config.action_filter_tau > 0:
             parts.append(command)
+        if self.commanded:
+            parts.append(info["velocity_command"].velocity)
         return _Observed(obs=jnp.concatenate(parts), attitude=body, slope_estimate=slope_estimate)
 
     def _fell(self, data: mjx.Data, body: slope.Attitude, slope_truth: jax.Array) -> jax.Array:

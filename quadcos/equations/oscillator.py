@@ -206,6 +206,38 @@ def posture_offsets(posture: jnp.ndarray, bound: float) -> jnp.ndarray:
     return posture[..., :1] * _FRONT_HIPS + posture[..., 1:2] * _HIND_HIPS
 
 
+# Turning: an extension beyond §3.3, off by default (`env.turn_mode` "none"). Eq. 3 drives the
+# left and right legs alike, so its gait walks straight; one more action value u ∈ [−1, 1] makes
+# the rhythm asymmetric, in one of two ways (docs/env.md compares them). Both are exactly Eq. 3 at
+# u = 0, and u > 0 turns left (yaw rate > 0) for a forward gait.
+TURN_MODES = ("none", "hip_amplitude_difference", "abduction_stride")
+TURN_SIZE = 1
+_LEFT_HIPS = np.array([1.0, 0, 0, 0, 1.0, 0, 0, 0])  # LF, LB hips in the Eq. 3 order
+_RIGHT_HIPS = np.array([0, 0, 1.0, 0, 0, 0, 1.0, 0])  # RF, RB hips
+_STRIDE_ROTATION = np.array([1.0, 1.0, -1.0, -1.0])  # front legs one way, hind legs the other
+
+
+def hip_amplitude_difference(rhythm: jnp.ndarray, turn: jnp.ndarray, bound: float) -> jnp.ndarray:
+    """Eq. 3's outputs (..., 8) with left and right hip amplitudes apart: the right hips' swing
+    (RF, RB) × (1 + bound·u), the left hips' (LF, LB) × (1 − bound·u), knees unchanged, for a turn
+    action u (...,) in [−1, 1] (clipped): the right legs stride further and the robot turns left for
+    u > 0. u = 0 multiplies every output by exactly 1: Eq. 3 unchanged."""
+    turn = bound * jnp.clip(jnp.asarray(turn), -1.0, 1.0)[..., None]
+    return rhythm * (1.0 + turn * (_RIGHT_HIPS - _LEFT_HIPS))
+
+
+def abduction_stride(rhythm: jnp.ndarray, turn: jnp.ndarray, bound: float) -> jnp.ndarray:
+    """(..., 4) abduction angles (rad, LF, RF, LB, RB; positive moves the foot to the left) that
+    rotate each leg's stride for a turn action u (...,) in [−1, 1] (clipped): a leg's abduction
+    follows its hip's swing Y_hip (Eq. 3's output, rad), bound·u·Y_hip, the front legs' strides
+    turned to the left and the hind legs' to the right for u > 0, so that their stance pushes
+    yaw the body left. A constant abduction offset would shift the feet, not turn them: the
+    sideways swing must follow the stride. For robots with abduction joints (12-joint); u = 0
+    gives exactly 0."""
+    turn = bound * jnp.clip(jnp.asarray(turn), -1.0, 1.0)[..., None]
+    return turn * _STRIDE_ROTATION * rhythm[..., 0::2]
+
+
 def start_ramp(time: jnp.ndarray, ramp_seconds: float) -> jnp.ndarray:
     """The share of the rhythm (Eq. 3's outputs, hip offsets included) that acts `time` s into an
     episode — an extension, not §3.3: rising linearly from 0 at the start to 1 at `ramp_seconds`,

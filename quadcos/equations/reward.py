@@ -7,6 +7,12 @@ progress) is written here with x, and its r_x (Eq. 11, sideways drift) with y.
 Eq. 13: r = α r_p + β (r_s + r_y + r_x + r_o), α = 1 and β = 0 when the robot falls, else α = 0
 and β = 1. `reward_terms` returns every term already multiplied by α or β, so the terms sum to r
 and can be logged one by one as reward/<name>.
+
+Velocity commands (issue 58, beyond the paper; `quadcos.env.commands`) generalise two terms: the
+step's displacement is measured along the commanded heading ψ* (forward) and across it (lateral)
+instead of along x and y; the forward term pays progress up to the commanded distance v*·dt and
+takes back what exceeds it (`forward_tracking`); the yaw term penalises the yaw relative to ψ*
+(`orientation`). With ψ* = 0 (ω* = 0 throughout) and no v*, every term is Eqs. 8–13 exactly.
 """
 
 from typing import NamedTuple
@@ -53,6 +59,24 @@ def forward_progress(
     return weights.forward * jnp.minimum(x_now - x_last, max_progress)
 
 
+def forward_tracking(
+    progress: jnp.ndarray, commanded_progress: jnp.ndarray, weights: RewardWeights
+) -> jnp.ndarray:
+    """Eq. 10 generalised to track a commanded speed v*: w1 (c − |d − c|) for progress d (m)
+    along the commanded heading and commanded progress c = v*·dt (m): w1·d up to c (Eq. 10's
+    reward for progress), falling again beyond it, so that the best step covers exactly c."""
+    return weights.forward * (commanded_progress - jnp.abs(progress - commanded_progress))
+
+
+def along_heading(
+    dx: jnp.ndarray, dy: jnp.ndarray, heading: jnp.ndarray
+) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """A world displacement (dx, dy) (m) as (forward, lateral) along and across heading ψ (rad,
+    from +x towards +y); at ψ = 0 exactly (dx, dy)."""
+    cos, sin = jnp.cos(heading), jnp.sin(heading)
+    return dx * cos + dy * sin, dy * cos - dx * sin
+
+
 def lateral_drift(y_now: jnp.ndarray, y_last: jnp.ndarray, weights: RewardWeights) -> jnp.ndarray:
     """Eq. 11 (the paper's r_x): −w2 |y_now − y_last|, metres sideways."""
     return -weights.lateral * jnp.abs(y_now - y_last)
@@ -65,12 +89,26 @@ def orientation(
     slope: jnp.ndarray,
     weights: RewardWeights,
 ) -> jnp.ndarray:
-    """Eq. 12: r_o = −w3 |pitch − θ| − w4 |yaw| − w5 |roll|; θ is the Eq. 5 slope estimate (rad)."""
+    """Eq. 12: r_o = −w3 |pitch − θ| − w4 |yaw| − w5 |roll|; θ is the Eq. 5 slope estimate (rad).
+    With velocity commands `yaw` is the yaw relative to the commanded heading ψ* (wrapped to
+    [−π, π]; `yaw_error`)."""
     return (
         -weights.pitch * jnp.abs(pitch - slope)
         - weights.yaw * jnp.abs(yaw)
         - weights.roll * jnp.abs(roll)
     )
+
+
+def wrap_angle(angle: jnp.ndarray) -> jnp.ndarray:
+    """`angle` (rad) in [−π, π]: unchanged, bit for bit, where it already is."""
+    wrapped = jnp.mod(angle + jnp.pi, 2 * jnp.pi) - jnp.pi
+    return jnp.where(jnp.abs(angle) > jnp.pi, wrapped, angle)
+
+
+def yaw_error(yaw: jnp.ndarray, heading: jnp.ndarray) -> jnp.ndarray:
+    """The yaw (rad) relative to the commanded heading ψ* (rad), in [−π, π]; at ψ* = 0 exactly
+    `yaw` (a yaw in [−π, π])."""
+    return wrap_angle(yaw - heading)
 
 
 def reward_terms(
@@ -88,9 +126,15 @@ def reward_terms(
     weights: RewardWeights = RewardWeights(),
     variant: str = "full",
     max_progress: float = jnp.inf,
+    heading: jnp.ndarray | None = None,
+    commanded_progress: jnp.ndarray | None = None,
 ) -> dict[str, jnp.ndarray]:
     """Eq. 13's terms, each weighted by α or β; their sum is the step reward. `moving`: whether
     this step earns Eq. 9's r_s (see `survival`); `max_progress`: see `forward_progress`.
+
+    Velocity commands: `heading` ψ* (rad) turns the forward, lateral and yaw terms to the
+    commanded heading; `commanded_progress` v*·dt (m), where given, makes the forward term
+    `forward_tracking`. Without them (as with ψ* = 0, bit for bit) the terms are Eqs. 8–13.
 
     variant "full" is Eq. 13. variant "xy" is Fig. 9's r_xy: only r_y + r_x while walking (no r_s,
     no r_o); a fall still gives r_p and ends the episode, as in the full reward.
@@ -103,10 +147,18 @@ def reward_terms(
     alpha = jnp.asarray(fell, jnp.float32)
     beta = 1.0 - alpha
     walking = beta if variant == "full" else jnp.zeros_like(beta)
+    progress, sideways = x_now - x_last, y_now - y_last
+    if heading is not None:
+        progress, sideways = along_heading(progress, sideways, heading)
+        yaw = yaw_error(yaw, heading)
+    if commanded_progress is None:
+        forward = forward_progress(progress, 0.0, weights, max_progress)
+    else:
+        forward = forward_tracking(jnp.minimum(progress, max_progress), commanded_progress, weights)
     return {
         "fall": alpha * fall_penalty(weights),
         "survival": walking * survival(weights, moving),
-        "forward": beta * forward_progress(x_now, x_last, weights, max_progress),
-        "lateral": beta * lateral_drift(y_now, y_last, weights),
+        "forward": beta * forward,
+        "lateral": beta * lateral_drift(sideways, 0.0, weights),
         "orientation": walking * orientation(pitch, yaw, roll, slope, weights),
     }

@@ -1,5 +1,6 @@
 """What an evaluation reports per episode and over all of them: success, falls, speed, drift,
-attitude, the slope estimate's error and the reward (Eq. 13) with its terms."""
+attitude, the slope estimate's error, the reward (Eq. 13) with its terms and, from a
+`GaitEpisodeStats`, gait quality: command tracking, foot slip, cost of transport and torque."""
 
 import math
 from collections.abc import Mapping, Sequence
@@ -9,11 +10,12 @@ import jax
 import numpy as np
 
 from quadcos.equations import reward
-from quadcos.evaluation.rollout import EpisodeStats
+from quadcos.evaluation.rollout import GRAVITY, EpisodeStats, GaitEpisodeStats
 
 
 def episode_values(stats: EpisodeStats, dt: float, num_steps: int) -> list[dict[str, Any]]:
-    """Per-episode values from host EpisodeStats; times in s, lengths in m, angles in rad."""
+    """Per-episode values from host EpisodeStats; times in s, lengths in m, angles in rad; with
+    `GaitEpisodeStats`, the gait quality of `gait_values` too."""
     episodes = []
     for i in range(len(stats.steps)):
         steps = int(stats.steps[i])
@@ -45,9 +47,68 @@ def episode_values(stats: EpisodeStats, dt: float, num_steps: int) -> list[dict[
                 "reward_terms": {k: float(v[i]) for k, v in stats.reward_terms.items()},
                 "final_x": float(stats.x[i]),
                 "final_y": float(stats.y[i]),
+                **(gait_values(stats, i) if isinstance(stats, GaitEpisodeStats) else {}),
             }
         )
     return episodes
+
+
+def _ratio(numerator: float, denominator: float) -> float | None:
+    """numerator / denominator where that is finite and the denominator > 0, else None."""
+    value = numerator / denominator if denominator > 0 else math.nan
+    return value if math.isfinite(value) else None
+
+
+def gait_values(stats: GaitEpisodeStats, i: int) -> dict[str, Any]:
+    """Episode i's gait quality: `speed_tracking_rms` (m/s) and `yaw_rate_tracking_rms` (rad/s)
+    over its steps (None without commands), `foot_slip_m_per_s` (the mean, over its steps with a
+    foot in contact at both ends, of the horizontal speed of the feet in contact),
+    `cost_of_transport` (Σ|τ·q̇|·dt / (m g · horizontal distance travelled)) and
+    `peak_joint_torque_ratio` (the largest |τ| / torque limit of any leg joint at any step; None
+    where no joint has a finite limit). None where a value is undefined (no step, no distance)."""
+    steps = int(stats.steps[i])
+    return {
+        "speed_tracking_rms": _rms(stats.speed_sq_error[i], steps) if stats.commanded else None,
+        "yaw_rate_tracking_rms": _rms(stats.yaw_rate_sq_error[i], steps)
+        if stats.commanded
+        else None,
+        "foot_slip_m_per_s": _ratio(float(stats.slip_sum[i]), int(stats.slip_steps[i])),
+        "cost_of_transport": _ratio(
+            float(stats.energy[i]), stats.mass * GRAVITY * float(stats.path[i])
+        ),
+        "peak_joint_torque_ratio": _ratio(float(stats.peak_torque_ratio[i]), 1.0 if steps else 0),
+    }
+
+
+def _rms(sum_of_squares: Any, count: int) -> float | None:
+    return _ratio(math.sqrt(max(float(sum_of_squares), 0.0)), math.sqrt(count))
+
+
+def gait_aggregate(stats: GaitEpisodeStats) -> dict[str, Any]:
+    """Gait quality over all episodes, every step of every episode pooled: the tracking RMS
+    (sqrt(Σ squared errors / Σ steps); None without commands), the foot slip (Σ / Σ steps with
+    contact), the cost of transport (Σ energy / (m g Σ distance)); `peak_joint_torque_ratio`: the
+    mean of the episodes' peaks. Episodes with a non-finite value are left out of it."""
+
+    def pooled(values: Any, counts: Any) -> tuple[float, float]:
+        values, counts = np.asarray(values, dtype=float), np.asarray(counts, dtype=float)
+        finite = np.isfinite(values)
+        return float(values[finite].sum()), float(counts[finite].sum())
+
+    peaks = np.asarray(stats.peak_torque_ratio, dtype=float)
+    peaks = peaks[np.isfinite(peaks) & (np.asarray(stats.steps) > 0)]
+    energy, distance = pooled(stats.energy, stats.path)
+    return {
+        "speed_tracking_rms": _rms(*pooled(stats.speed_sq_error, stats.steps))
+        if stats.commanded
+        else None,
+        "yaw_rate_tracking_rms": _rms(*pooled(stats.yaw_rate_sq_error, stats.steps))
+        if stats.commanded
+        else None,
+        "foot_slip_m_per_s": _ratio(*pooled(stats.slip_sum, stats.slip_steps)),
+        "cost_of_transport": _ratio(energy, stats.mass * GRAVITY * distance),
+        "peak_joint_torque_ratio": float(peaks.mean()) if peaks.size else None,
+    }
 
 
 def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dict[str, Any]:
@@ -96,6 +157,7 @@ def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dic
             term: finite_mean([e["reward_terms"][term] for e in episodes])
             for term in reward.TERM_NAMES
         },
+        **(gait_aggregate(stats) if isinstance(stats, GaitEpisodeStats) else {}),
     }
 
 

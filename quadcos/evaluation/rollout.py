@@ -1,8 +1,11 @@
 """The one batched deterministic rollout: robots run in parallel until they fall, finish the
-course or reach the time limit, with running per-episode statistics and one traced episode."""
+course or reach the time limit, with running per-episode statistics (gait quality too:
+`GaitEpisodeStats`) and one traced episode; robots of an env with velocity commands follow its
+commands, or a schedule given to `rollout`."""
 
 import dataclasses
 import functools
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -19,6 +22,8 @@ from quadcos.robot import constants
 
 FORMAT_VERSION = 1  # of every file quadcos.evaluation writes
 CHUNK_STEPS = 20  # control steps per compiled call: the progress granularity
+GRAVITY = 9.81  # m/s²
+CONTACT_CLEARANCE = 0.01  # m: a foot whose sphere is this close to the ground counts as in contact
 
 
 @flax.struct.dataclass
@@ -41,6 +46,27 @@ class EpisodeStats:
     slope_sq_error: jax.Array  # rad²: Σ (estimate − truth)²
     episode_reward: jax.Array  # Σ Eq. 13
     reward_terms: dict[str, jax.Array]  # Σ of each term
+
+
+@flax.struct.dataclass
+class GaitEpisodeStats(EpisodeStats):
+    """EpisodeStats with running sums of gait quality, each (n,) unless said; what `rollout`
+    returns. Steps count while the episode runs, as EpisodeStats's. Torques and feet are
+    sampled at the end of each control step."""
+
+    command: jax.Array  # (n, 2): v* (m/s), ω* (rad/s) the robot follows in its next step
+    yaw: jax.Array  # rad, after the last step taken
+    foot_xy: jax.Array  # (n, 4, 2) m: the feet after the last step taken
+    foot_contact: jax.Array  # (n, 4) bool
+    speed_sq_error: jax.Array  # (m/s)²: Σ (v − v*)², v the speed along the robot's heading
+    yaw_rate_sq_error: jax.Array  # (rad/s)²: Σ (ω − ω*)²
+    slip_sum: jax.Array  # m/s: Σ over steps of the mean horizontal speed of the feet in contact
+    slip_steps: jax.Array  # int32: steps with a foot in contact at both ends
+    energy: jax.Array  # J: Σ |τ·q̇| dt over the leg joints
+    path: jax.Array  # m: horizontal distance travelled by the torso
+    peak_torque_ratio: jax.Array  # max over steps and joints of |τ| / torque limit
+    commanded: bool = flax.struct.field(pytree_node=False, default=False)  # v*, ω* followed
+    mass: float = flax.struct.field(pytree_node=False, default=math.nan)  # kg, the robot's
 
 
 @dataclasses.dataclass
@@ -90,6 +116,9 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
     }
     if env.config.controller == "oscillator":
         snapshot["parameter"] = jnp.stack(env.rhythm_parameters(command))
+    if env.commanded:  # what the robot follows from this step on
+        velocity = state.info["velocity_command"].velocity[index]
+        snapshot |= {"speed_command": velocity[0], "yaw_rate_command": velocity[1]}
     return snapshot
 
 
@@ -114,6 +143,90 @@ def _initial_stats(state: Any, lanes: jax.Array) -> EpisodeStats:
         slope_sq_error=zeros,
         episode_reward=zeros,
         reward_terms={term: zeros for term in reward.TERM_NAMES},
+    )
+
+
+def _feet(env: env_lib.QuadrupedEnv, data: Any) -> tuple[jax.Array, jax.Array]:
+    """(n, 4, 2) m the feet's horizontal positions, (n, 4) whether each touches the ground.
+    Batched data is indexed, not vmapped: MJX-Warp's Data has fields without a batch axis."""
+    feet = data.geom_xpos[:, env.layout.foot_geoms]
+    ground = env.terrain.height_at(feet[..., 0], feet[..., 1])
+    touching = feet[..., 2] - env.layout.foot_radius - ground < CONTACT_CLEARANCE
+    return feet[..., :2], touching
+
+
+def _initial_gait_stats(
+    env: env_lib.QuadrupedEnv, state: Any, stats: EpisodeStats
+) -> GaitEpisodeStats:
+    data = state.pipeline_state
+    num_envs = stats.steps.shape[0]
+    zeros = jnp.zeros(num_envs)
+    feet, touching = _feet(env, data)
+    command = (
+        state.info["velocity_command"].velocity if env.commanded else jnp.zeros((num_envs, 2))
+    )
+    return GaitEpisodeStats(
+        **{field.name: getattr(stats, field.name) for field in dataclasses.fields(EpisodeStats)},
+        command=command,
+        yaw=slope.attitude(data.qpos[:, constants.QPOS_QUATERNION]).yaw,
+        foot_xy=feet,
+        foot_contact=touching,
+        speed_sq_error=zeros,
+        yaw_rate_sq_error=zeros,
+        slip_sum=zeros,
+        slip_steps=jnp.zeros(num_envs, jnp.int32),
+        energy=zeros,
+        path=zeros,
+        peak_torque_ratio=zeros,
+        commanded=env.commanded,
+        mass=env.layout.mass,
+    )
+
+
+def _update_gait_stats(
+    env: env_lib.QuadrupedEnv,
+    gait: GaitEpisodeStats,
+    stats: EpisodeStats,
+    state: Any,
+    counts: jax.Array,
+) -> GaitEpisodeStats:
+    """`stats` (the step's EpisodeStats update) with the gait sums of `gait` advanced by one step
+    for the episodes that were running before it (`counts`)."""
+    data, dt, layout = state.pipeline_state, env.dt, env.layout
+    yaw = slope.attitude(data.qpos[:, constants.QPOS_QUATERNION]).yaw
+    step_x, step_y = data.qpos[:, 0] - gait.x, data.qpos[:, 1] - gait.y
+    speed = (step_x * jnp.cos(yaw) + step_y * jnp.sin(yaw)) / dt
+    yaw_rate = reward.wrap_angle(yaw - gait.yaw) / dt
+    feet, touching = _feet(env, data)
+    slipping = touching & gait.foot_contact
+    foot_speed = jnp.linalg.norm(feet - gait.foot_xy, axis=-1) / dt
+    slip = (foot_speed * slipping).sum(-1) / jnp.maximum(slipping.sum(-1), 1)
+    torque = data.qfrc_actuator[:, layout.joint_qvel]  # N m
+    power = jnp.abs(torque * data.qvel[:, layout.joint_qvel]).sum(-1)
+    ratio = (jnp.abs(torque) / layout.torque_limit).max(-1)
+    if not np.isfinite(np.asarray(layout.torque_limit)).any():
+        ratio = jnp.full_like(ratio, jnp.nan)  # no limit to compare with
+
+    def add(total, value):
+        return jnp.where(counts, total + value, total)
+
+    return GaitEpisodeStats(
+        **{field.name: getattr(stats, field.name) for field in dataclasses.fields(EpisodeStats)},
+        command=state.info["velocity_command"].velocity if env.commanded else gait.command,
+        yaw=yaw,
+        foot_xy=feet,
+        foot_contact=touching,
+        speed_sq_error=add(gait.speed_sq_error, (speed - gait.command[:, 0]) ** 2),
+        yaw_rate_sq_error=add(gait.yaw_rate_sq_error, (yaw_rate - gait.command[:, 1]) ** 2),
+        slip_sum=add(gait.slip_sum, slip),
+        slip_steps=add(gait.slip_steps, slipping.any(-1).astype(jnp.int32)),
+        energy=add(gait.energy, power * dt),
+        path=add(gait.path, jnp.hypot(step_x, step_y)),
+        peak_torque_ratio=jnp.where(
+            counts, jnp.maximum(gait.peak_torque_ratio, ratio), gait.peak_torque_ratio
+        ),
+        commanded=gait.commanded,
+        mass=gait.mass,
     )
 
 
@@ -173,9 +286,10 @@ def _compiled_chunk(env: env_lib.QuadrupedEnv, act: Callable, chunk_steps: int) 
     lane_end_x = jnp.asarray(env.terrain.lane_end_x, jnp.float32)
 
     def chunk(state, stats, act_params, first_step, num_steps, trace_index):
-        def update(stats: EpisodeStats, state: Any, offset: jax.Array) -> EpisodeStats:
-            counts = stats.running & (first_step + offset < num_steps)
-            return _update_stats(stats, state, counts, lane_end_x)
+        def update(gait: GaitEpisodeStats, state: Any, offset: jax.Array) -> GaitEpisodeStats:
+            counts = gait.running & (first_step + offset < num_steps)
+            stats = _update_stats(gait, state, counts, lane_end_x)
+            return _update_gait_stats(env, gait, stats, state, counts)
 
         return episodes.run_episodes(
             jax.vmap(env.step),
@@ -188,6 +302,12 @@ def _compiled_chunk(env: env_lib.QuadrupedEnv, act: Callable, chunk_steps: int) 
         )
 
     return jax.jit(chunk)
+
+
+@functools.lru_cache(maxsize=16)
+def _env_with_commands(env: env_lib.QuadrupedEnv, spec: str) -> env_lib.QuadrupedEnv:
+    """`env.with_commands(spec)`, one per env and spec, so that its compiled programs are reused."""
+    return env.with_commands(spec)
 
 
 @functools.lru_cache(maxsize=16)
@@ -208,11 +328,15 @@ def rollout(
     progress: Callable[[int, int], None] | None = None,
     chunk_steps: int = CHUNK_STEPS,
     lanes: np.ndarray | None = None,
+    commands: str | None = None,
 ) -> Rollout:
     """Runs `num_envs` robots for at most `num_steps` control steps each, deterministically;
     on a lane terrain, robot i on lane i mod num_lanes unless `lanes` says otherwise.
 
     Args:
+      commands: a command spec ("random" or a schedule "v,ω@s;...",
+        `quadcos.env.commands.parse_commands`) the robots follow instead of the env's own (an env
+        with commands only: `QuadrupedEnv.with_commands`); None: the env's.
       act_params: overrides `source.params` (e.g. (num_envs, 5) fixed parameters, one row per
         robot, for a search).
       lanes: (num_envs,) the lane of each robot (a lane terrain's course; 0 elsewhere).
@@ -222,6 +346,8 @@ def rollout(
         raise ValueError(f"num_envs and num_steps must be >= 1; got {num_envs}, {num_steps}")
     if not 0 <= trace_index < num_envs:
         raise ValueError(f"trace episode {trace_index} is not in 0..{num_envs - 1}")
+    if commands is not None:
+        env = _env_with_commands(env, commands)
     params = source.params if act_params is None else act_params
     if source.kind == "fixed":  # parameters -> the constant actions that command them here
         params = jnp.broadcast_to(jnp.asarray(params, jnp.float32), (num_envs, 5))
@@ -235,7 +361,7 @@ def rollout(
     lanes = jnp.asarray(lanes, jnp.int32)
     state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs), lanes)
     start_qpos = np.asarray(state.pipeline_state.qpos[trace_index])
-    stats = _initial_stats(state, lanes)
+    stats = _initial_gait_stats(env, state, _initial_stats(state, lanes))
     traces = []
     done = 0
     while done < num_steps:

@@ -30,6 +30,11 @@ TRACE_SERIES = (
     "forward_speed",  # m/s over the control step
     "reward",  # Eq. 13, per step
 )
+# Series of an env with velocity commands only: the command followed from each step on.
+COMMAND_SERIES = (
+    "speed_command",  # m/s, v*
+    "yaw_rate_command",  # rad/s, ω*
+)
 
 
 def trace_dict(
@@ -37,7 +42,7 @@ def trace_dict(
 ) -> dict[str, Any]:
     """One episode's time series as flat named lists, all of one length (the episode's steps).
 
-    Series: `TRACE_SERIES`, then controller/<name> (the 8 oscillator outputs, rad, Eq. 3 order, named LF_hip ... RB_knee;
+    Series: `TRACE_SERIES` (and `COMMAND_SERIES` with velocity commands), then controller/<name> (the 8 oscillator outputs, rad, Eq. 3 order, named LF_hip ... RB_knee;
     the joint controller's targets by joint name;
     sampled at the end of each control step), joint/<joint> (measured joint angles, rad, by the robot's joint names),
     action/<i> (the filtered command in [−1, 1]) and, for the oscillator controller,
@@ -48,7 +53,8 @@ def trace_dict(
     steps = int(result.stats.steps[trace_index])
     raw = {key: value[:steps] for key, value in result.trace.items()}
     qpos = np.concatenate([result.start_qpos[None], result.qpos[:steps]])
-    series: dict[str, list[float]] = {name: raw[name].tolist() for name in TRACE_SERIES}
+    names = TRACE_SERIES + (COMMAND_SERIES if "speed_command" in raw else ())
+    series: dict[str, list[float]] = {name: raw[name].tolist() for name in names}
     joints = env.robot.description.joint_names
     # The oscillator's eight outputs carry the paper's names (LF_hip, ..., RB_knee) on any robot.
     channels = constants.JOINTS if env.config.controller == "oscillator" else joints

@@ -1,0 +1,246 @@
+"""Velocity commands (issue 58): a forward speed v* (m/s) and a yaw rate ω* (rad/s) the policy
+is asked to follow — drawn at random for training, or from a fixed schedule for evaluation.
+
+A command spec is one string, parsed here and nowhere else (`parse_commands`):
+- "" — no command: the paper's task (walk forward along +x), the observation unchanged;
+- "random" — v* ~ U(speed_min, speed_max), ω* ~ U(−yaw_rate_max, yaw_rate_max) (ω* = 0 with
+  probability `zero_yaw_rate_probability`), drawn at every reset and again every
+  `resample_seconds` of an episode;
+- a schedule "v,ω@s;v,ω@s;..." — e.g. "0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5": v* = 0.5 m/s, ω* = 0
+  for the first 5 s, then 1.0 m/s for 5 s, ...; after the last segment its command holds.
+
+The commanded heading ψ* (rad) integrates ω*: ψ* ← ψ* + ω*·dt every control step, starting at the
+robot's heading at reset (0), leashed within `heading_leash` of the robot's yaw so that a robot
+that turns too slowly is not charged for ever more accumulated lag. The reward's forward and yaw
+terms track v* along ψ* and ψ* itself (`quadcos.equations.reward`); with ω* = 0 and a robot within
+the leash, ψ* stays exactly 0 and the yaw term is Eq. 12's −w4 |yaw|.
+
+Pure functions of arrays (jit / vmap-able, one robot; batch with `jax.vmap`) and the host-side
+parser; nothing here touches MuJoCo.
+"""
+
+import dataclasses
+import math
+
+import flax.struct
+import jax
+import jax.numpy as jnp
+import ml_collections
+
+from quadcos.equations.reward import wrap_angle
+
+RANDOM = "random"
+GRAVITY = 9.81  # m/s²
+# The Froude number v² / (g h) of the fastest commanded walk of a robot without a preset, h its hip
+# height: 0.25 sits below the walk–trot transition of animals (~0.5, Alexander 1984) and gives
+# Go1-sized robots (h ≈ 0.28 m) 0.8 m/s, the paper's robot (h = 0.67 m) 1.2 m/s.
+DEFAULT_FROUDE = 0.25
+# m: the turning radius at full speed of a robot without a preset (ω*_max = v*_max / radius):
+# the issue's Go1 and ANYmal C ranges (1.0 m/s, 0.5 rad/s; 0.8 m/s, 0.4 rad/s) both turn 2 m.
+DEFAULT_TURN_RADIUS = 2.0
+
+
+def default_config() -> ml_collections.ConfigDict:
+    """The env's `commands` config: off by default (the paper's task)."""
+    config = ml_collections.ConfigDict()
+    config.spec = ""  # "" (off), "random", or a schedule "v,ω@s;..." (parse_commands)
+    # m/s: v* ~ U(speed_min, speed_max); speed_max 0 = the robot's (robot preset, else from its
+    # hip height: speed_range).
+    config.speed_min = 0.0
+    config.speed_max = 0.0
+    config.yaw_rate_max = 0.0  # rad/s: ω* ~ U(−max, max); 0 = the robot's (yaw_rate_range)
+    config.zero_yaw_rate_probability = 0.1  # share of draws with ω* = 0 (walking straight)
+    config.resample_seconds = 5.0  # s: a random command is drawn anew this often in an episode
+    config.heading_leash = 0.5  # rad: the most the commanded heading ψ* may lead or trail the yaw
+    return config
+
+
+@dataclasses.dataclass(frozen=True)
+class Segment:
+    """One segment of a command schedule: v* (m/s), ω* (rad/s) for `seconds`."""
+
+    speed: float
+    yaw_rate: float
+    seconds: float
+
+
+@dataclasses.dataclass(frozen=True)
+class CommandSpec:
+    """A parsed command spec: `mode` "off", "random" or "schedule" (then `schedule`'s segments)."""
+
+    mode: str
+    schedule: tuple[Segment, ...] = ()
+
+    @property
+    def enabled(self) -> bool:
+        return self.mode != "off"
+
+
+def parse_commands(spec: str) -> CommandSpec:
+    """The command spec `spec` ("", "random" or "v,ω@s;...": see the module docstring).
+
+    Raises:
+      ValueError: naming the bad segment, e.g. "command segment 2 '1.0@5': expected v,ω@seconds".
+    """
+    if not isinstance(spec, str):
+        raise ValueError(f"a command spec must be a string; got {spec!r}")
+    text = spec.strip()
+    if not text:
+        return CommandSpec("off")
+    if text == RANDOM:
+        return CommandSpec(RANDOM)
+    segments = []
+    for index, part in enumerate(text.split(";"), start=1):
+        part = part.strip()
+        where = f"command segment {index} {part!r} of {spec!r}"
+        command, at, seconds = part.partition("@")
+        values = command.split(",")
+        if not at or len(values) != 2:
+            raise ValueError(f"{where}: expected v,ω@seconds (e.g. 0.5,0@5), or the spec 'random'")
+        try:
+            speed, yaw_rate, duration = (float(v) for v in (*values, seconds))
+        except ValueError:
+            raise ValueError(f"{where}: v, ω and seconds must be numbers") from None
+        if not all(math.isfinite(v) for v in (speed, yaw_rate, duration)):
+            raise ValueError(f"{where}: v, ω and seconds must be finite")
+        if duration <= 0:
+            raise ValueError(f"{where}: seconds must be > 0")
+        segments.append(Segment(speed, yaw_rate, duration))
+    return CommandSpec("schedule", tuple(segments))
+
+
+def speed_range(
+    speed_max: float | None, hip_height: float, froude: float = DEFAULT_FROUDE
+) -> float:
+    """m/s: the fastest commanded speed of a robot: `speed_max` where its preset gives one, else
+    √(Fr·g·h) for its hip height h (m; the base above the ground standing) at Froude number Fr,
+    rounded down to 0.1 m/s (at least 0.1)."""
+    if speed_max is not None:
+        return float(speed_max)
+    return max(0.1, math.floor(10 * math.sqrt(froude * GRAVITY * hip_height)) / 10)
+
+
+def yaw_rate_range(yaw_rate_max: float | None, speed_max: float) -> float:
+    """rad/s: the fastest commanded turn: `yaw_rate_max` where the robot's preset gives one, else
+    a turn of DEFAULT_TURN_RADIUS at the fastest speed (v*_max / 2 m)."""
+    if yaw_rate_max is not None:
+        return float(yaw_rate_max)
+    return speed_max / DEFAULT_TURN_RADIUS
+
+
+def validate(config: ml_collections.ConfigDict) -> CommandSpec:
+    """The parsed spec of a (resolved) `commands` config; raises ValueError naming a bad value."""
+    parsed = parse_commands(config.spec)
+    if not 0 <= config.speed_min <= config.speed_max < math.inf:
+        raise ValueError(
+            "commands.speed_min and commands.speed_max must satisfy 0 <= min <= max < inf; got"
+            f" {config.speed_min}, {config.speed_max}"
+        )
+    if not 0 <= config.yaw_rate_max < math.inf:
+        raise ValueError(
+            f"commands.yaw_rate_max must be finite and >= 0; got {config.yaw_rate_max}"
+        )
+    if not 0 <= config.zero_yaw_rate_probability <= 1:
+        raise ValueError(
+            "commands.zero_yaw_rate_probability must be in [0, 1]; got"
+            f" {config.zero_yaw_rate_probability}"
+        )
+    if not 0 < config.resample_seconds < math.inf:
+        raise ValueError(
+            f"commands.resample_seconds must be finite and > 0; got {config.resample_seconds}"
+        )
+    if not 0 < config.heading_leash <= math.pi:
+        raise ValueError(
+            f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}"
+        )
+    return parsed
+
+
+@flax.struct.dataclass
+class Command:
+    """A robot's command in the env state: what it is asked to do now, and its heading target."""
+
+    velocity: jax.Array  # (2,): v* (m/s), ω* (rad/s)
+    heading: jax.Array  # () rad: ψ*, the integrated ω* (leashed to the yaw)
+    rng: jax.Array  # the key of the robot's next random draw
+    # (2,): the command of the robot's first state. Brax's auto-reset restarts an env from its first
+    # state (observation included) and keeps `info`: its episodes all start with this command, so
+    # that the first observation tells the truth (`restart`); later draws differ.
+    initial: jax.Array
+
+
+class Plan:
+    """A parsed spec made into arrays for the env's step (fixed data, like the env)."""
+
+    def __init__(self, spec: CommandSpec, config: ml_collections.ConfigDict):
+        self.spec = spec
+        self.config = config
+        segments = spec.schedule or (Segment(0.0, 0.0, 1.0),)
+        self._velocities = jnp.asarray([(s.speed, s.yaw_rate) for s in segments], jnp.float32)
+        ends = [0.0]
+        for segment in segments:
+            ends.append(ends[-1] + segment.seconds)
+        self._ends = jnp.asarray(ends[1:-1], jnp.float32)  # where each segment but the last ends
+
+    def start(self, rng: jax.Array) -> Command:
+        """The command at an episode's start (t = 0)."""
+        rng, draw_key = jax.random.split(rng)
+        velocity = self.at(draw_key, jnp.zeros(()))
+        return Command(velocity=velocity, heading=jnp.zeros(()), rng=rng, initial=velocity)
+
+    def restart(self, command: Command, just_reset: jax.Array) -> Command:
+        """`command`, or where `just_reset` (an auto-reset restored the first state) its first
+        one again, the heading back at 0."""
+        return command.replace(
+            velocity=jnp.where(just_reset, command.initial, command.velocity),
+            heading=jnp.where(just_reset, 0.0, command.heading),
+        )
+
+    def at(self, key: jax.Array, time: jax.Array) -> jax.Array:
+        """(2,) the command at episode time `time` (s): a fresh draw ("random") or the
+        schedule's segment."""
+        if self.spec.mode == RANDOM:
+            return sample(key, self.config)
+        return schedule_at(self._velocities, self._ends, time)
+
+    def advance(self, command: Command, time_before: jax.Array, time_now: jax.Array) -> Command:
+        """The command after a control step from `time_before` to `time_now` (s): a random
+        command is drawn anew where the step crossed a multiple of `resample_seconds`; a
+        schedule's is its segment at `time_now`."""
+        if self.spec.mode != RANDOM:
+            return command.replace(velocity=self.at(command.rng, time_now))
+        period = self.config.resample_seconds
+        crossed = jnp.floor(time_now / period) > jnp.floor(time_before / period)
+        rng, draw_key = jax.random.split(command.rng)
+        velocity = jnp.where(crossed, sample(draw_key, self.config), command.velocity)
+        return command.replace(velocity=velocity, rng=rng)
+
+
+def sample(key: jax.Array, config: ml_collections.ConfigDict) -> jax.Array:
+    """(2,) one random command: v* ~ U(speed_min, speed_max), ω* ~ U(−yaw_rate_max,
+    yaw_rate_max), ω* = 0 with probability `zero_yaw_rate_probability` (a resolved config)."""
+    speed_key, yaw_key, straight_key = jax.random.split(key, 3)
+    speed = jax.random.uniform(speed_key, (), minval=config.speed_min, maxval=config.speed_max)
+    bound = config.yaw_rate_max
+    yaw_rate = jax.random.uniform(yaw_key, (), minval=-bound, maxval=bound)
+    straight = jax.random.uniform(straight_key) < config.zero_yaw_rate_probability
+    return jnp.stack([speed, jnp.where(straight, 0.0, yaw_rate)])
+
+
+def schedule_at(velocities: jax.Array, ends: jax.Array, time: jax.Array) -> jax.Array:
+    """(2,) the schedule's command at `time` (s): `velocities` (k, 2) per segment, `ends` (k−1,)
+    the times (s) at which all segments but the last end; the last holds."""
+    index = jnp.searchsorted(ends, time, side="right")
+    return velocities[index]
+
+
+def advance_heading(
+    heading: jax.Array, yaw_rate: jax.Array, yaw: jax.Array, dt: float, leash: float
+) -> jax.Array:
+    """ψ* after a control step of `dt` s: ψ* + ω*·dt, moved back to within `leash` rad of the
+    robot's yaw (rad) where it got further away; in [−π, π]. Exactly 0 while ω* = 0, ψ* = 0 and
+    |yaw| ≤ leash."""
+    target = wrap_angle(heading + yaw_rate * dt)
+    lag = wrap_angle(target - yaw)
+    leashed = wrap_angle(yaw + jnp.clip(lag, -leash, leash))
+    return jnp.where(jnp.abs(lag) > leash, leashed, target)

@@ -1,0 +1,372 @@
+"""Velocity commands (issue 58): the spec parser, sampling and resampling, the heading target, the
+tracking reward's reduction to Eqs. 8–13, the turning extensions of Eq. 3, a commanded env, and
+the gait-quality metrics on a synthetic trace."""
+
+import types
+
+import flax.struct
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import quadcos
+from quadcos.env import commands
+from quadcos.equations import oscillator, reward
+from quadcos.evaluation import metrics, rollout
+from quadcos.robot import presets
+
+# --- the spec ---------------------------------------------------------------------------------
+
+
+def test_parse_random_off_and_a_schedule():
+    assert commands.parse_commands("") == commands.CommandSpec("off")
+    assert not commands.parse_commands(" ").enabled
+    assert commands.parse_commands("random") == commands.CommandSpec("random")
+    parsed = commands.parse_commands("0.5,0@5;1.0,0@5; 0.6,0.4@5;0,0@2.5")
+    assert parsed.mode == "schedule" and parsed.enabled
+    assert parsed.schedule == (
+        commands.Segment(0.5, 0.0, 5.0),
+        commands.Segment(1.0, 0.0, 5.0),
+        commands.Segment(0.6, 0.4, 5.0),
+        commands.Segment(0.0, 0.0, 2.5),
+    )
+
+
+@pytest.mark.parametrize(
+    "spec, bad",
+    [
+        ("0.5,0@5;1.0@5", "segment 2 '1.0@5'"),
+        ("0.5,0", "segment 1 '0.5,0'"),
+        ("0.5,x@5", "must be numbers"),
+        ("0.5,0@0", "seconds must be > 0"),
+        ("0.5,0@-1", "seconds must be > 0"),
+        ("nan,0@1", "finite"),
+        ("randm", "segment 1 'randm'"),
+        ("0.5,0@5;", "segment 2 ''"),
+    ],
+)
+def test_a_bad_spec_names_its_bad_part(spec, bad):
+    with pytest.raises(ValueError, match=bad.replace("(", r"\(")):
+        commands.parse_commands(spec)
+
+
+def test_robot_ranges_presets_and_froude_default():
+    assert presets.preset_for("unitree_go1").command_speed_max == 1.0
+    assert presets.preset_for("unitree_go2").command_yaw_rate_max == 0.5
+    assert presets.preset_for("anybotics_anymal_c").command_speed_max == 0.8
+    assert presets.preset_for("anybotics_anymal_c").command_yaw_rate_max == 0.4
+    assert commands.speed_range(0.7, 10.0) == 0.7
+    for height in (0.2, 0.288, 0.5, 0.67):
+        expected = np.floor(10 * np.sqrt(0.25 * 9.81 * height)) / 10
+        assert commands.speed_range(None, height) == pytest.approx(expected)
+        assert commands.yaw_rate_range(None, expected) == pytest.approx(expected / 2.0)
+    # quad12 (Go1-sized, no preset): its config resolves to the derived ranges
+    config = quadcos.env.default_config()
+    config.robot = "quad12"
+    config = quadcos.env.resolve(config)
+    assert config.commands.speed_max == pytest.approx(0.8)
+    assert config.commands.yaw_rate_max == pytest.approx(0.4)
+
+
+# --- sampling, resampling, the schedule, the heading ------------------------------------------
+
+
+def _config(**values):
+    config = commands.default_config()
+    config.update(dict(speed_min=0.2, speed_max=0.9, yaw_rate_max=0.5) | values)
+    return config
+
+
+def test_samples_cover_the_ranges_with_a_share_of_straight_walking():
+    config = _config(zero_yaw_rate_probability=0.25)
+    draws = np.asarray(jax.vmap(lambda key: commands.sample(key, config))(
+        jax.random.split(jax.random.PRNGKey(1), 8000)
+    ))
+    speed, yaw_rate = draws[:, 0], draws[:, 1]
+    assert speed.min() >= 0.2 and speed.max() <= 0.9
+    assert speed.min() < 0.21 and speed.max() > 0.89
+    assert np.abs(speed.mean() - 0.55) < 0.01
+    assert np.abs(yaw_rate).max() <= 0.5
+    straight = yaw_rate == 0
+    assert abs(straight.mean() - 0.25) < 0.02  # binomial std 0.005
+    assert np.abs(yaw_rate[~straight]).max() > 0.49 and abs(yaw_rate[~straight].mean()) < 0.02
+
+
+def test_random_commands_are_resampled_every_period_only():
+    plan = commands.Plan(commands.CommandSpec("random"), _config(resample_seconds=1.0))
+    command = plan.start(jax.random.PRNGKey(0))
+    np.testing.assert_array_equal(command.initial, command.velocity)
+    times = np.round(np.arange(0, 3.01, 0.05), 6)
+    seen = [np.asarray(command.velocity)]
+    for before, now in zip(times[:-1], times[1:]):
+        command = plan.advance(command, jnp.float32(before), jnp.float32(now))
+        seen.append(np.asarray(command.velocity))
+    changes = [i for i in range(1, len(seen)) if not np.array_equal(seen[i], seen[i - 1])]
+    assert [float(times[i]) for i in changes] == [1.0, 2.0, 3.0]
+    restarted = plan.restart(command.replace(heading=jnp.float32(0.3)), jnp.bool_(True))
+    np.testing.assert_array_equal(restarted.velocity, command.initial)
+    assert float(restarted.heading) == 0.0
+
+
+def test_schedule_against_numpy():
+    spec = commands.parse_commands("0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5")
+    plan = commands.Plan(spec, _config())
+    for time in (0.0, 2.0, 4.999, 5.0, 7.0, 10.0, 14.0, 15.0, 19.9, 25.0, 100.0):
+        ends = np.cumsum([s.seconds for s in spec.schedule])
+        index = min(int(np.searchsorted(ends, time, side="right")), len(ends) - 1)
+        expected = (spec.schedule[index].speed, spec.schedule[index].yaw_rate)
+        got = plan.at(jax.random.PRNGKey(0), jnp.float32(time))
+        np.testing.assert_allclose(got, expected, err_msg=f"t = {time}")
+
+
+def test_heading_integrates_the_yaw_rate_on_a_leash():
+    heading = jnp.float32(0.0)
+    for _ in range(10):  # the robot follows: its yaw is the heading
+        heading = commands.advance_heading(heading, 0.4, heading, 0.05, 0.5)
+    assert float(heading) == pytest.approx(0.2, rel=1e-5)
+    # a robot that does not turn: the heading leads it by the leash at most
+    stuck = jnp.float32(0.0)
+    for _ in range(100):
+        stuck = commands.advance_heading(stuck, 0.4, 0.0, 0.05, 0.5)
+    assert float(stuck) == pytest.approx(0.5, rel=1e-5)
+    # across ±π the heading wraps
+    assert float(commands.advance_heading(3.1, 1.0, 3.1, 0.1, 0.5)) == pytest.approx(
+        3.2 - 2 * np.pi, abs=1e-5
+    )
+    # no turn commanded, a robot within the leash: exactly 0, bit for bit
+    yaws = jnp.linspace(-0.5, 0.5, 101)
+    zero = jax.vmap(lambda yaw: commands.advance_heading(0.0, 0.0, yaw, 0.05, 0.5))(yaws)
+    np.testing.assert_array_equal(zero, 0.0)
+
+
+# --- the reward -------------------------------------------------------------------------------
+
+
+def numpy_eq8_13(x_now, x_last, y_now, y_last, pitch, yaw, roll, slope, fell, w):
+    """Eqs. 8–13 written out in float64 (quadcos axes: forward = +x)."""
+    alpha = float(fell)
+    beta = 1.0 - alpha
+    r_y = w.forward * (x_now - x_last)
+    r_x = -w.lateral * abs(y_now - y_last)
+    r_o = -w.pitch * abs(pitch - slope) - w.yaw * abs(yaw) - w.roll * abs(roll)
+    return alpha * w.fall_penalty + beta * (w.survival + r_y + r_x + r_o)
+
+
+def test_commanded_reward_at_zero_heading_is_eqs_8_to_13_exactly():
+    rng = np.random.default_rng(0)
+    weights = reward.RewardWeights()
+    for _ in range(200):
+        inputs = dict(
+            x_now=rng.uniform(-5, 5), y_now=rng.uniform(-1, 1), pitch=rng.uniform(-0.5, 0.5),
+            yaw=rng.uniform(-np.pi, np.pi),
+            roll=rng.uniform(-0.5, 0.5),
+            slope=rng.uniform(-0.2, 0.2),
+        )
+        inputs |= dict(x_last=inputs["x_now"] - rng.uniform(-0.1, 0.1))
+        inputs |= dict(y_last=inputs["y_now"] - rng.uniform(-0.05, 0.05))
+        inputs = {k: np.float32(v) for k, v in inputs.items()}
+        fell = bool(rng.uniform() < 0.2)
+        paper = reward.reward_terms(**inputs, fell=fell)
+        commanded = reward.reward_terms(**inputs, fell=fell, heading=jnp.float32(0.0))
+        for name in reward.TERM_NAMES:  # bit for bit
+            assert np.asarray(commanded[name]).tobytes() == np.asarray(paper[name]).tobytes(), name
+        expected = numpy_eq8_13(**{k: float(v) for k, v in inputs.items()}, fell=fell, w=weights)
+        total = float(sum(commanded.values()))
+        assert total == pytest.approx(expected, rel=1e-5, abs=1e-4)
+
+
+def test_forward_tracking_against_numpy():
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        heading, progress = rng.uniform(-3, 3), rng.uniform(-0.02, 0.08)
+        commanded = rng.uniform(0, 0.05)
+        lateral = rng.uniform(-0.01, 0.01)
+        dx = progress * np.cos(heading) - lateral * np.sin(heading)
+        dy = progress * np.sin(heading) + lateral * np.cos(heading)
+        yaw = heading + rng.uniform(-0.3, 0.3)
+        terms = reward.reward_terms(
+            x_now=dx, x_last=0.0, y_now=dy, y_last=0.0, pitch=0.0, yaw=reward.wrap_angle(yaw),
+            roll=0.0, slope=0.0, fell=False, heading=heading, commanded_progress=commanded,
+        )
+        expected = 150.0 * (progress if progress <= commanded else 2 * commanded - progress)
+        assert float(terms["forward"]) == pytest.approx(expected, abs=2e-4)
+        assert float(terms["lateral"]) == pytest.approx(-100.0 * abs(lateral), abs=2e-4)
+        yaw_error = (yaw - heading + np.pi) % (2 * np.pi) - np.pi
+        assert float(terms["orientation"]) == pytest.approx(-40.0 * abs(yaw_error), abs=2e-4)
+
+
+# --- the turn extensions of Eq. 3 -------------------------------------------------------------
+
+
+def _rhythm(n=64, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.asarray(
+        oscillator.rhythm_at_phase(
+            rng.uniform(0, 2 * np.pi, n),
+            rng.uniform(-0.5, 0.5, n),
+            rng.uniform(-0.5, 0.5, n),
+            rng.uniform(-2 * np.pi, 2 * np.pi, (n, 8)),
+        )
+    )
+
+
+def test_zero_turn_is_eq3_exactly():
+    rhythm = _rhythm()
+    zero = np.zeros(len(rhythm), np.float32)
+    same = oscillator.hip_amplitude_difference(rhythm, zero, 0.5)
+    np.testing.assert_array_equal(same, rhythm)
+    np.testing.assert_array_equal(oscillator.abduction_stride(rhythm, zero, 0.5), 0.0)
+
+
+def test_turn_extensions_against_numpy():
+    rhythm = _rhythm(seed=2)
+    turn = np.random.default_rng(3).uniform(-1.5, 1.5, len(rhythm))
+    bound = 0.4
+    u = np.clip(turn, -1, 1)
+    expected = rhythm.copy()
+    for leg, side in ((0, -1), (1, +1), (2, -1), (3, +1)):  # LF, RF, LB, RB: right side +
+        expected[:, 2 * leg] *= 1 + side * bound * u
+    got = oscillator.hip_amplitude_difference(rhythm, turn, bound)
+    np.testing.assert_allclose(got, expected, rtol=1e-6, atol=1e-7)
+    lateral = np.stack(
+        [bound * u * sign * rhythm[:, 2 * leg] for leg, sign in enumerate((1, 1, -1, -1))], -1
+    )
+    np.testing.assert_allclose(oscillator.abduction_stride(rhythm, turn, bound), lateral, atol=1e-7)
+
+
+# --- the env ----------------------------------------------------------------------------------
+
+SCHEDULE = "0.5,0@0.1;1.0,0.3@5"
+
+
+@pytest.fixture(scope="module")
+def commanded_env():
+    """quad12 (12 joints) with a schedule and the abduction turn: one compiled reset and step."""
+    return quadcos.make_env(
+        "flat", robot="quad12", turn_mode="abduction_stride", **{"commands.spec": SCHEDULE}
+    )
+
+
+def test_sizes_grow_only_with_commands_and_turning(commanded_env):
+    plain = quadcos.make_env("flat", robot="quad12")
+    assert commanded_env.observation_size == plain.observation_size + 2 + 1  # command, turn filter
+    assert commanded_env.action_size == plain.action_size + 1
+    unfiltered = dict(robot="quad12", action_filter_tau=0.0)
+    assert (
+        quadcos.make_env("flat", **unfiltered, **{"commands.spec": "random"}).observation_size
+        == quadcos.make_env("flat", **unfiltered).observation_size + 2
+    )
+    assert quadcos.make_env("flat", turn_mode="hip_amplitude_difference").action_size == 6
+    with pytest.raises(ValueError, match="abduction joints"):
+        quadcos.make_env("flat", turn_mode="abduction_stride")
+    with pytest.raises(ValueError, match="segment 1"):
+        quadcos.make_env("flat", **{"commands.spec": "fast"})
+    with pytest.raises(ValueError, match="only an env with commands"):
+        plain.with_commands("random")
+    # every foot moves to the left with a larger abduction angle on quad12: all signs +1
+    np.testing.assert_array_equal(np.abs(commanded_env.layout.abduction_map).sum(0), 1.0)
+
+
+def test_a_commanded_env_follows_its_schedule(commanded_env):
+    env = commanded_env
+    reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
+    state = reset(jax.random.split(jax.random.PRNGKey(0), 2))
+    np.testing.assert_allclose(state.obs[:, -2:], [[0.5, 0.0]] * 2)
+    action = jnp.zeros((2, env.action_size)).at[:, -1].set(0.5)
+    yaws, headings = [], []
+    for _ in range(3):
+        state = step(state, action)
+        yaws.append(np.asarray(state.obs[:, 4]))
+        headings.append(np.asarray(state.info["velocity_command"].heading))
+        assert np.isfinite(np.asarray(state.obs)).all() and np.isfinite(state.reward).all()
+    # t = 0.05: still 0.5 m/s; from t = 0.1 on, the second segment, observed for the next step
+    np.testing.assert_allclose(state.obs[:, -2:], [[1.0, 0.3]] * 2)
+    np.testing.assert_allclose(headings[1], 0.0, atol=1e-7)  # ω* = 0 in the first two steps
+    # third step: ψ* = 0.3 rad/s × 0.05 s, within the leash of the robot's yaw
+    np.testing.assert_allclose(headings[2], 0.015, rtol=1e-4)
+
+
+# --- metrics ----------------------------------------------------------------------------------
+
+
+@flax.struct.dataclass
+class _Data:
+    """What the gait statistics read of an mjx.Data."""
+
+    qpos: jax.Array
+    geom_xpos: jax.Array
+    qfrc_actuator: jax.Array
+    qvel: jax.Array
+
+
+def test_gait_metrics_on_a_synthetic_trace():
+    """Two robots, 0.1-s steps: robot 0 walks +x at 0.5 m/s (commanded 0.6) turning at 0.2 rad/s
+    (commanded 0), one foot on the ground slipping 0.05 m/s; robot 1 falls at its first step."""
+    dt, n = 0.1, 2
+    layout = types.SimpleNamespace(
+        foot_geoms=jnp.arange(4),
+        foot_radius=jnp.full(4, 0.02),
+        joint_qvel=jnp.arange(2),
+        torque_limit=jnp.array([10.0, 20.0]),
+        mass=4.0,
+    )
+    env = types.SimpleNamespace(
+        dt=dt, layout=layout, commanded=True,
+        terrain=types.SimpleNamespace(height_at=lambda x, y: 0.0 * x),
+    )
+    command = jnp.array([[0.6, 0.0], [0.6, 0.0]])
+
+    def state(step):
+        yaw = 0.2 * dt * step
+        qpos = jnp.zeros((n, 7)).at[:, 0].set(0.5 * dt * step)
+        qpos = qpos.at[:, 3].set(np.cos(yaw / 2)).at[:, 6].set(np.sin(yaw / 2))
+        feet = jnp.full((n, 4, 3), 0.5).at[:, 0].set(jnp.array([0.05 * dt * step, 0.0, 0.02]))
+        data = _Data(
+            qpos=qpos,
+            geom_xpos=feet,
+            qfrc_actuator=jnp.array([[2.0, -4.0]] * n),
+            qvel=jnp.array([[1.0, 1.0]] * n),
+        )
+        info = {"velocity_command": types.SimpleNamespace(velocity=command)}
+        return types.SimpleNamespace(pipeline_state=data, info=info)
+
+    first = state(0)
+    base = rollout.EpisodeStats(
+        running=jnp.ones(n, bool), lane=jnp.zeros(n, jnp.int32), fell=jnp.zeros(n, bool),
+        finished=jnp.zeros(n, bool), steps=jnp.zeros(n, jnp.int32), start_x=jnp.zeros(n),
+        start_y=jnp.zeros(n), x=jnp.zeros(n), y=jnp.zeros(n), **{
+            name: jnp.zeros(n) for name in (
+                "max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error",
+                "slope_sq_error", "episode_reward",
+            )
+        }, reward_terms={},
+    )
+    gait = rollout._initial_gait_stats(env, first, base)
+    for step in range(1, 5):
+        counts = jnp.array([True, step == 1])
+        new = state(step)
+        stats = base.replace(
+            steps=gait.steps + counts, x=jnp.where(counts, new.pipeline_state.qpos[:, 0], gait.x)
+        )
+        gait = rollout._update_gait_stats(env, gait, stats, new, counts)
+        base = stats
+    host = jax.device_get(gait)
+    values = [metrics.gait_values(host, i) for i in range(n)]
+    # speed along the heading: 0.05 m per step at a yaw of 0.02·k rad: 0.5·cos(0.02 k) m/s
+    speeds = 0.5 * np.cos(0.02 * np.arange(1, 5))
+    rms = np.sqrt(np.mean((speeds - 0.6) ** 2))
+    assert values[0]["speed_tracking_rms"] == pytest.approx(rms, rel=1e-4)
+    assert values[0]["yaw_rate_tracking_rms"] == pytest.approx(0.2, rel=1e-3)
+    assert values[0]["foot_slip_m_per_s"] == pytest.approx(0.05, rel=1e-4)
+    # |τ·q̇| = 6 W for 0.4 s over 0.2 m: 2.4 J / (4 kg · 9.81 · 0.2 m)
+    assert values[0]["cost_of_transport"] == pytest.approx(2.4 / (4.0 * 9.81 * 0.2), rel=1e-4)
+    assert values[0]["peak_joint_torque_ratio"] == pytest.approx(0.2)
+    assert int(host.steps[1]) == 1 and float(host.energy[1]) == pytest.approx(0.6)
+    pooled = metrics.gait_aggregate(host)
+    errors = np.concatenate([(speeds - 0.6) ** 2, (speeds[:1] - 0.6) ** 2])
+    assert pooled["speed_tracking_rms"] == pytest.approx(np.sqrt(errors.mean()), rel=1e-4)
+    assert pooled["cost_of_transport"] == pytest.approx(3.0 / (4.0 * 9.81 * 0.25), rel=1e-4)
+    assert pooled["peak_joint_torque_ratio"] == pytest.approx(0.2)
+    uncommanded = metrics.gait_values(host.replace(commanded=False), 0)
+    assert uncommanded["speed_tracking_rms"] is None
