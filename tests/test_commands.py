@@ -257,6 +257,11 @@ def test_sizes_grow_only_with_commands_and_turning(commanded_env):
         quadcos.make_env("flat", **unfiltered, **{"commands.spec": "random"}).observation_size
         == quadcos.make_env("flat", **unfiltered).observation_size + 2
     )
+    randomized = {**unfiltered, "randomization.enabled": True}  # reset draws physics too
+    assert (
+        quadcos.make_env("flat", **randomized, **{"commands.spec": "random"}).observation_size
+        == quadcos.make_env("flat", **unfiltered).observation_size + 2
+    )
     assert quadcos.make_env("flat", turn_mode="hip_amplitude_difference").action_size == 6
     with pytest.raises(ValueError, match="abduction joints"):
         quadcos.make_env("flat", turn_mode="abduction_stride")

@@ -163,7 +163,7 @@ class QuadrupedEnv(base.Env):
             physics = randomization.sample(
                 draw_key, self.config.randomization, self.config.physics_dt
             )
-            info = {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
+            info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
         data = mjx.forward(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
