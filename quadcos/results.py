@@ -38,7 +38,7 @@ from quadcos._util import cli
 RESULTS_DIR = "results"
 LAYOUT_FILE = "tables.json"
 PAGES = ("README.md", "docs/*.md")
-PER_EPISODE_KEYS = ("episodes",)  # what `quadcos.evaluate --out` writes per episode
+PER_EPISODE_KEYS = ("episodes",)  # the list `quadcos.evaluate --out` writes, one item an episode
 MARKER = re.compile(
     r"<!-- results:(?P<name>[\w.-]+) -->(?P<body>.*?)<!-- /results:(?P=name) -->", re.S
 )
@@ -50,7 +50,11 @@ AGGREGATES = {"min": min, "max": max, "count": len}
 def strip_episodes(value: Any) -> Any:
     """`value` (a loaded evaluation or bench JSON) without its per-episode data."""
     if isinstance(value, dict):
-        return {k: strip_episodes(v) for k, v in value.items() if k not in PER_EPISODE_KEYS}
+        return {
+            k: strip_episodes(v)
+            for k, v in value.items()
+            if not (k in PER_EPISODE_KEYS and isinstance(v, list))
+        }
     if isinstance(value, list):
         return [strip_episodes(item) for item in value]
     return value
@@ -136,40 +140,48 @@ def load_layout(root: pathlib.Path) -> dict[str, dict]:
     return json.loads((root / RESULTS_DIR / LAYOUT_FILE).read_text())
 
 
-def _number(records: dict[str, dict], default: str | None, reference: str) -> float:
-    name, _, key = reference.strip().rpartition(":")
-    name = name or default
+def _split_record(records: dict[str, dict], default: str | None, reference: str) -> tuple[dict, str]:
+    """(the named record's numbers, the rest) of `[RECORD:]REST`."""
+    match = re.match(r"([\w.-]+):(.*)", reference.strip())
+    name, rest = (match[1], match[2]) if match else (default, reference.strip())
     if name not in records:
         raise ValueError(f"no record {name!r} (for {reference.strip()!r})")
-    numbers = records[name]["numbers"]
-    if key not in numbers:
-        raise ValueError(f"record {name!r} has no number {key!r}")
-    return numbers[key]
+    return records[name]["numbers"], rest
+
+
+def _term(records: dict[str, dict], default: str | None, term: str) -> float:
+    """A literal, a number of a record, or an aggregate over a record's numbers."""
+    try:
+        return float(term)
+    except ValueError:
+        pass
+    numbers, rest = _split_record(records, default, term)
+    head, _, pattern = rest.partition(" ")
+    if head in AGGREGATES and pattern:
+        found = [v for k, v in numbers.items() if fnmatch.fnmatchcase(k, pattern.strip())]
+        if not found:
+            raise ValueError(f"no number matches {term.strip()!r}")
+        return AGGREGATES[head](found)
+    if rest not in numbers:
+        raise ValueError(f"no number {term.strip()!r}")
+    return numbers[rest]
 
 
 def _value(records: dict[str, dict], default: str | None, expression: str) -> float:
-    head, _, rest = expression.strip().partition(" ")
-    if head in AGGREGATES and rest:
-        name, _, pattern = rest.strip().rpartition(":")
-        name = name or default
-        if name not in records:
-            raise ValueError(f"no record {name!r} (for {expression.strip()!r})")
-        found = [v for k, v in records[name]["numbers"].items() if fnmatch.fnmatchcase(k, pattern)]
-        if not found:
-            raise ValueError(f"record {name!r} has no number matching {pattern!r}")
-        return AGGREGATES[head](found)
-    if " / " in expression:
-        numerator, denominator = expression.split(" / ", 1)
-        return _number(records, default, numerator) / _number(records, default, denominator)
-    return _number(records, default, expression)
+    """`TERM`, or terms divided left to right (`A / B / C`)."""
+    first, *divisors = expression.split(" / ")
+    value = _term(records, default, first)
+    for divisor in divisors:
+        value /= _term(records, default, divisor)
+    return value
 
 
 def format_number(value: float, spec: str) -> str:
     """`value` under a Python format spec, with `k`, `M` and `%` as units (see the module)."""
-    scale, unit = UNITS.get(spec[-1:], (1.0, "")) if spec else (1.0, "")
-    if unit:
-        spec = spec[:-1]
-    return format(value * scale, spec) + unit
+    if spec[-1:] in UNITS:
+        scale, unit = UNITS[spec[-1]]
+        return format(value * scale, spec[:-1]) + unit
+    return format(value, spec)
 
 
 def fill(template: str, records: dict[str, dict], default: str | None = None) -> str:
