@@ -204,7 +204,7 @@ def render(spec: dict, records: dict[str, dict]) -> str:
     ]
     for row in spec["rows"]:
         lines.append("| " + " | ".join(fill(cell, records, default) for cell in row) + " |")
-    return "\n" + "\n".join(lines) + "\n"
+    return "\n\n" + "\n".join(lines) + "\n\n"  # blank lines: Markdown ends the comment's block
 
 
 def pages(root: pathlib.Path) -> list[pathlib.Path]:
