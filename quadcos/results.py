@@ -226,10 +226,12 @@ def check(root: pathlib.Path) -> list[str]:
         for name, record in records.items()
         if record["numbers"] != numbers_of(record["sources"])
     ]
+    used = set()
     for page in pages(root):
         relative = page.relative_to(root)
         for match in MARKER.finditer(page.read_text()):
             name = match["name"]
+            used.add(name)
             if name not in layout:
                 problems.append(f"{relative}: results:{name} has no table in {RESULTS_DIR}/{LAYOUT_FILE}")
                 continue
@@ -241,6 +243,7 @@ def check(root: pathlib.Path) -> list[str]:
             if match["body"] != wanted:
                 difference = _first_difference(match["body"], wanted)
                 problems.append(f"{relative}: results:{name} differs from its records: {difference}")
+    problems += [f"{RESULTS_DIR}/{LAYOUT_FILE}: {name} is in no page" for name in sorted(set(layout) - used)]
     return problems
 
 
