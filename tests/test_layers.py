@@ -23,7 +23,7 @@ LAYERS = (
     "deploy",
     "benchmarking",
 )
-COMMANDS = ("train", "evaluate", "bench", "play", "sim2sim", "export")
+COMMANDS = ("train", "evaluate", "bench", "play", "sim2sim", "export", "results")
 
 
 def _module_name(path: pathlib.Path) -> str:

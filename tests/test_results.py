@@ -1,0 +1,126 @@
+"""The result records (results/*.json) and the tables of README.md and docs/ generated from them:
+`python -m quadcos.results --check` passes on the repository and fails on a page whose number
+differs from its record; a record written by `record` renders back its sources' numbers."""
+
+import json
+import pathlib
+import shutil
+
+import pytest
+
+from quadcos import results
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def _copy(tmp_path: pathlib.Path) -> pathlib.Path:
+    """The pages and records of the repository, copied to `tmp_path`."""
+    for name in ("README.md", "docs", "results"):
+        source = ROOT / name
+        if source.is_dir():
+            shutil.copytree(source, tmp_path / name)
+        else:
+            shutil.copy(source, tmp_path / name)
+    return tmp_path
+
+
+def test_the_pages_agree_with_their_records(capsys):
+    assert results.main(["--root", str(ROOT), "--check"]) == 0, capsys.readouterr().out
+
+
+def test_every_table_marker_in_the_pages_has_a_record():
+    layout = results.load_layout(ROOT)
+    names = {
+        match["name"] for page in results.pages(ROOT) for match in results.MARKER.finditer(page.read_text())
+    }
+    assert {"readme", "paper", "bench_h100"} <= names
+    assert names == set(layout), set(layout) ^ names
+
+
+def test_a_changed_number_in_a_page_fails_the_check(tmp_path, capsys):
+    root = _copy(tmp_path)
+    page = root / "docs" / "benchmarks.md"
+    text = page.read_text()
+    table = text[text.index("<!-- results:bench_h100 -->") :]
+    row = next(line for line in table.splitlines() if line.startswith("| flat | warp |"))
+    changed = row.replace(" k |", "1 k |", 1)
+    assert changed != row
+    page.write_text(text.replace(row, changed, 1))
+    assert results.main(["--root", str(root), "--check"]) == 1
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1 and out[0].startswith("docs/benchmarks.md: results:bench_h100 differs")
+    assert results.main(["--root", str(root)]) == 0  # rendering puts the record's number back
+    assert page.read_text() == text
+
+
+def test_a_marker_without_a_table_and_a_changed_record_fail_the_check(tmp_path, capsys):
+    root = _copy(tmp_path)
+    with open(root / "docs" / "results.md", "a") as page:
+        page.write("\n<!-- results:no_such_table -->\n<!-- /results:no_such_table -->\n")
+    record = json.loads((root / "results" / "flat.json").read_text())
+    record["numbers"]["eval_flat.success_rate"] = 0.5
+    (root / "results" / "flat.json").write_text(json.dumps(record))
+    assert results.main(["--root", str(root), "--check"]) == 1
+    out = capsys.readouterr().out
+    assert "docs/results.md: results:no_such_table has no table" in out
+    assert "results/flat.json: its numbers are not those of its sources" in out
+
+
+def test_a_record_round_trips_from_its_sources(tmp_path, capsys):
+    evaluation = {
+        "format": "quadcos.evaluation",
+        "success_rate": 0.75,
+        "mean_forward_speed": 0.5,
+        "setup": {"num_envs": 4, "terrain": "flat"},
+        "episodes": [{"success": True, "forward_speed": 0.5}] * 4,
+    }
+    sources = []
+    for seed, speed in enumerate((0.5, 0.625)):
+        path = tmp_path / f"eval_s{seed}.json"
+        path.write_text(json.dumps({**evaluation, "mean_forward_speed": speed}))
+        sources.append(str(path))
+    argv = ["--root", str(tmp_path), "record", "--name", "toy", "--claim", "a toy claim"]
+    argv += ["--command", "python -m quadcos.evaluate --out=eval.json", "--device", "CPU"]
+    assert results.main([*argv, "--commit", "0" * 40, *sources]) == 0
+    record = json.loads((tmp_path / "results" / "toy.json").read_text())
+    assert record["numbers"] == {
+        "eval_s0.success_rate": 0.75,
+        "eval_s0.mean_forward_speed": 0.5,
+        "eval_s0.setup.num_envs": 4,
+        "eval_s1.success_rate": 0.75,
+        "eval_s1.mean_forward_speed": 0.625,
+        "eval_s1.setup.num_envs": 4,
+    }
+    assert all("episodes" not in source["summary"] for source in record["sources"])
+    assert record["sources"][0]["path"] == sources[0] and record["device"] == "CPU"
+    records = results.load_records(tmp_path)
+    spec = {"text": "{toy:min *.mean_forward_speed|.3f}–{toy:max *.mean_forward_speed|.3f} "
+                    "({toy:count *.success_rate} seeds, {toy:eval_s1.success_rate|.0f%})"}
+    assert results.render(spec, records) == "0.500–0.625 (2 seeds, 75 %)"
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["record", "--name", "bad name", "--claim", "c", "--command", "c", "--device", "d", "--commit", "x", "a.json"], "record name"),
+        (["record", "--name", "n", "--claim", "c", "--command", "c", "--device", "d", "--commit", "x", "missing.json"], "not a readable JSON"),
+        (["record", "--name", "n"], "required"),
+    ],
+)
+def test_bad_arguments_are_one_line_and_exit_2(tmp_path, capsys, argv, message):
+    assert results.main(["--root", str(tmp_path), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0]
+
+
+def test_a_template_naming_a_missing_number_is_an_error():
+    records = {"r": {"numbers": {"a": 1.0}}}
+    with pytest.raises(ValueError, match="no number 'r:b'"):
+        results.fill("{r:b}", records)
+    with pytest.raises(ValueError, match="no record 'q'"):
+        results.fill("{q:a}", records)
+    assert results.fill("{r:a / 4|.2f} {r:a|.1fk}", records) == "0.25 0.0 k"
+
+
+def test_the_benchmarks_page_stays_short():
+    assert len((ROOT / "docs" / "benchmarks.md").read_text().splitlines()) <= 250
