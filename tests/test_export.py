@@ -187,7 +187,7 @@ def test_a_policy_spec_parses_each_kind_and_knows_its_env(tmp_path):
 
     directory = PolicySpec.parse(str(POLICIES / "flat"))
     npz = PolicySpec.parse(str(export_lib.export_policy(directory, tmp_path / "flat.npz")))
-    onnx_spec = PolicySpec.parse(str(export_lib.export_policy(directory, tmp_path / "f.ONNX")))
+    onnx_spec = PolicySpec.parse(str(export_lib.export_policy(directory, tmp_path / "flat.onnx")))
     fixed = PolicySpec.parse("fixed:0.4,0.15,0.6,pi/2,-pi/2")
     assert [spec.kind for spec in (directory, npz, onnx_spec, fixed)] == [
         "directory",
