@@ -29,7 +29,7 @@ from quadcos import evaluation
 from quadcos import terrain as terrain_lib
 from quadcos._util import cli
 from quadcos._util.overrides import parse_overrides
-from quadcos.deploy import host_robot
+from quadcos.deploy import host_robot, twins
 from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.equations import reward
 from quadcos.evaluation import report, rollout, sources
