@@ -8,9 +8,13 @@
     python -m quadcos.evaluate --render=s4_trace.json --video=s4.mp4     # a saved trace, here
 
 `--policy` is a run directory, a policy directory (`quadcos.load_policy`), `fixed:trot`
-(`oscillator.FIXED_TROT`) or `fixed:A_k,A_h,T,phi1,phi3` (rad, rad, s, rad, rad; `pi` allowed).
+(`oscillator.FIXED_TROT`) or `fixed:A_k,A_h,T,phi1,phi3` (rad, rad, s, rad, rad; `pi` allowed);
+with `--engine=mujoco` also an exported .npz or .onnx (`quadcos.evaluation.PolicySpec`).
 A trained policy runs in the env it was trained in (its saved env config), on its training
-terrain unless `--terrain` names another; fixed parameters run in the default env.
+terrain unless `--terrain` names another; fixed parameters run in the default env. Env options
+`--env.KEY=VALUE` go on top (values read as in `quadcos.train`: `true` is a bool); an unknown key
+is an error. `--engine=mujoco` runs the episodes one after another in C MuJoCo
+(`quadcos.sim2sim`'s engine, `quadcos.deploy.engines.evaluate`) and writes the same JSON.
 
 An episode ends when the robot falls (the env's fall check), when `--seconds` have passed, or, on a
 course (a terrain with `course_end_x`), when the torso passes the course end. Success: no fall and,
@@ -33,7 +37,6 @@ The work is done by `quadcos.evaluation`; this module is its command line.
 """
 
 import argparse
-import ast
 import math
 import pathlib
 import sys
@@ -44,6 +47,7 @@ from typing import Any
 
 from quadcos import evaluation
 from quadcos._util import cli
+from quadcos.deploy import engines
 from quadcos.evaluation.fixed_search import SPEED_FLOOR_OF
 from quadcos.viz import video
 
@@ -51,26 +55,14 @@ _PROG = "quadcos.evaluate"
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m quadcos.evaluate",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="Env options: --env.KEY=VALUE (e.g. --env.fall_max_roll=1.0); see quadcos.env.default_config().",
-    )
-    parser.add_argument(
-        "--policy", help="run or policy directory, fixed:trot or fixed:A_k,A_h,T,phi1,phi3"
-    )
-    parser.add_argument(
-        "--terrain", help="terrain name or spec (default: the policy's training terrain; flat)"
-    )
-    parser.add_argument(
-        "--robot",
-        help="the quadruped of fixed:... parameters (quadcos, quad12, an MJCF path,"
-        " menagerie:NAME); a trained policy runs on its own",
+    parser = engines.policy_parser(
+        "python -m quadcos.evaluate",
+        __doc__,
+        policy_help="run or policy directory, fixed:trot or fixed:A_k,A_h,T,phi1,phi3 (and with"
+        " --engine=mujoco an exported .npz or .onnx)",
     )
     parser.add_argument("--num_envs", type=int, default=64, help="episodes, all run at once")
     parser.add_argument("--seconds", type=float, default=20.0, help="time limit of an episode, s")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the reset noise")
     parser.add_argument("--out", help="evaluation (or search) JSON to write")
     parser.add_argument("--trace", help="JSON of one episode's time series to write")
     parser.add_argument("--trace_episode", type=int, default=0, help="which episode to trace")
@@ -106,7 +98,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--engine",
-        choices=("mjx", "mujoco"),
+        choices=engines.ENGINES,
         default="mjx",
         help="mjx: batched on the device (default); mujoco: the same controller path in C MuJoCo,"
         " episode after episode (quadcos.sim2sim)",
@@ -116,21 +108,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
-    parser = cli.raising(_parser())
-    args, rest = parser.parse_known_args(argv)
-    overrides = {}
-    for item in rest:
-        if not item.startswith("--env.") or "=" not in item:
-            raise cli.UsageError(
-                f"unrecognised argument {item!r} (env options look like --env.KEY=VALUE)"
-            )
-        key, text = item[len("--env.") :].split("=", 1)
-        try:
-            overrides[key] = ast.literal_eval(text)
-        except (ValueError, SyntaxError):
-            overrides[key] = text
-    if args.robot is not None:
-        overrides["robot"] = args.robot
+    args, overrides = engines.parse_command(_parser(), argv)
     modes = [args.policy is not None, args.search_fixed, args.render is not None]
     if sum(modes) != 1:
         raise cli.UsageError("give exactly one of --policy, --search_fixed and --render")
@@ -143,8 +121,6 @@ def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]
         raise cli.UsageError("--out is required")
     if args.engine == "mujoco" and (args.search_fixed or args.render or args.trace or args.video):
         raise cli.UsageError("--engine=mujoco evaluates a --policy to --out only")
-    if args.engine == "mujoco" and overrides:
-        raise cli.UsageError("--engine=mujoco runs the policy's own env config: no --env.KEY")
     if args.search_fixed and (args.trace or args.video):
         raise cli.UsageError("--trace and --video go with --policy, not --search_fixed")
     if args.num_envs < 1:
@@ -191,8 +167,8 @@ def _can_create_files_in(directory: pathlib.Path) -> bool:
 class _Progress:
     """Steps done on stderr: one updating line on a terminal, else a line every 10 %."""
 
-    def __init__(self, label: str, enabled: bool):
-        self.label, self.enabled = label, enabled
+    def __init__(self, label: str, enabled: bool, unit: str = "steps"):
+        self.label, self.enabled, self.unit = label, enabled, unit
         self.terminal = sys.stderr.isatty()
         self.started = time.monotonic()
         self.last_tenth = -1
@@ -200,7 +176,7 @@ class _Progress:
     def __call__(self, done: int, total: int) -> None:
         if not self.enabled:
             return
-        line = f"{self.label}: {done}/{total} steps ({100 * done / total:.0f} %), {time.monotonic() - self.started:.0f} s"
+        line = f"{self.label}: {done}/{total} {self.unit} ({100 * done / total:.0f} %), {time.monotonic() - self.started:.0f} s"
         if self.terminal:
             print("\r" + line, end="\n" if done >= total else "", file=sys.stderr, flush=True)
         elif (tenth := 10 * done // total) > self.last_tenth:
@@ -238,23 +214,25 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"best: --policy={best['policy']} (score {best['score']}, fall rate {best['fall_rate']})"
             )
             return 0
-        if args.engine == "mujoco":
-            return _evaluate_in_mujoco(args)
-        source = evaluation.resolve_source(args.policy)
-        # Builds the env now: a bad terrain or size is reported before anything runs.
-        env = evaluation.build_env(source, args.terrain, overrides)
         if args.video:
             video.check_video_support()
-        if not args.no_progress:
+        if not args.no_progress and args.engine == "mjx":
             print(f"{_PROG}: compiling the rollout...", file=sys.stderr)
-        result = evaluation.evaluate(
-            source,
-            num_envs=args.num_envs,
+        progress = (
+            _Progress("evaluate", not args.no_progress)
+            if args.engine == "mjx"
+            else _Progress("C MuJoCo", not args.no_progress, "episodes")
+        )
+        result = engines.evaluate(
+            args.policy,
+            args.terrain,
+            engine=args.engine,
+            episodes=args.num_envs,
             seconds=args.seconds,
             seed=args.seed,
+            env_overrides=overrides,
             trace_episode=args.trace_episode,
-            env=env,
-            progress=_Progress("evaluate", not args.no_progress),
+            progress=progress,
         )
     except (ValueError, FileNotFoundError, video.VideoError) as error:
         cli.print_error(_PROG, error)
@@ -272,31 +250,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     summary = result.summary
     if "courses" in summary:
         print(evaluation.course_table(summary))
+    engine = " in C MuJoCo" if args.engine == "mujoco" else ""
     print(
-        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}: success"
+        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}{engine}: success"
         f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
         f" {summary['mean_forward_speed']:.3f} m/s -> {args.out}"
-    )
-    return 0
-
-
-def _evaluate_in_mujoco(args: argparse.Namespace) -> int:
-    """--engine=mujoco: `quadcos.deploy.host_robot.evaluate_mujoco`, the same JSON and summary line."""
-    from quadcos.deploy import host_robot
-
-    result = host_robot.evaluate_mujoco(
-        args.policy,
-        args.terrain,
-        episodes=args.num_envs,
-        seconds=args.seconds,
-        seed=args.seed,
-        progress=None if args.no_progress else _Progress("C MuJoCo episodes", True),
-    )
-    evaluation.write_json(args.out, result)
-    print(
-        f"{result['num_episodes']} episodes on {result['setup']['terrain']} in C MuJoCo: success"
-        f" {result['success_rate']:.3f}, falls {result['fall_rate']:.3f}, speed"
-        f" {result['mean_forward_speed']:.3f} m/s -> {args.out}"
     )
     return 0
 

@@ -1,8 +1,9 @@
-"""Watch a policy walk: `python -m quadcos.play --policy DIR|fixed:trot --terrain SPEC`.
+"""Watch a policy walk: `python -m quadcos.play --policy DIR|FILE|fixed:trot --terrain SPEC`.
 
 MuJoCo's interactive viewer (`mujoco.viewer.launch_passive`) shows the robot on the terrain, driven
 in real time through `quadcos.deploy.host_robot.HostRobot` (the env's controller path in C MuJoCo, the
-policy's NumPy forward pass), the camera following the torso. The overlay reads the time, forward
+policy's NumPy forward pass), the camera following the torso. `--policy` is read as everywhere (`quadcos.evaluation.PolicySpec`),
+env options as `--env.KEY=VALUE`. The overlay reads the time, forward
 speed, attitude, the slope estimate beside the ground truth and the five rhythm parameters.
 
 Keys: space pauses and resumes; R or Backspace restarts (next reset noise seed); Tab and
@@ -20,7 +21,9 @@ from collections.abc import Sequence
 
 import mujoco
 
-from quadcos.deploy.host_robot import HostRobot, Pilot, StepResult, load_pilot, pilot_parser
+from quadcos._util import cli
+from quadcos.deploy import engines, solver
+from quadcos.deploy.host_robot import HostRobot, Pilot, StepResult
 from quadcos.robot import constants
 
 KEY_SPACE, KEY_R, KEY_BACKSPACE = 32, ord("R"), 259  # GLFW key codes
@@ -149,26 +152,45 @@ def _no_display_line(args: argparse.Namespace, reason: str) -> str:
     )
 
 
+def _parser() -> argparse.ArgumentParser:
+    parser = engines.policy_parser(
+        "python -m quadcos.play",
+        __doc__,
+        policy_help="run or policy directory, exported .npz or .onnx, or fixed:trot",
+    )
+    parser.add_argument(
+        "--physics",
+        type=solver.physics_choice,
+        default="reference",
+        help="C MuJoCo's solver: the MJCF's iterations (reference, converged), the training"
+        " shortcut's (training), or N/M solver / line-search iterations",
+    )
+    return parser
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (2, one line on stderr, for bad input or no
     display)."""
     try:
-        args = pilot_parser("python -m quadcos.play", __doc__).parse_args(argv)
-        pilot = load_pilot(args.policy, args.robot)
-        host = HostRobot(args.terrain or pilot.training_terrain, pilot.config, physics=args.physics)
+        args, overrides = engines.parse_command(_parser(), argv)
+        if args.policy is None:
+            raise cli.UsageError("--policy is required")
+        pilot = Pilot.load(args.policy, overrides)
+        terrain = args.terrain or pilot.spec.training_terrain
+        host = HostRobot(terrain, pilot.config, physics=args.physics)
         session = Session(pilot, host, args.seed)
     except (ValueError, FileNotFoundError) as error:
-        print(f"quadcos.play: error: {error}", file=sys.stderr)
-        return 2
+        cli.print_error("quadcos.play", error)
+        return cli.EXIT_USAGE
     if not display_available():
         reason = "no display (DISPLAY / WAYLAND_DISPLAY unset)"
         print(_no_display_line(args, reason), file=sys.stderr)
-        return 2
+        return cli.EXIT_USAGE
     try:
         run_viewer(session)
     except Exception as error:  # noqa: BLE001 -- GLFW / OpenGL failures have many types
         print(_no_display_line(args, f"the viewer cannot start ({error})"), file=sys.stderr)
-        return 2
+        return cli.EXIT_USAGE
     return 0
 
 

@@ -15,7 +15,10 @@ control step, as the MJX env's randomised latency). Both are recorded in the set
 `--physics=reference` (default) solves contacts with the MJCF's own solver iterations (converged:
 the physics a policy must transfer to); `--physics=training` with the iterations it trained with;
 `--physics=N/M` with N solver and M line-search iterations. `--out` is an evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
-per-episode values), so the two compare key by key. The robot loop: `quadcos.deploy.host_robot`.
+per-episode values), so the two compare key by key; it is
+`python -m quadcos.evaluate --engine=mujoco` with the deployment faults and the solver choice.
+Env options: `--env.KEY=VALUE`, as in `quadcos.evaluate`. The library: `quadcos.deploy.engines`
+(`evaluate(..., engine="mujoco")`); the robot loop: `quadcos.deploy.host_robot`.
 """
 
 import argparse
@@ -25,20 +28,25 @@ import sys
 from collections.abc import Sequence
 
 from quadcos import evaluation
-from quadcos.deploy.host_robot import (  # noqa: F401 (the library this command line runs; re-exported)
-    HostRobot,
-    Pilot,
-    StepResult,
-    env_config,
-    evaluate_mujoco,
-    load_pilot,
-    pilot_parser,
-    run_episode,
-)
+from quadcos._util import cli
+from quadcos.deploy import engines, solver
+
+_PROG = "quadcos.sim2sim"
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = pilot_parser("python -m quadcos.sim2sim", __doc__)
+    parser = engines.policy_parser(
+        f"python -m {_PROG}",
+        __doc__,
+        policy_help="run or policy directory, exported .npz or .onnx, or fixed:trot",
+    )
+    parser.add_argument(
+        "--physics",
+        type=solver.physics_choice,
+        default="reference",
+        help="C MuJoCo's solver: the MJCF's iterations (reference, converged), the training"
+        " shortcut's (training), or N/M solver / line-search iterations",
+    )
     parser.add_argument("--episodes", type=int, default=64, help="episodes, one after another")
     parser.add_argument("--seconds", type=float, default=20.0, help="time limit of an episode, s")
     parser.add_argument(
@@ -47,7 +55,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--latency_ms", type=float, default=0.0, help="control latency, ms (whole physics steps)"
     )
-    parser.add_argument("--out", required=True, help="evaluation JSON to write")
+    parser.add_argument("--out", help="evaluation JSON to write")
     parser.add_argument("--no_progress", action="store_true", help="no progress on stderr")
     return parser
 
@@ -59,35 +67,40 @@ def _print_progress(done: int, total: int) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (2, one line on stderr, for bad input)."""
     try:
-        args = _parser().parse_args(argv)
+        args, overrides = engines.parse_command(_parser(), argv)
+        if args.policy is None or args.out is None:
+            raise cli.UsageError("--policy and --out are required")
         out = pathlib.Path(args.out)
         if out.suffix != ".json" or not out.absolute().parent.is_dir():
             raise ValueError(f"--out must be a .json file in an existing directory; got {out}")
         for flag, value in (("--obs_noise", args.obs_noise), ("--latency_ms", args.latency_ms)):
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{flag} must be >= 0 and finite; got {value}")
-        result = evaluate_mujoco(
-            load_pilot(args.policy, args.robot),
+        result = engines.evaluate(
+            args.policy,
             args.terrain,
+            engine="mujoco",
             episodes=args.episodes,
             seconds=args.seconds,
             seed=args.seed,
+            env_overrides=overrides,
             obs_noise=args.obs_noise,
             latency_s=args.latency_ms / 1000.0,
             physics=args.physics,
             progress=None if args.no_progress else _print_progress,
         )
     except (ValueError, FileNotFoundError) as error:
-        print(f"quadcos.sim2sim: error: {error}", file=sys.stderr)
-        return 2
-    evaluation.write_json(out, result)
+        cli.print_error(_PROG, error)
+        return cli.EXIT_USAGE
+    evaluation.write_json(out, result.to_json())
+    summary = result.summary
     print(
-        f"{result['num_episodes']} episodes on {result['setup']['terrain']} in C MuJoCo: success"
-        f" {result['success_rate']:.3f}, falls {result['fall_rate']:.3f}, speed"
-        f" {result['mean_forward_speed']:.3f} m/s -> {out}"
+        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']} in C MuJoCo: success"
+        f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
+        f" {summary['mean_forward_speed']:.3f} m/s -> {out}"
     )
-    return 0
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    cli.exit_process(main())

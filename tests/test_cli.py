@@ -153,3 +153,31 @@ def test_booleans_read_in_any_case(capsys):
     for text, value in (("true", True), ("False", False), ("TRUE", True)):
         assert train.main([f"--config.sac.keep_best_policy={text}", "--print_config"]) == 0
         assert json.loads(capsys.readouterr().out)["sac"]["keep_best_policy"] is value
+
+
+# --- one overrides parser for every command line ------------------------------------------------
+
+
+@pytest.mark.parametrize("text, value", [("true", True), ("False", False), ("1e-3", 1e-3)])
+def test_env_values_read_the_same_in_evaluate_as_in_train(text, value):
+    from quadcos import evaluate
+    from quadcos.deploy import engines
+
+    _, trained = train.resolve([f"--config.env.observe_slope={text}"])
+    _, evaluated = engines.parse_command(
+        evaluate._parser(), ["--policy=fixed:trot", f"--env.observe_slope={text}"]
+    )
+    assert trained == {"env.observe_slope": value} and evaluated == {"observe_slope": value}
+    assert type(evaluated["observe_slope"]) is type(value)
+
+
+@pytest.mark.parametrize("command", ["evaluate", "sim2sim", "play"])
+def test_every_policy_command_refuses_an_unknown_env_key(command, tmp_path, capsys):
+    import importlib
+
+    module = importlib.import_module(f"quadcos.{command}")
+    argv = ["--policy=fixed:trot", "--env.observe_slop=true", f"--out={tmp_path / 'r.json'}"]
+    assert module.main(argv[:2] if command == "play" else argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "unknown config key 'observe_slop'; did you mean observe_slope" in err
+    assert len(err.splitlines()) == 1 and list(tmp_path.iterdir()) == []

@@ -1,5 +1,5 @@
 """`quadcos.evaluate` and `quadcos.plots`: the JSON, the trace, fixed parameters, the search, bad
-input, video, figures.
+input, video, figures, and the two engines of `quadcos.deploy.engines.evaluate`.
 
 Compiling a rollout costs tens of seconds on two cores, so there are two: the fixed trot on flat
 (4 robots; also the search's and notebook fallbacks') and the stand-in policy on flat (4 robots;
@@ -169,18 +169,45 @@ def test_policy_run_is_evaluated_in_its_training_env(policy_evaluation):
 
 
 def test_legacy_policy_gets_the_env_of_its_time():
-    controller = evaluation_lib.resolve_source(str(LEGACY_POLICY))
-    assert controller.env_overrides["action_filter_tau"] == 0.0
-    assert controller.env_overrides["action_centre"] == "midpoint"
-    assert evaluation_lib.build_env(controller).observation_size == controller.observation_size == 14
+    spec = evaluation_lib.PolicySpec.parse(str(LEGACY_POLICY))
+    assert spec.kind == "directory" and spec.robot == "quadcos"
+    assert spec.env_options["action_filter_tau"] == 0.0
+    assert spec.env_options["action_centre"] == "midpoint"
+    assert spec.env_config().action_centre == "midpoint"
+    env = evaluation_lib.build_env(spec.action_source())
+    assert env.observation_size == spec.observation_size == 14
 
 
 def test_evaluation_starts_at_the_spawn_point_wherever_training_spawned():
-    controller = evaluation_lib.resolve_source(str(LEGACY_POLICY))
+    source = evaluation_lib.PolicySpec.parse(str(LEGACY_POLICY)).action_source()
     trained_spread = dataclasses.replace(
-        controller, env_overrides={**controller.env_overrides, "spawn_x_max": 8.0}
+        source, env_overrides={**source.env_overrides, "spawn_x_max": 8.0}
     )
     assert evaluation_lib.build_env(trained_spread, "slope5").config.spawn_x_max == 0.0
+    spec = evaluation_lib.PolicySpec.parse("fixed:trot")
+    spread = dataclasses.replace(spec, env_options={"spawn_x_max": 8.0})
+    assert spread.env_config().spawn_x_max == 0.0  # the C MuJoCo engine's config: the same
+
+
+def test_both_engines_run_through_one_function_and_write_one_format(fixed_trot_result):
+    from quadcos.deploy import engines
+
+    mujoco = engines.evaluate(
+        "fixed:trot", "flat", engine="mujoco", episodes=NUM_ENVS, seconds=SECONDS
+    ).to_json()
+    assert mujoco["setup"]["engine"] == "mujoco" and "engine" not in fixed_trot_result["setup"]
+    assert set(fixed_trot_result) == set(mujoco)
+    assert set(fixed_trot_result["episodes"][0]) <= set(mujoco["episodes"][0])
+    assert mujoco["success_rate"] == fixed_trot_result["success_rate"] == 1.0
+    assert mujoco["mean_forward_speed"] == pytest.approx(
+        fixed_trot_result["mean_forward_speed"], abs=0.15
+    )
+    with pytest.raises(ValueError, match="unknown engine 'warp'; known: mjx, mujoco"):
+        engines.evaluate("fixed:trot", engine="warp")
+    with pytest.raises(ValueError, match="options of the mujoco engine"):
+        engines.evaluate("fixed:trot", engine="mjx", obs_noise=0.1)
+    with pytest.raises(ValueError, match="trace_episode is an mjx option"):
+        engines.evaluate("fixed:trot", engine="mujoco", trace_episode=1)
 
 
 def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
@@ -271,6 +298,9 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
         (["--policy=fixed:0.4,0.15,0.6,pi/2,exit()"], "'exit()' is not a number"),
         ([f"--policy={STAND_IN_RUN}", "--env.observe_slope=True"], "observations of size 19"),
         (["--policy=fixed:trot", "--env.no_such_option=1"], "unknown config key"),
+        (["--policy=fixed:trot", "--env.observe_slope"], "unrecognised argument"),
+        (["--policy=fixed:trot", "--env.terrain=s4"], "the terrain is not an env option"),
+        (["--policy=README.md"], "bad policy 'README.md'"),
         (["--policy=fixed:trot", "--num_envs=0"], "--num_envs must be >= 1"),
         (
             ["--policy=fixed:trot", "--num_envs=4", "--trace_episode=4"],

@@ -12,6 +12,7 @@ import pytest
 from onnx import TensorProto, helper
 
 from quadcos import export, sim2sim
+from quadcos.deploy import engines, host_robot
 from quadcos.deploy import export as export_lib
 from quadcos.deploy import onnx_policy
 from quadcos.deploy.numpy_policy import NumpyPolicy
@@ -25,8 +26,8 @@ POLICIES = ROOT / "experiments" / "policies"
 def _recorded_observations(name: str) -> np.ndarray:
     """Observations of 2 s of walking under policy `name` on its training terrain in C MuJoCo,
     then normaliser-scaled noise (3 std around the mean)."""
-    pilot = sim2sim.load_pilot(str(POLICIES / name))
-    host = sim2sim.HostRobot(pilot.training_terrain, pilot.config)
+    pilot = host_robot.Pilot.load(str(POLICIES / name))
+    host = host_robot.HostRobot(pilot.spec.training_terrain, pilot.config)
     act = pilot.actor()
     observations = [host.reset(0)]
     for _ in range(40):
@@ -38,7 +39,7 @@ def _recorded_observations(name: str) -> np.ndarray:
 
 @pytest.mark.parametrize("name", ["flat", "slope5"])
 def test_exported_actions_equal_the_jax_policy(tmp_path, name):
-    out = export.export_policy(POLICIES / name, tmp_path / f"{name}.npz")
+    out = export_lib.export_policy(POLICIES / name, tmp_path / f"{name}.npz")
     exported = NumpyPolicy.load(out)
     observations = _recorded_observations(name)
     jax_actions = np.asarray(load_policy(POLICIES / name).act(observations.astype(np.float32)))
@@ -50,7 +51,7 @@ def test_exported_actions_equal_the_jax_policy(tmp_path, name):
 
 
 def test_numpy_policy_imports_numpy_only(tmp_path):
-    export.export_policy(POLICIES / "flat", tmp_path / "flat.npz")
+    export_lib.export_policy(POLICIES / "flat", tmp_path / "flat.npz")
     script = (
         "import sys, importlib.util\n"
         "for name in ('jax', 'flax', 'brax', 'quadcos', 'mujoco'): sys.modules[name] = None\n"
@@ -95,7 +96,7 @@ def test_cli_exports_and_refuses_bad_input(tmp_path, capsys):
 
 @pytest.mark.parametrize("name, action_size", [("flat", 5), ("any_slope", 7)])
 def test_onnx_runtime_gives_the_jax_policys_actions(tmp_path, name, action_size):
-    out = export.export_policy(POLICIES / name, tmp_path / f"{name}.onnx")
+    out = export_lib.export_policy(POLICIES / name, tmp_path / f"{name}.onnx")
     exported = OnnxPolicy.load(out)
     jax_policy = load_policy(POLICIES / name)
     noise = np.random.default_rng(1).normal(size=(1000, exported.observation_size))
@@ -162,15 +163,72 @@ def test_onnx_that_is_not_a_quadcos_policy_is_named(tmp_path, capsys):
 
 
 def test_onnx_for_another_observation_size_is_refused(tmp_path, capsys):
-    out = export.export_policy(POLICIES / "flat", tmp_path / "flat.onnx")
+    out = export_lib.export_policy(POLICIES / "flat", tmp_path / "flat.onnx")
     model = onnx.load(out)
     for prop in model.metadata_props:
         if prop.key == "env_config":  # the env then adds the slope estimate: 20 values, not 19
             prop.value = json.dumps(json.loads(prop.value) | {"observe_slope": True})
     onnx.save(model, tmp_path / "other.onnx")
     with pytest.raises(ValueError, match="other.onnx expects observations of size 19"):
-        sim2sim.evaluate_mujoco(str(tmp_path / "other.onnx"), "flat", episodes=1, seconds=0.1)
+        engines.evaluate(
+            str(tmp_path / "other.onnx"), "flat", engine="mujoco", episodes=1, seconds=0.1
+        )
     argv = [f"--policy={tmp_path / 'other.onnx'}", f"--out={tmp_path / 'x.json'}", "--no_progress"]
     assert sim2sim.main(argv) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "other.onnx" in lines[0] and "20" in lines[0]
+
+
+# --- one way to name a policy -------------------------------------------------------------------
+
+
+def test_a_policy_spec_parses_each_kind_and_knows_its_env(tmp_path):
+    from quadcos.evaluation import PolicySpec
+
+    directory = PolicySpec.parse(str(POLICIES / "flat"))
+    npz = PolicySpec.parse(str(export_lib.export_policy(directory, tmp_path / "flat.npz")))
+    onnx_spec = PolicySpec.parse(str(export_lib.export_policy(directory, tmp_path / "flat.onnx")))
+    fixed = PolicySpec.parse("fixed:0.4,0.15,0.6,pi/2,-pi/2")
+    assert [spec.kind for spec in (directory, npz, onnx_spec, fixed)] == [
+        "directory",
+        "npz",
+        "onnx",
+        "fixed",
+    ]
+    for spec in (npz, onnx_spec):
+        assert spec.env_config().to_dict() == directory.env_config().to_dict()
+        assert (spec.training_terrain, spec.robot) == ("flat", "quadcos")
+        assert (spec.observation_size, spec.action_size) == (19, 5)
+        with pytest.raises(ValueError, match="exported .* run it with the mujoco engine"):
+            spec.action_source()
+        with pytest.raises(ValueError, match="is not a run or policy directory"):
+            export_lib.policy_arrays(spec)
+    assert fixed.fixed_parameters == pytest.approx((0.4, 0.15, 0.6, np.pi / 2, -np.pi / 2))
+    assert (fixed.path, fixed.training_terrain, fixed.env_options) == (None, "flat", {})
+    assert fixed.env_config({"robot": "quad12"}).robot == "quad12"  # fixed parameters: any robot
+    with pytest.raises(ValueError, match="trained on robot 'quadcos', not 'quad12'"):
+        directory.env_config({"robot": "quad12"})
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", "bad policy ''"),
+        ("fixed:0.4,0.15", "bad fixed parameters '0.4,0.15'"),
+        ("fixed:walk", "bad fixed parameters 'walk'"),
+        ("README.md", "bad policy 'README.md': a file that is not a run or policy directory"),
+        ("other.npz", "other.npz is not an exported quadcos policy"),
+        ("other.onnx", "other.onnx is not an exported quadcos policy"),
+    ],
+)
+def test_a_bad_policy_spec_is_a_value_error_naming_it(tmp_path, monkeypatch, text, message):
+    from quadcos.evaluation import PolicySpec
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "README.md").write_text("not a policy")
+    np.savez(tmp_path / "other.npz", weights=np.zeros(3))
+    _tiny_onnx(tmp_path / "other.onnx")
+    with pytest.raises(ValueError, match=message):
+        PolicySpec.parse(text)
+    with pytest.raises(FileNotFoundError, match="no policy at nowhere.npz"):
+        PolicySpec.parse("nowhere.npz")

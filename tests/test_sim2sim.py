@@ -1,5 +1,6 @@
-"""`quadcos.numpy_twins` against their JAX originals, `quadcos.sim2sim`'s controller path in C
-MuJoCo, and `quadcos.play` without a display."""
+"""`quadcos.deploy.twins` against their JAX originals, the controller path in C MuJoCo (the mujoco
+engine of `quadcos.deploy.engines.evaluate`, `quadcos.sim2sim`), and `quadcos.play` without a
+display."""
 
 import json
 import math
@@ -8,13 +9,19 @@ import pathlib
 import numpy as np
 import pytest
 
-from quadcos import export, play, sim2sim, terrain
-from quadcos.deploy import host_robot, twins
+from quadcos import evaluation, play, sim2sim, terrain
+from quadcos.deploy import engines, host_robot, twins
+from quadcos.deploy import export as export_lib
 from quadcos.equations import oscillator, reward, slope
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FLAT_POLICY = str(ROOT / "experiments" / "policies" / "flat")
 RNG = np.random.default_rng(16)
+
+
+def _mujoco(policy, terrain=None, **options):
+    """The evaluation JSON of `policy` in the mujoco engine."""
+    return engines.evaluate(policy, terrain, engine="mujoco", **options).to_json()
 
 
 # --- the twins -----------------------------------------------------------------------------------
@@ -117,7 +124,7 @@ def test_reward_twin(variant, fell, max_progress):
 
 
 def test_reset_stands_on_the_ramp_with_the_env_pose():
-    host = sim2sim.HostRobot("slope5", sim2sim.env_config({}))
+    host = host_robot.HostRobot("slope5", evaluation.env_config({}))
     obs = host.reset(0, x=3.5)  # on the 5° uphill
     pitch, slope_estimate = obs[3], host.step(np.zeros(5)).slope_estimate
     assert pitch == pytest.approx(math.radians(5), abs=0.01)
@@ -130,17 +137,17 @@ def test_reset_stands_on_the_ramp_with_the_env_pose():
 
 
 def test_observation_layout_follows_the_config():
-    config = sim2sim.env_config(
+    config = evaluation.env_config(
         {"observe_slope": True, "observe_phase": True, "action_filter_tau": 0.0}
     )
-    host = sim2sim.HostRobot("flat", config)
+    host = host_robot.HostRobot("flat", config)
     host.reset(0)
     result = host.step(np.full(5, 0.2))
     assert result.obs.shape == (14 + 1 + 2,)
     assert result.obs[14] == result.slope_estimate
     np.testing.assert_allclose(result.obs[15:], [math.cos(host.phase), math.sin(host.phase)])
     assert 0 < host.phase < 2 * np.pi
-    filtered = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    filtered = host_robot.HostRobot("flat", evaluation.env_config({}))
     filtered.reset(0)
     obs = filtered.step(np.ones(5)).obs
     assert obs.shape == (19,)  # the command: 10 substeps of a 0.25-s low-pass towards 1
@@ -148,7 +155,7 @@ def test_observation_layout_follows_the_config():
 
 
 def test_a_rolled_robot_falls():
-    host = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    host = host_robot.HostRobot("flat", evaluation.env_config({}))
     host.reset(0)
     host.data.qpos[3:7] = [math.cos(0.5), math.sin(0.5), 0.0, 0.0]  # 1 rad roll
     assert host.step(np.zeros(5)).fell
@@ -156,7 +163,7 @@ def test_a_rolled_robot_falls():
 
 @pytest.mark.parametrize("min_speed, survival", [(0.0, 10.0), (0.5, 0.0)])
 def test_survival_pays_a_step_backwards_only_without_a_min_speed(min_speed, survival):
-    host = sim2sim.HostRobot("flat", sim2sim.env_config({"survival_min_speed": min_speed}))
+    host = host_robot.HostRobot("flat", evaluation.env_config({"survival_min_speed": min_speed}))
     host.reset(0)
     host.data.qvel[0] = -1.0  # pushed backwards
     result = host.step(np.zeros(5))
@@ -177,9 +184,9 @@ def test_cli_writes_an_evaluation_json(tmp_path, capsys):
 
 def test_reference_physics_converges_where_training_takes_the_presets_shortcut(tmp_path):
     # quad12's preset trains with 4 / 8 solver iterations; the reference keeps the MJCF's (100 / 50).
-    config = sim2sim.env_config({"robot": "quad12"})
-    training = sim2sim.HostRobot("flat", config, physics="training")
-    reference = sim2sim.HostRobot("flat", config)
+    config = evaluation.env_config({"robot": "quad12"})
+    training = host_robot.HostRobot("flat", config, physics="training")
+    reference = host_robot.HostRobot("flat", config)
     assert (training.model.opt.iterations, training.model.opt.ls_iterations) == (4, 8)
     assert (reference.model.opt.iterations, reference.model.opt.ls_iterations) == (100, 50)
     assert reference.physics == {
@@ -190,11 +197,11 @@ def test_reference_physics_converges_where_training_takes_the_presets_shortcut(t
         "cone": "elliptic",
     }
     with pytest.raises(ValueError, match="unknown physics 'fast'"):
-        sim2sim.HostRobot("flat", config, physics="fast")
+        host_robot.HostRobot("flat", config, physics="fast")
     for bad in ("0/8", "4/", "4/8/2"):
         with pytest.raises(ValueError, match="N/M"):
-            sim2sim.HostRobot("flat", config, physics=bad)
-    chosen = sim2sim.HostRobot("flat", config, physics="12/20")
+            host_robot.HostRobot("flat", config, physics=bad)
+    chosen = host_robot.HostRobot("flat", config, physics="12/20")
     assert (chosen.model.opt.iterations, chosen.model.opt.ls_iterations) == (12, 20)
     assert chosen.physics["solver"] == "12/20"
     out = tmp_path / "q.json"
@@ -204,10 +211,10 @@ def test_reference_physics_converges_where_training_takes_the_presets_shortcut(t
 
 
 def test_policy_walks_and_a_course_ends_at_its_end():
-    result = sim2sim.evaluate_mujoco(FLAT_POLICY, "flat", episodes=1, seconds=2.0)
+    result = _mujoco(FLAT_POLICY, "flat", episodes=1, seconds=2.0)
     assert result["mean_forward_speed"] > 0.5 and result["success_rate"] == 1.0
     short = "sections:0@0.5;lead_in=0.5;run_out=5"  # course end at x = 1 m
-    result = sim2sim.evaluate_mujoco(FLAT_POLICY, short, episodes=1, seconds=10.0)
+    result = _mujoco(FLAT_POLICY, short, episodes=1, seconds=10.0)
     episode = result["episodes"][0]
     assert episode["finished_course"] and episode["success"] and episode["seconds"] < 3.0
 
@@ -237,17 +244,18 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):
 
 
 def test_an_onnx_pilot_acts_as_the_npz_pilot(tmp_path):
-    npz = sim2sim.load_pilot(str(export.export_policy(FLAT_POLICY, tmp_path / "flat.npz")))
-    onnx = sim2sim.load_pilot(str(export.export_policy(FLAT_POLICY, tmp_path / "flat.onnx")))
+    npz = host_robot.Pilot.load(str(export_lib.export_policy(FLAT_POLICY, tmp_path / "flat.npz")))
+    onnx = host_robot.Pilot.load(str(export_lib.export_policy(FLAT_POLICY, tmp_path / "flat.onnx")))
     assert onnx.config.to_dict() == npz.config.to_dict()
-    assert (onnx.kind, onnx.training_terrain) == ("sac", npz.training_terrain)
-    host = sim2sim.HostRobot("flat", npz.config)
+    assert (onnx.spec.kind, npz.spec.kind) == ("onnx", "npz")
+    assert onnx.spec.training_terrain == npz.spec.training_terrain == "flat"
+    host = host_robot.HostRobot("flat", npz.config)
     observations = [host.reset(0)]
     for _ in range(20):
         observations.append(host.step(npz.actor()(observations[-1])).obs)
     for obs in observations:
         np.testing.assert_allclose(onnx.actor()(obs), npz.actor()(obs), atol=1e-5)
-    result = sim2sim.evaluate_mujoco(onnx, episodes=1, seconds=2.0)
+    result = _mujoco(onnx.spec, episodes=1, seconds=2.0)
     assert result["success_rate"] == 1.0 and result["mean_forward_speed"] > 0.5
     assert (
         result["setup"]["policy"].endswith("flat.onnx")
@@ -256,7 +264,7 @@ def test_an_onnx_pilot_acts_as_the_npz_pilot(tmp_path):
 
 
 def _episode(**faults):
-    result = sim2sim.evaluate_mujoco(FLAT_POLICY, "flat", episodes=1, seconds=1.0, **faults)
+    result = _mujoco(FLAT_POLICY, "flat", episodes=1, seconds=1.0, **faults)
     return result["episodes"], result["setup"]
 
 
@@ -277,7 +285,7 @@ def test_no_noise_and_no_latency_change_nothing_and_are_recorded():
 def _commands(monkeypatch, latency_s, actions):
     """The command at each physics substep of `actions` (one per control step), without the
     action filter (the command is the action acting)."""
-    host = sim2sim.HostRobot("flat", sim2sim.env_config({"action_filter_tau": 0.0}), latency_s)
+    host = host_robot.HostRobot("flat", evaluation.env_config({"action_filter_tau": 0.0}), latency_s)
     host.reset(0)
     commands, mj_step = [], host_robot.mujoco.mj_step
 
@@ -312,8 +320,8 @@ def test_latency_delays_the_action(monkeypatch, latency_s, first, second):
 
 
 def test_a_latency_of_one_control_step_walks_one_step_behind():
-    delayed = sim2sim.HostRobot("flat", sim2sim.env_config({}), latency_s=0.05)
-    plain = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    delayed = host_robot.HostRobot("flat", evaluation.env_config({}), latency_s=0.05)
+    plain = host_robot.HostRobot("flat", evaluation.env_config({}))
     delayed.reset(3)
     plain.reset(3)
     actions = np.random.default_rng(5).uniform(-1, 1, (6, 5))
@@ -336,8 +344,8 @@ def test_play_without_a_display_says_so(monkeypatch, capsys):
 
 
 def test_play_session_steps_pauses_and_restarts():
-    pilot = sim2sim.load_pilot(FLAT_POLICY)
-    session = play.Session(pilot, sim2sim.HostRobot("flat", pilot.config))
+    pilot = host_robot.Pilot.load(FLAT_POLICY)
+    session = play.Session(pilot, host_robot.HostRobot("flat", pilot.config))
     for _ in range(5):
         session.advance()
     assert session.host.data.time == pytest.approx(0.25)
@@ -355,8 +363,8 @@ def test_play_session_steps_pauses_and_restarts():
 def test_survival_for_movement_waits_for_the_low_passed_speed():
     """With survival_min_speed, r_s starts once the 1-s low-passed speed of a trot from rest
     reaches it (the MJX env: step 12 of the fixed trot), and then stays."""
-    config = sim2sim.env_config({"survival_min_speed": 0.1})
-    host = sim2sim.HostRobot("flat", config)
+    config = evaluation.env_config({"survival_min_speed": 0.1})
+    host = host_robot.HostRobot("flat", config)
     host.reset(0)
     trot = np.asarray(
         oscillator.parameters_to_action(
@@ -381,8 +389,8 @@ def test_evaluate_cli_runs_c_mujoco_with_engine_mujoco(tmp_path, capsys):
 
 
 def test_posture_offsets_the_host_robots_hips():
-    posed = sim2sim.HostRobot("flat", sim2sim.env_config({"posture_bound": 0.4}))
-    plain = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    posed = host_robot.HostRobot("flat", evaluation.env_config({"posture_bound": 0.4}))
+    plain = host_robot.HostRobot("flat", evaluation.env_config({}))
     assert posed.action_size == 7
     posed.reset(0)
     plain.reset(0)
@@ -397,8 +405,8 @@ def test_posture_offsets_the_host_robots_hips():
 
 
 def test_the_host_robot_lets_the_rhythm_in_as_the_env_does():
-    ramped = sim2sim.HostRobot("flat", sim2sim.env_config({"start_ramp_s": 0.5}))
-    plain = sim2sim.HostRobot("flat", sim2sim.env_config({}))
+    ramped = host_robot.HostRobot("flat", evaluation.env_config({"start_ramp_s": 0.5}))
+    plain = host_robot.HostRobot("flat", evaluation.env_config({}))
     for robot in (ramped, plain):
         robot.reset(0)
         robot.command = np.full(5, 0.2)

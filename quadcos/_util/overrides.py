@@ -4,7 +4,7 @@ import ast
 import copy
 import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import ml_collections
@@ -25,6 +25,38 @@ def parse_value(text: str) -> Any:
         return text
 
 
+def parse_overrides(
+    items: Iterable[str], prefix: str, config: ml_collections.ConfigDict | None = None
+) -> dict[str, Any]:
+    """Command-line items `--PREFIX.KEY=VALUE` as {"KEY": value} (`parse_value`), every CLI's
+    one reading of them; with `config`, each key is checked against it.
+
+    Raises:
+      ValueError: an item of another form, or a key that `config` lacks.
+    """
+    flag = f"--{prefix}."
+    overrides = {}
+    for item in items:
+        key, equals, text = item.removeprefix(flag).partition("=")
+        if not (item.startswith(flag) and equals and key):
+            raise ValueError(
+                f"unrecognised argument {item!r} ({prefix} options look like {flag}KEY=VALUE)"
+            )
+        overrides[key] = parse_value(text)
+    if config is not None:
+        known = flat_keys(config)
+        for key in overrides:
+            _check_known(key, known)
+    return overrides
+
+
+def _check_known(key: str, known: list[str]) -> None:
+    if key not in known:
+        near = difflib.get_close_matches(key, known, n=3)
+        hint = f"; did you mean {', '.join(near)}?" if near else ""
+        raise ValueError(f"unknown config key {key!r}{hint}")
+
+
 def apply_overrides(
     config: ml_collections.ConfigDict, overrides: Mapping[str, Any]
 ) -> ml_collections.ConfigDict:
@@ -40,10 +72,7 @@ def apply_overrides(
     config = copy.deepcopy(config)
     known = flat_keys(config)
     for key, value in overrides.items():
-        if key not in known:
-            near = difflib.get_close_matches(key, known, n=3)
-            hint = f"; did you mean {', '.join(near)}?" if near else ""
-            raise ValueError(f"unknown config key {key!r}{hint}")
+        _check_known(key, known)
         *parents, leaf = key.split(".")
         node = config
         for parent in parents:

@@ -1,2 +1,3 @@
 """Out of JAX: the policy as NumPy (`numpy_policy`, `export`), NumPy twins of the env's equations
-(`twins`), and the robot stepped in C MuJoCo (`host_robot`: sim-to-sim and `play`)."""
+(`twins`), the robot stepped in C MuJoCo (`host_robot`: sim-to-sim and `play`), and `engines`:
+the one `evaluate(policy, engine="mjx" | "mujoco")` over both engines."""

@@ -29,11 +29,10 @@ import pathlib
 import numpy as np
 
 from quadcos import env as env_lib
-from quadcos import evaluation
 from quadcos._util import overrides as config_lib
 from quadcos.deploy import onnx_policy
 from quadcos.deploy.numpy_policy import FORMAT, NumpyPolicy
-from quadcos.training import policy as policy_lib
+from quadcos.evaluation.sources import PolicySpec
 
 ACTIVATION = "relu"  # quadcos.training.sac.make_networks: Brax's default, linen.relu
 ONNX_OPSET = 17
@@ -41,17 +40,22 @@ ONNX_IR_VERSION = 8  # the IR of opset 17, so that older ONNX Runtimes load the 
 SUFFIXES = (".npz", ".onnx")
 
 
-def policy_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
-    """The .npz contents (see the module docstring) of the run or policy directory `path`.
+def policy_arrays(spec: PolicySpec | str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """The .npz contents (see the module docstring) of a run or policy directory (a
+    `PolicySpec`, or its path).
 
     Raises:
-      FileNotFoundError, ValueError: no loadable policy there, no saved env config, or env
-        options this quadcos does not know (see `evaluation.policy_source`).
+      FileNotFoundError, ValueError: no loadable policy there, no saved env config, env options
+        this quadcos does not know, or a spec that is not a directory (`PolicySpec.parse`).
     """
-    source = evaluation.policy_source(path)  # checks the files and the saved env config
-    policy = policy_lib.load_policy(path)
-    config = config_lib.apply_overrides(env_lib.default_config(), source.env_overrides)
-    config.terrain = source.training_terrain
+    spec = spec if isinstance(spec, PolicySpec) else PolicySpec.parse(spec)
+    if spec.kind != "directory":
+        raise ValueError(
+            f"the policy {spec.text} is not a run or policy directory: only those export"
+        )
+    policy = spec.policy
+    config = config_lib.apply_overrides(env_lib.default_config(), spec.env_options)
+    config.terrain = spec.training_terrain
     layers = policy.params["policy"]["params"]
     names = sorted(layers, key=lambda name: int(name.rsplit("_", 1)[1]))  # hidden_0, hidden_1, ...
     arrays = {
@@ -70,11 +74,11 @@ def policy_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     return arrays
 
 
-def numpy_policy(path: str | os.PathLike[str]) -> NumpyPolicy:
-    """A policy directory (or an exported .npz) as a NumpyPolicy, without writing a file."""
-    if str(path).endswith(".npz"):
-        return NumpyPolicy.load(path)
-    return NumpyPolicy.from_arrays(policy_arrays(path), source=str(path))
+def numpy_policy(spec: PolicySpec) -> NumpyPolicy:
+    """The NumpyPolicy of a directory (without writing a file) or an exported .npz spec."""
+    if spec.kind == "npz":
+        return NumpyPolicy.load(spec.path)
+    return NumpyPolicy.from_arrays(policy_arrays(spec), source=spec.text)
 
 
 def onnx_model(arrays: dict[str, np.ndarray]):
@@ -138,23 +142,25 @@ def onnx_model(arrays: dict[str, np.ndarray]):
 
 
 def export_policy(
-    path: str | os.PathLike[str], out: str | os.PathLike[str], robot: str | None = None
+    policy: PolicySpec | str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    robot: str | None = None,
 ) -> pathlib.Path:
-    """Writes the policy (run or policy directory) at `path` to `out`, atomically: a .npz, or an
-    .onnx (needs the `onnx` package); `robot`, when given, must be the robot the policy was
-    trained on (its env config names it).
+    """Writes the policy of a run or policy directory (a `PolicySpec` or its path) to `out`,
+    atomically: a .npz, or an .onnx (needs the `onnx` package); `robot`, when given, must be the
+    robot the policy was trained on (its env config names it).
 
     Raises:
-      FileNotFoundError, ValueError: no loadable policy at `path`, `out` ends in neither .npz nor
+      FileNotFoundError, ValueError: no loadable policy there, `out` ends in neither .npz nor
         .onnx, or the policy drives another robot.
     """
     out = pathlib.Path(out)
     if out.suffix not in SUFFIXES:
         raise ValueError(f"--out must end in {' or '.join(SUFFIXES)}; got {out}")
-    arrays = policy_arrays(path)
-    trained_on = json.loads(str(arrays["env_config"]))["robot"]
-    if robot is not None and robot != trained_on:
-        raise ValueError(f"the policy {path} was trained on robot {trained_on!r}, not {robot!r}")
+    spec = policy if isinstance(policy, PolicySpec) else PolicySpec.parse(policy)
+    if robot is not None and robot != spec.robot:
+        raise ValueError(f"the policy {spec.text} was trained on robot {spec.robot!r}, not {robot!r}")
+    arrays = policy_arrays(spec)
     temporary = out.with_name(f".{out.name}.tmp-{os.getpid()}{out.suffix}")
     if out.suffix == ".onnx":
         temporary.write_bytes(onnx_model(arrays).SerializeToString())

@@ -1,12 +1,14 @@
 """The robot stepped in C MuJoCo (`mujoco.mj_step` on an `MjData`), no JAX in the loop: the env's
-controller path for sim-to-sim (`evaluate_mujoco`) and `python -m quadcos.play`.
+controller path for sim-to-sim (the mujoco engine of `quadcos.deploy.engines.evaluate`) and
+`python -m quadcos.play`.
 
 `HostRobot` steps one robot as `QuadrupedEnv.step` does (command filter, rhythm parameters, phase
 and joint targets at every physics step; observation, slope estimate, reward, fall check) with the
-NumPy twins of `quadcos.deploy.twins`. The policy is its exported NumPy forward pass
-(`quadcos.deploy.export`; a pilot also takes an exported .npz, an exported .onnx run with ONNX
-Runtime, or `fixed:...`) in the env config it was trained with. Reset: the env's spawn pose at
-x = y = 0; episodes differ by their noise seed.
+NumPy twins of `quadcos.deploy.twins`. A `Pilot` chooses the actions of a `PolicySpec`: a
+directory's exported NumPy forward pass (`quadcos.deploy.export`), an exported .npz, an exported
+.onnx run with ONNX Runtime, or `fixed:...`, in the env config it was trained with
+(`PolicySpec.env_config`). Reset: the env's spawn pose at x = y = 0; episodes differ by their
+noise seed.
 
 Two deployment faults, both off by default: observation noise (Gaussian, std `obs_noise`, on each
 value the policy sees; the episode's own stream, seeded by its reset seed) and control latency
@@ -24,18 +26,11 @@ stopped that early is not MJX-Warp's and can blow up under a fast gait (experime
 the paper's robot, whose preset keeps the MJCF's iterations, the two are the same. `physics="N/M"`
 runs N solver and M line-search iterations (the same step, cone and contacts), to find where the
 solver a policy trained with stops transferring.
-
-Episodes end and succeed as in `quadcos.evaluation` (no fall within the time limit; on a course,
-the torso past `course_end_x` first). `evaluate_mujoco` returns an evaluation JSON in
-`quadcos.evaluation`'s format (aggregates, "setup" with `"engine": "mujoco"`, per-episode values),
-so the two compare key by key.
 """
 
-import argparse
 import dataclasses
 import math
-import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
 import ml_collections
@@ -43,34 +38,51 @@ import mujoco
 import numpy as np
 
 from quadcos import env as env_lib
-from quadcos import evaluation, robot
+from quadcos import robot
 from quadcos import terrain as terrain_lib
-from quadcos._util import cli
-from quadcos._util import overrides as config_lib
 from quadcos.deploy import export, solver, twins
 from quadcos.deploy.numpy_policy import NumpyPolicy
 from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.env.layout import Layout
 from quadcos.equations import oscillator, reward, slope
-from quadcos.evaluation import report, rollout, sources
+from quadcos.evaluation import sources
 
-ENGINE = "mujoco"
-# Per-episode maxima of evaluation.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
-_MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
 
 
 @dataclasses.dataclass(frozen=True)
 class Pilot:
-    """What chooses actions: a NumPy or ONNX Runtime policy or fixed rhythm parameters, and the
-    env config (`quadcos.env.default_config()` with the policy's saved options) it runs in."""
+    """What chooses actions in C MuJoCo: the policy of a `PolicySpec` as NumPy (a directory or
+    an exported .npz) or ONNX Runtime (an exported .onnx), None for fixed parameters, and the env
+    config it runs in (`PolicySpec.env_config`)."""
 
-    name: str
-    kind: str  # "sac" or "fixed"
+    spec: sources.PolicySpec
     config: ml_collections.ConfigDict
-    training_terrain: str
     policy: NumpyPolicy | OnnxPolicy | None = None
-    fixed_parameters: oscillator.RhythmParameters | None = None
+
+    @classmethod
+    def load(
+        cls, spec: sources.PolicySpec | str, env_overrides: Mapping[str, Any] | None = None
+    ) -> "Pilot":
+        """The pilot of `spec` (a --policy string is parsed) in its env config with
+        `env_overrides` (e.g. {"robot": ...} for fixed parameters; a trained policy drives its
+        own robot).
+
+        Raises:
+          FileNotFoundError, ValueError: no policy there, a file that is not a quadcos policy,
+            or an env config this quadcos cannot build.
+        """
+        spec = sources.PolicySpec.parse(spec) if isinstance(spec, str) else spec
+        config = spec.env_config(env_overrides)
+        if spec.kind == "fixed":
+            return cls(spec, config)
+        policy = OnnxPolicy.load(spec.path) if spec.kind == "onnx" else export.numpy_policy(spec)
+        return cls(spec, config, policy)
+
+    @property
+    def name(self) -> str:
+        """The --policy string."""
+        return self.spec.text
 
     def actor(self) -> Callable[[np.ndarray], np.ndarray]:
         """obs -> (action_size,) action; fixed parameters: the constant action commanding them."""
@@ -79,50 +91,15 @@ class Pilot:
         centre = oscillator.action_centre(self.config.action_centre, self.config.period_min)
         action = np.asarray(
             oscillator.parameters_to_action(
-                self.fixed_parameters, self.config.period_min, centre, self.config.action_scale
+                self.spec.fixed_parameters,
+                self.config.period_min,
+                centre,
+                self.config.action_scale,
             ),
             np.float64,
         )
         action = np.pad(action, (0, env_lib.action_size(self.config) - action.size))
         return lambda obs: action
-
-
-def load_pilot(spec: str, robot: str | None = None) -> Pilot:
-    """The pilot for a --policy value: `fixed:trot`, `fixed:A_k,A_h,T,phi1,phi3`, a run or policy
-    directory, an exported .npz, or an exported .onnx (run with ONNX Runtime); `robot`: the
-    quadruped fixed parameters drive (a trained policy drives its own: another is refused).
-
-    Raises:
-      FileNotFoundError, ValueError: no policy there, a file that is not a quadcos policy, or an
-        env config this quadcos cannot build.
-    """
-    if spec.startswith(sources.FIXED_PREFIX):
-        source = evaluation.resolve_source(spec)
-        overrides = {} if robot is None else {"robot": robot}
-        config = evaluation.build_env(source, "flat", overrides).config  # checks the ranges
-        return Pilot(spec, "fixed", config, "flat", fixed_parameters=source.fixed_parameters)
-    policy = OnnxPolicy.load(spec) if spec.endswith(".onnx") else export.numpy_policy(spec)
-    saved = dict(policy.env_config)
-    terrain = str(saved.pop("terrain", "flat"))
-    try:
-        config = env_config(config_lib.flatten(saved))
-    except ValueError as error:
-        raise ValueError(f"{spec}: its env config does not build: {error}") from None
-    if robot is not None and robot != config.robot:
-        raise ValueError(f"the policy {spec} was trained on robot {config.robot!r}, not {robot!r}")
-    return Pilot(spec, "sac", config, terrain, policy=policy)
-
-
-def env_config(overrides: dict[str, Any] | None = None) -> ml_collections.ConfigDict:
-    """`quadcos.env.default_config()` with dotted `overrides`, spawning at x = 0 as evaluations do.
-
-    Raises:
-      ValueError: an unknown key or a value the env cannot run with.
-    """
-    overrides = dict(overrides or {})
-    config = config_lib.apply_overrides(env_lib.default_config(), overrides | {"spawn_x_max": 0.0})
-    env_lib.validate_config(config)
-    return config
 
 
 class StepResult(NamedTuple):
@@ -180,6 +157,7 @@ class HostRobot:
         self.data = mujoco.MjData(self.model)
         self.substeps = round(config.control_dt / config.physics_dt)
         self.dt = self.substeps * config.physics_dt
+        self.latency_s = latency_s
         self.latency_steps = round(latency_s / config.physics_dt)  # physics steps
         self._queue_length = -(-self.latency_steps // self.substeps)  # earlier actions still due
         tau = config.action_filter_tau
@@ -319,169 +297,3 @@ class HostRobot:
             or abs(body.pitch - slope_truth) > config.fall_max_pitch_error
             or (corners[:, 2] - ground).min() < 0.0
         )
-
-
-# --- episodes and the evaluation file -----------------------------------------------------------
-
-
-def run_episode(
-    host: HostRobot,
-    act: Callable[[np.ndarray], np.ndarray],
-    seed: int | Sequence[int],
-    num_steps: int,
-    obs_noise: float = 0.0,
-) -> dict[str, Any]:
-    """One episode of at most `num_steps` control steps from `host.reset(seed)`, the policy
-    seeing each observation value plus N(0, obs_noise²) noise (a stream spawned from `seed`);
-    returns the fields of `evaluation.EpisodeStats` for it (scalars), accumulated as `evaluate`
-    does."""
-    obs = host.reset(seed)
-    key_noise = np.random.SeedSequence(seed).spawn(1)[0]
-    noise = np.random.default_rng(key_noise)
-    position = host.layout.position
-    x, y, _ = (float(value) for value in host.data.qpos[position])
-    record = dict(fell=False, finished=False, steps=0, start_x=x, start_y=y, x=x, y=y)
-    maxima = np.zeros(len(_MAXIMA))
-    slope_sq_error, reward_terms = 0.0, dict.fromkeys(reward.TERM_NAMES, 0.0)
-    course_end_x = host.terrain.course_end_x
-    for _ in range(num_steps):
-        seen = obs + noise.normal(0.0, obs_noise, obs.shape) if obs_noise > 0 else obs
-        result = host.step(act(seen))
-        obs, qpos = result.obs, host.data.qpos
-        body = twins.attitude(qpos[host.layout.quaternion])  # as evaluate: from qpos
-        x, y, _ = (float(value) for value in qpos[position])
-        record.update(steps=record["steps"] + 1, x=x, y=y)
-        now = [y - record["start_y"], body.roll, body.yaw, body.pitch - result.slope_truth]
-        maxima = np.maximum(maxima, np.abs(now))
-        slope_sq_error += (result.slope_estimate - result.slope_truth) ** 2
-        for term, value in result.reward_terms.items():
-            reward_terms[term] += value
-        at_end = course_end_x is not None and x >= course_end_x
-        record.update(fell=result.fell, finished=not result.fell and at_end)
-        if record["fell"] or record["finished"]:
-            break
-    return {
-        **record,
-        **dict(zip(_MAXIMA, maxima.tolist())),
-        "running": not (record["fell"] or record["finished"]),
-        "lane": 0,
-        "slope_sq_error": slope_sq_error,
-        "episode_reward": sum(reward_terms.values()),
-        "reward_terms": reward_terms,
-    }
-
-
-def evaluate_mujoco(
-    pilot: Pilot | str,
-    terrain: terrain_lib.Terrain | str | None = None,
-    *,
-    episodes: int = 64,
-    seconds: float = 20.0,
-    seed: int = 0,
-    obs_noise: float = 0.0,
-    latency_s: float = 0.0,
-    physics: str = "reference",
-    progress: Callable[[int, int], None] | None = None,
-) -> dict[str, Any]:
-    """`episodes` deterministic episodes in C MuJoCo, one after another; episode i resets with
-    joint noise from the seed (seed, i). `obs_noise` (std) and `latency_s` (s): the deployment
-    faults of the module docstring; `physics`: its solver choice. Returns the content of an
-    evaluation JSON (aggregates, "setup", "episodes"), as `quadcos.evaluate` writes it.
-
-    Raises:
-      ValueError, FileNotFoundError: bad policy, terrain, sizes, counts, noise or latency.
-    """
-    pilot = load_pilot(pilot) if isinstance(pilot, str) else pilot
-    if episodes < 1 or not (math.isfinite(seconds) and seconds > 0):
-        raise ValueError(f"episodes must be >= 1 and seconds > 0; got {episodes}, {seconds}")
-    if not (math.isfinite(obs_noise) and obs_noise >= 0):
-        raise ValueError(f"the observation noise must be >= 0 and finite; got {obs_noise}")
-    ground = terrain if terrain is not None else pilot.training_terrain
-    host = HostRobot(ground, pilot.config, latency_s, physics)
-    act = pilot.actor()
-    size = host.reset(0).shape[0]
-    if pilot.policy is not None and size != pilot.policy.observation_size:
-        raise ValueError(
-            f"the policy {pilot.name} expects observations of size"
-            f" {pilot.policy.observation_size}, the env gives {size}: its env config does not"
-            " match the one it was trained with"
-        )
-    num_steps = math.ceil(seconds / host.dt - 1e-9)
-    started = time.monotonic()
-    records = []
-    for index in range(episodes):
-        records.append(run_episode(host, act, (seed, index), num_steps, obs_noise))
-        if progress is not None:
-            progress(index + 1, episodes)
-    fields = {
-        name: np.array([record[name] for record in records])
-        for name in evaluation.EpisodeStats.__dataclass_fields__
-        if name != "reward_terms"
-    }
-    terms = {t: np.array([r["reward_terms"][t] for r in records]) for t in reward.TERM_NAMES}
-    stats = evaluation.EpisodeStats(**fields, reward_terms=terms)
-    values = evaluation.episode_values(stats, host.dt, num_steps)
-    course = host.terrain.course_end_x is not None
-    for episode in values:
-        episode["success"] = episode["finished_course"] if course else not episode["fell"]
-        episode["reset_seed"] = [seed, episode["index"]]
-    setup = {
-        "engine": ENGINE,
-        "policy": pilot.name,
-        "policy_kind": pilot.kind,
-        "robot": host.robot.provenance(),
-        "terrain": host.terrain.spec,
-        "course_end_x": host.terrain.course_end_x,
-        "num_envs": episodes,
-        "seconds": num_steps * host.dt,
-        "num_steps": num_steps,
-        "control_dt": host.dt,
-        "seed": seed,
-        "obs_noise": obs_noise,
-        "latency_s": latency_s,
-        "latency_physics_steps": host.latency_steps,
-        "physics": host.physics,
-        "env": pilot.config.to_dict() | {"terrain": host.terrain.spec},
-        "wall_time_s": time.monotonic() - started,
-        "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__}
-        | _onnxruntime_version(pilot),
-    }
-    head = {"format": report.FORMAT, "format_version": rollout.FORMAT_VERSION}
-    return head | evaluation.aggregate(values, stats) | {"setup": setup, "episodes": values}
-
-
-def _onnxruntime_version(pilot: Pilot) -> dict[str, str]:
-    """{"onnxruntime": version} for a pilot that runs ONNX Runtime, else {}."""
-    if not isinstance(pilot.policy, OnnxPolicy):
-        return {}
-    import onnxruntime
-
-    return {"onnxruntime": onnxruntime.__version__}
-
-
-def pilot_parser(prog: str, description: str) -> argparse.ArgumentParser:
-    """A CLI parser with --policy, --terrain and --seed (sim2sim's and play's) whose errors are
-    `cli.UsageError`s, reported as one line."""
-    parser = argparse.ArgumentParser(
-        prog=prog, description=description, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    parser.add_argument(
-        "--policy",
-        required=True,
-        help="run or policy directory, exported .npz or .onnx, or fixed:trot",
-    )
-    parser.add_argument("--terrain", help="terrain name or spec (default: the training terrain)")
-    parser.add_argument(
-        "--robot",
-        help="the quadruped of fixed:... parameters (quadcos, quad12, an MJCF path,"
-        " menagerie:NAME); a trained policy drives its own",
-    )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the reset joint noise")
-    parser.add_argument(
-        "--physics",
-        type=solver.physics_choice,
-        default="reference",
-        help="C MuJoCo's solver: the MJCF's iterations (reference, converged), the training"
-        " shortcut's (training), or N/M solver / line-search iterations",
-    )
-    return cli.raising(parser)

@@ -1,10 +1,12 @@
 """Batched deterministic evaluation of a trained policy or fixed rhythm parameters.
 
-  sources       what acts (`ActionSource`: a trained policy, fixed parameters) and its env
+  sources       what acts: a --policy parsed once (`PolicySpec`), its env config (`env_config`,
+                for both engines) and the MJX rollout's `ActionSource`
   rollout       the one batched deterministic rollout (`rollout.rollout`), per-episode statistics
   metrics       per-episode values and aggregates: success, falls, speed, attitude, reward
   traces        one episode's time series (`--trace`) and rendering it to video
-  report        `evaluate` -> `Evaluation` (the `--out` JSON), `write_json`
+  report        `evaluate` (the mjx engine of `quadcos.deploy.engines.evaluate`) -> `Evaluation`
+                (the `--out` JSON), `write_json`
   fixed_search  the best fixed rhythm parameters (Fig. 15's baseline)
 
 `python -m quadcos.evaluate` is the command line over these.
@@ -16,7 +18,9 @@ from quadcos.evaluation.report import Evaluation, course_table, evaluate, write_
 from quadcos.evaluation.rollout import EpisodeStats, Rollout
 from quadcos.evaluation.sources import (
     ActionSource,
+    PolicySpec,
     build_env,
+    env_config,
     fixed_source,
     parse_fixed,
     policy_source,
@@ -29,10 +33,12 @@ __all__ = [
     "ActionSource",
     "EpisodeStats",
     "Evaluation",
+    "PolicySpec",
     "Rollout",
     "aggregate",
     "build_env",
     "course_table",
+    "env_config",
     "episode_values",
     "evaluate",
     "fixed_source",

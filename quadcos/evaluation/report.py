@@ -1,5 +1,6 @@
-"""`evaluate`: batched deterministic rollouts of an action source -> an `Evaluation` (aggregates,
-set-up, episodes, one trace), written as JSON with `write_json`."""
+"""`evaluate`: batched deterministic rollouts of an action source in MJX -> an `Evaluation`
+(aggregates, set-up, episodes, one trace), written as JSON with `write_json`. It is the "mjx"
+engine of `quadcos.deploy.engines.evaluate`, whose "mujoco" engine returns an `Evaluation` too."""
 
 import dataclasses
 import json
@@ -17,7 +18,7 @@ from quadcos import terrain as terrain_lib
 from quadcos._util import provenance
 from quadcos.evaluation.metrics import aggregate, episode_values, per_course
 from quadcos.evaluation.rollout import FORMAT_VERSION, rollout
-from quadcos.evaluation.sources import PARAMETER_NAMES, ActionSource, build_env, resolve_source
+from quadcos.evaluation.sources import PARAMETER_NAMES, ActionSource, PolicySpec, build_env
 from quadcos.evaluation.traces import trace_dict
 from quadcos.viz import video
 
@@ -32,16 +33,17 @@ class Evaluation:
     Attributes:
       summary: aggregates (see `aggregate`) and the set-up under "setup".
       episodes: one dict of values per episode.
-      trace: the traced episode's series, cut where it ended (see `trace_dict`).
+      trace: the traced episode's series, cut where it ended (see `trace_dict`); None from the
+        mujoco engine, which traces nothing.
       qpos: (steps, nq) positions of the traced episode, from reset on, for `render_video`.
-      env: the env it ran in.
+      env: the MJX env it ran in (None from the mujoco engine).
     """
 
     summary: dict[str, Any]
     episodes: list[dict[str, Any]]
-    trace: dict[str, Any]
-    qpos: np.ndarray
-    env: env_lib.QuadrupedEnv
+    trace: dict[str, Any] | None = None
+    qpos: np.ndarray | None = None
+    env: env_lib.QuadrupedEnv | None = None
 
     @property
     def success(self) -> float:
@@ -66,15 +68,18 @@ class Evaluation:
         """The traced episode as an mp4 at the control rate; options: see `video.render_video`.
 
         Raises:
+          ValueError: no traced episode (the mujoco engine's evaluations).
           video.VideoError: no headless OpenGL or no mp4 writer here.
         """
+        if self.env is None or self.qpos is None:
+            raise ValueError("this evaluation traced no episode (the mujoco engine traces none)")
         return video.render_video(
             self.env.mj_model, self.qpos, path, fps=1.0 / self.env.dt, **options
         )
 
 
 def evaluate(
-    policy: str | ActionSource,
+    policy: str | PolicySpec | ActionSource,
     terrain: terrain_lib.Terrain | str | None = None,
     *,
     num_envs: int = 64,
@@ -85,7 +90,8 @@ def evaluate(
     env: env_lib.QuadrupedEnv | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> Evaluation:
-    """Batched deterministic rollouts of `policy` (a --policy string or an ActionSource).
+    """Batched deterministic rollouts of `policy` (a --policy string, a `PolicySpec` or an
+    `ActionSource`) in MJX.
 
     Args:
       terrain: a Terrain or spec; default: the policy's training terrain (flat for fixed ones).
@@ -101,7 +107,8 @@ def evaluate(
     Raises:
       ValueError, FileNotFoundError: bad policy, terrain, overrides or sizes.
     """
-    source = resolve_source(policy) if isinstance(policy, str) else policy
+    spec = PolicySpec.parse(policy) if isinstance(policy, str) else policy
+    source = spec.action_source() if isinstance(spec, PolicySpec) else spec
     if not (math.isfinite(seconds) and seconds > 0):
         raise ValueError(f"seconds must be finite and > 0; got {seconds}")
     if env is None:

@@ -1,12 +1,17 @@
-"""What chooses the actions of an evaluation: a trained policy or fixed rhythm parameters.
+"""What acts in an evaluation, named once: a `PolicySpec` parsed from a --policy string.
 
-An `ActionSource` is a source of actions, not a controller in the paper's sense (the rhythm
-controller is the oscillator inside the env, `quadcos.oscillator`). `build_env` rebuilds the env a
-source must run in: a trained policy's saved env config (`quadcos.runs`), or the default env.
+A spec is a run or policy directory, an exported .npz / .onnx (`quadcos.deploy.export`) or fixed
+rhythm parameters (`fixed:...`); it knows the env config its policy was trained in (a run's saved
+config, `quadcos.training.run_config`; an exported file's `env_config`). `env_config` is the one
+builder of an evaluation's env config, for the MJX engine (`build_env`) and the C MuJoCo one
+(`quadcos.deploy`). An `ActionSource` is what the MJX rollout calls for actions: a source of
+actions, not a controller in the paper's sense (the rhythm controller is the oscillator inside
+the env, `quadcos.equations.oscillator`).
 """
 
 import ast
 import dataclasses
+import json
 import math
 import operator
 import os
@@ -16,9 +21,12 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import ml_collections
+import numpy as np
 
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
+from quadcos._util.overrides import apply_overrides, flatten
 from quadcos.equations import oscillator
 from quadcos.training import run_config as runs
 
@@ -125,40 +133,154 @@ def _constant_action(actions: jax.Array, obs: jax.Array) -> jax.Array:
     return actions
 
 
-def policy_source(path: str | os.PathLike[str]) -> ActionSource:
-    """A trained policy (run or policy directory) and the env config it was trained with.
 
-    Raises:
-      FileNotFoundError: no policy at `path`.
-      ValueError: the policy's saved run config is missing or names options this quadcos lacks
-        (`quadcos.runs.migrate`).
+@dataclasses.dataclass(frozen=True)
+class PolicySpec:
+    """A --policy value, parsed once (`PolicySpec.parse`): what acts, and the env it was trained in.
+
+    Attributes:
+      text: the --policy string.
+      kind: "directory" (a run or policy directory), "npz" or "onnx" (an exported policy,
+        `quadcos.deploy.export`) or "fixed" (rhythm parameters).
+      env_options: the env config options (dotted keys) the policy was trained with, terrain
+        excluded; {} for fixed parameters (the default env).
+      training_terrain: the terrain spec it was trained on ("flat" for fixed parameters).
+      path: the directory or file; None for fixed parameters.
+      fixed_parameters: the rhythm parameters of a fixed spec, else None.
+      observation_size, action_size: what the policy expects (None for fixed parameters).
+      policy: the loaded `quadcos.training.Policy` of a directory, else None.
     """
+
+    text: str
+    kind: str
+    env_options: Mapping[str, Any]
+    training_terrain: str
+    path: pathlib.Path | None = None
+    fixed_parameters: oscillator.RhythmParameters | None = None
+    observation_size: int | None = None
+    action_size: int | None = None
+    policy: Any = dataclasses.field(default=None, compare=False, repr=False)
+
+    @classmethod
+    def parse(cls, text: str | os.PathLike[str]) -> "PolicySpec":
+        """`fixed:trot`, `fixed:A_k,A_h,T,phi1,phi3`, a run or policy directory, or an exported
+        .npz / .onnx.
+
+        Raises:
+          FileNotFoundError: no such file or directory.
+          ValueError: anything else that is not a policy, naming `text`.
+        """
+        text = os.fspath(text)
+        if text.startswith(FIXED_PREFIX):
+            parameters = parse_fixed(text[len(FIXED_PREFIX) :])
+            return cls(text, "fixed", {}, "flat", fixed_parameters=parameters)
+        if not text.strip():
+            raise ValueError(f"bad policy {text!r}: expected {POLICY_FORMS}")
+        path = pathlib.Path(text)
+        if not path.exists():
+            raise FileNotFoundError(f"no policy at {text}: no such file or directory")
+        if path.is_dir():
+            return _directory_spec(text, path)
+        kind = path.suffix.lower().removeprefix(".")
+        if kind not in EXPORTED_KINDS:
+            raise ValueError(f"bad policy {text!r}: a file that is not {POLICY_FORMS}")
+        saved = dict(_exported_env(text, path, kind))
+        observation_size, action_size = (int(saved.pop(key)) for key in _SIZES)
+        terrain = str(saved.pop("terrain", "flat"))
+        return cls(
+            text, kind, flatten(saved), terrain, path, None, observation_size, action_size
+        )
+
+    @property
+    def robot(self) -> str:
+        """The robot spec the policy was trained on (fixed parameters: the default robot's)."""
+        return str(self.env_options.get("robot", env_lib.default_config().robot))
+
+    def env_config(self, overrides: Mapping[str, Any] | None = None) -> ml_collections.ConfigDict:
+        """The config of the env this policy is evaluated in (`env_config` with its trained
+        options); fixed parameters: checked against the config's ranges.
+
+        Raises:
+          ValueError: a bad override, another robot than a trained policy's, fixed parameters
+            out of range, or options this quadcos cannot build (naming the policy).
+        """
+        try:
+            config = env_config(overrides, self.env_options, keep_robot=self.kind != "fixed")
+        except ValueError as error:
+            raise ValueError(f"the policy {self.text}: {error}") from None
+        if self.kind == "fixed":
+            _check_fixed(self.text, self.fixed_parameters, config)
+        return config
+
+    def action_source(self) -> ActionSource:
+        """The JAX action source of a directory or fixed spec (the MJX engine's).
+
+        Raises:
+          ValueError: an exported policy (.npz, .onnx), which runs only in C MuJoCo.
+        """
+        if self.kind == "fixed":
+            return fixed_source(self.fixed_parameters, name=self.text)
+        if self.kind != "directory":
+            raise ValueError(
+                f"the policy {self.text} is an exported .{self.kind}: the mjx engine runs run or"
+                " policy directories and fixed:...; run it with the mujoco engine"
+            )
+        policy = self.policy
+        return ActionSource(
+            name=self.text,
+            kind="sac",
+            act=lambda _, obs: policy.act(obs),
+            params=None,
+            env_overrides=dict(self.env_options),
+            training_terrain=self.training_terrain,
+            observation_size=self.observation_size,
+            action_size=self.action_size,
+        )
+
+
+POLICY_FORMS = (
+    "a run or policy directory, an exported .npz or .onnx, fixed:trot or fixed:A_k,A_h,T,phi1,phi3"
+)
+EXPORTED_KINDS = ("npz", "onnx")
+_SIZES = ("observation_size", "action_size")
+
+
+def _directory_spec(text: str, path: pathlib.Path) -> PolicySpec:
     from quadcos.training import load_policy
 
-    if not pathlib.Path(path).exists():
-        raise FileNotFoundError(f"no policy at {path}: no such file or directory")
     try:
         policy = load_policy(path)
     except (FileNotFoundError, ValueError):
         raise
     except Exception as error:  # noqa: BLE001 -- msgpack, flax and JSON readers raise many types
         raise ValueError(
-            f"cannot load the policy at {path}: {type(error).__name__}: {error}"
+            f"cannot load the policy at {text}: {type(error).__name__}: {error}"
         ) from None
     try:
-        env_overrides, training_terrain = trained_env(policy.config)
+        options, terrain = trained_env(policy.config)
     except ValueError as error:
-        raise ValueError(f"the policy at {path}: {error}") from None
-    return ActionSource(
-        name=str(path),
-        kind="sac",
-        act=lambda _, obs: policy.act(obs),
-        params=None,
-        env_overrides=env_overrides,
-        training_terrain=training_terrain,
-        observation_size=policy.spec.observation_size,
-        action_size=policy.spec.action_size,
-    )
+        raise ValueError(f"the policy at {text}: {error}") from None
+    sizes = policy.spec.observation_size, policy.spec.action_size
+    return PolicySpec(text, "directory", options, terrain, path, None, *sizes, policy=policy)
+
+
+def _exported_env(text: str, path: pathlib.Path, kind: str) -> dict[str, Any]:
+    """The env config (terrain included) and sizes an exported policy records: the .npz arrays
+    `env_config`, `observation_size`, `action_size`, or the .onnx metadata of the same names."""
+    try:
+        if kind == "npz":
+            with np.load(path, allow_pickle=False) as arrays:
+                fields = {key: str(arrays[key]) for key in ("env_config", *_SIZES)}
+        else:
+            import onnx  # the export extra: only needed for .onnx files
+
+            model = onnx.load(path, load_external_data=False)
+            metadata = {prop.key: prop.value for prop in model.metadata_props}
+            fields = {key: metadata[key] for key in ("env_config", *_SIZES)}
+        return json.loads(fields.pop("env_config")) | fields
+    except Exception as error:  # noqa: BLE001 -- zip, protobuf and JSON readers raise many types
+        detail = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ValueError(f"{text} is not an exported quadcos policy (.{kind}): {detail}") from None
 
 
 def trained_env(saved: Mapping[str, Any]) -> tuple[dict[str, Any], str]:
@@ -172,13 +294,41 @@ def trained_env(saved: Mapping[str, Any]) -> tuple[dict[str, Any], str]:
     return env_overrides, str(env_overrides.pop("terrain", "flat"))
 
 
-def resolve_source(spec: str) -> ActionSource:
-    """The source for a --policy value: `fixed:...` or a policy / run directory."""
-    if spec.startswith(FIXED_PREFIX):
-        body = spec[len(FIXED_PREFIX) :]
-        return fixed_source(parse_fixed(body), name=spec)
-    return policy_source(spec)
+def policy_source(path: str | os.PathLike[str]) -> ActionSource:
+    """The action source of the run or policy directory `path` (`PolicySpec.parse`)."""
+    return PolicySpec.parse(path).action_source()
 
+
+def resolve_source(text: str) -> PolicySpec:
+    """`PolicySpec.parse(text)`: the spec of a --policy value."""
+    return PolicySpec.parse(text)
+
+
+def env_config(
+    overrides: Mapping[str, Any] | None = None,
+    trained: Mapping[str, Any] | None = None,
+    *,
+    keep_robot: bool = False,
+) -> ml_collections.ConfigDict:
+    """The config of an evaluation's env, for both engines: `quadcos.env.default_config()` with
+    the options a policy was `trained` with, spawning at x = 0 (an evaluation episode starts at
+    the spawn point, wherever training spawned), then `overrides` (dotted keys; "terrain" is not
+    one: the terrain is the evaluation's argument). `keep_robot`: refuse an override of the
+    trained robot.
+
+    Raises:
+      ValueError: an unknown key, a value the env cannot run with, or another robot.
+    """
+    trained, overrides = dict(trained or {}), dict(overrides or {})
+    trained.pop("terrain", None)
+    if "terrain" in overrides:
+        raise ValueError("the terrain is not an env option here: give it as the terrain")
+    trained_on = trained.get("robot", env_lib.default_config().robot)
+    if keep_robot and overrides.get("robot", trained_on) != trained_on:
+        raise ValueError(f"it was trained on robot {trained_on!r}, not {overrides['robot']!r}")
+    config = apply_overrides(env_lib.default_config(), trained | {"spawn_x_max": 0.0} | overrides)
+    env_lib.validate_config(config)
+    return config
 
 
 def build_env(
@@ -186,49 +336,49 @@ def build_env(
     terrain: terrain_lib.Terrain | str | None = None,
     env_overrides: Mapping[str, Any] | None = None,
 ) -> env_lib.QuadrupedEnv:
-    """The env `source` runs in, on `terrain` (default: its training terrain).
+    """The MJX env `source` runs in (`env_config`), on `terrain` (default: its training terrain).
 
     Raises:
       ValueError: bad terrain or override, or an env whose observation / action sizes differ from
         the policy's.
     """
-    # An evaluation episode starts at the spawn point, wherever training spawned.
-    overrides = {**source.env_overrides, "spawn_x_max": 0.0, **(env_overrides or {})}
-    overrides.pop("terrain", None)
-    trained_on = source.env_overrides.get("robot", "quadcos")
-    if source.kind != "fixed" and overrides.get("robot", trained_on) != trained_on:
-        raise ValueError(
-            f"the policy was trained on robot {trained_on!r}, not {overrides['robot']!r}"
-        )
-    env = env_lib.make_env(
-        terrain if terrain is not None else source.training_terrain, **overrides
-    )
+    config = env_config(env_overrides, source.env_overrides, keep_robot=source.kind != "fixed")
     if source.kind == "fixed":
-        _check_fixed(source, env)
-    if source.action_size is not None and env.action_size != source.action_size:
-        raise ValueError(
-            f"the policy acts with {source.action_size} values, the env expects {env.action_size}"
-        )
-    if source.observation_size is not None:
-        size = env.observation_size
-        if size != source.observation_size:
-            raise ValueError(
-                f"the policy expects observations of size {source.observation_size}, the env"
-                f" gives {size}: its env config does not match the one it was trained with"
-            )
+        _check_fixed(source.name, source.fixed_parameters, config)
+    env = env_lib.QuadrupedEnv(
+        terrain if terrain is not None else source.training_terrain, config
+    )
+    expected = source.observation_size, source.action_size
+    check_sizes(source.name, expected, (env.observation_size, env.action_size))
     return env
 
 
-def _check_fixed(source: ActionSource, env: env_lib.QuadrupedEnv) -> None:
-    if env.config.controller != "oscillator":
-        raise ValueError("fixed rhythm parameters need the env option controller='oscillator'")
-    if source.fixed_parameters is None:
-        return
-    lower, upper = oscillator.parameter_bounds(env.config.period_min)
-    for name, value, low, high in zip(PARAMETER_NAMES, source.fixed_parameters, lower, upper):
-        if not low <= value <= high:
+def check_sizes(
+    name: str, expected: tuple[int | None, int | None], actual: tuple[int, int]
+) -> None:
+    """Raises ValueError when an env's (observation, action) sizes `actual` are not those the
+    policy `name` expects (None: any)."""
+    for what, want, got in zip(("observations of size", "actions of size"), expected, actual):
+        if want is not None and want != got:
             raise ValueError(
-                f"bad fixed parameters {source.name!r}: {name}={value:g} is outside"
-                f" [{low:g}, {high:g}] (§3.3 ranges, T >= period_min)"
+                f"the policy {name} expects {what} {want}, the env has {got}: its env config"
+                " does not match the one it was trained with"
             )
 
+
+def _check_fixed(
+    name: str, parameters: oscillator.RhythmParameters | None, config: ml_collections.ConfigDict
+) -> None:
+    """Raises ValueError unless `config` runs the oscillator and `parameters` (None: a search's,
+    checked by it) lie in its ranges."""
+    if config.controller != "oscillator":
+        raise ValueError("fixed rhythm parameters need the env option controller='oscillator'")
+    if parameters is None:
+        return
+    lower, upper = oscillator.parameter_bounds(config.period_min)
+    for parameter, value, low, high in zip(PARAMETER_NAMES, parameters, lower, upper):
+        if not low <= value <= high:
+            raise ValueError(
+                f"bad fixed parameters {name!r}: {parameter}={value:g} is outside"
+                f" [{low:g}, {high:g}] (§3.3 ranges, T >= period_min)"
+            )
