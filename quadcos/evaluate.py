@@ -233,6 +233,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             env_overrides=overrides,
             trace_episode=args.trace_episode,
             progress=progress,
+            commands=args.commands,
         )
     except (ValueError, FileNotFoundError, video.VideoError) as error:
         cli.print_error(_PROG, error)

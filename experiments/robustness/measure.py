@@ -27,6 +27,13 @@ NOMINAL = {
     "randomization.push_interval_s": 0.0,
     "randomization.obs_noise": 0.0,
 }
+# Gait quality beside survival (quadcos.evaluation's keys; null where a policy has no commands).
+GAIT_KEYS = (
+    "speed_tracking_rms",
+    "yaw_rate_tracking_rms",
+    "mean_max_abs_pitch_error",
+    "mean_max_abs_roll",
+)
 CONDITIONS = {
     "nominal": {},
     "friction 0.4": {"randomization.friction": (0.4, 0.4)},
@@ -55,6 +62,9 @@ def main() -> None:
     parser.add_argument("--num_envs", type=int, default=256)
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--out")
+    parser.add_argument(
+        "--commands", help="velocity commands to follow (quadcos.evaluate's --commands)"
+    )
     parser.add_argument(
         "--conditions", nargs="+", choices=list(CONDITIONS), default=list(CONDITIONS),
         help="measure only these (default: all)",
@@ -87,6 +97,7 @@ def main() -> None:
             num_envs=args.num_envs,
             seconds=args.seconds,
             env_overrides={**NOMINAL, **extra, **overrides},
+            commands=args.commands,
         )
         summary = result.summary
         rows[name] = {
@@ -95,11 +106,14 @@ def main() -> None:
             "success_rate": summary["success_rate"],
             "fall_rate": summary["fall_rate"],
             "mean_forward_speed": summary["mean_forward_speed"],
+            **{key: summary.get(key) for key in GAIT_KEYS},
             "wall_time_s": time.monotonic() - started,
         }
         print(f"{name}: success {summary['success_rate']:.3f}, speed"
               f" {summary['mean_forward_speed']:.3f} m/s", flush=True)
     output = {"policy": args.policy, "seconds": args.seconds, "conditions": rows}
+    if args.commands:
+        output["commands"] = args.commands
     if extra:
         output["env"] = extra
     Path(args.out).write_text(json.dumps(output, indent=1) + "\n")

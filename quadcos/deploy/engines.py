@@ -31,6 +31,7 @@ from quadcos._util import cli
 from quadcos._util.overrides import parse_overrides
 from quadcos.deploy import host_robot, twins
 from quadcos.deploy.onnx_policy import OnnxPolicy
+from quadcos.env import commands as env_commands
 from quadcos.equations import reward
 from quadcos.evaluation import report, rollout, sources
 
@@ -54,6 +55,7 @@ def evaluate(
     latency_s: float = 0.0,
     physics: str = "reference",
     progress: Callable[[int, int], None] | None = None,
+    commands: str | None = None,
 ) -> evaluation.Evaluation:
     """`episodes` deterministic episodes of `policy` on `terrain` (default: its training terrain)
     in `engine` ("mjx" or "mujoco", module docstring).
@@ -66,6 +68,8 @@ def evaluate(
       obs_noise, latency_s, physics: mujoco: observation noise (std), control latency (s) and
         solver (`quadcos.deploy.host_robot`).
       progress: called as progress(done, total) (mjx: steps; mujoco: episodes).
+      commands: velocity commands to follow ("random" or a schedule "v,ω@s;...",
+        `quadcos.env.commands.parse_commands`); None: the policy's env's own.
 
     Raises:
       ValueError, FileNotFoundError: bad policy, engine, terrain, overrides, sizes, counts, or an
@@ -87,7 +91,10 @@ def evaluate(
             trace_episode=trace_episode,
             env_overrides=env_overrides,
             progress=progress,
+            commands=commands,
         )
+    if commands is not None:
+        raise ValueError("--commands is not yet followed by the mujoco engine")
     if trace_episode:
         raise ValueError("the mujoco engine traces no episode: trace_episode is an mjx option")
     if episodes < 1 or not (math.isfinite(seconds) and seconds > 0):
@@ -239,6 +246,12 @@ def policy_parser(prog: str, description: str, policy_help: str) -> argparse.Arg
         " menagerie:NAME); a trained policy drives its own",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the reset noise")
+    parser.add_argument(
+        "--commands",
+        help="velocity commands of a policy trained with them: 'random' (the training"
+        " distribution) or a schedule 'v,w@s;...' (forward speed m/s, yaw rate rad/s, seconds),"
+        " e.g. 0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5 (default: the policy's own)",
+    )
     return cli.raising(parser)
 
 
@@ -247,13 +260,15 @@ def parse_command(
 ) -> tuple[argparse.Namespace, dict[str, Any]]:
     """(flags, env overrides) of a command line: `--env.KEY=VALUE` items read by
     `quadcos._util.overrides.parse_overrides` (as `train` reads `--config.KEY=VALUE`), keys
-    checked against the env config; --robot is the override "robot".
+    checked against the env config; --robot is the override "robot"; --commands parsed.
 
     Raises:
-      ValueError: a flag, item or key that is not known.
+      ValueError: a flag, item or key that is not known, or a bad --commands spec.
     """
     args, rest = parser.parse_known_args(argv)
     overrides = parse_overrides(rest, "env", env_lib.default_config())
+    if getattr(args, "commands", None) is not None:
+        env_commands.parse_commands(args.commands)  # a bad spec fails before any work
     if getattr(args, "robot", None) is not None:
         overrides["robot"] = args.robot
     return args, overrides

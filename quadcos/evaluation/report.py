@@ -89,6 +89,7 @@ def evaluate(
     env_overrides: Mapping[str, Any] | None = None,
     env: env_lib.QuadrupedEnv | None = None,
     progress: Callable[[int, int], None] | None = None,
+    commands: str | None = None,
 ) -> Evaluation:
     """Batched deterministic rollouts of `policy` (a --policy string, a `PolicySpec` or an
     `ActionSource`) in MJX.
@@ -103,6 +104,9 @@ def evaluate(
       env: an env from `build_env(source, ...)` to run in instead of building one (then
         `terrain` and `env_overrides` are not used).
       progress: called as progress(steps_done, num_steps) as the rollout advances.
+      commands: velocity commands the robots follow ("random" or a schedule "v,ω@s;...",
+        `quadcos.env.commands.parse_commands`) instead of the env's own; a policy trained with
+        commands only. None: the env's.
 
     Raises:
       ValueError, FileNotFoundError: bad policy, terrain, overrides or sizes.
@@ -123,6 +127,7 @@ def evaluate(
         seed=seed,
         trace_index=trace_episode,
         progress=progress,
+        commands=commands,
     )
     episodes = episode_values(result.stats, env.dt, num_steps)
     has_course = np.isfinite(env.terrain.lane_end_x)
@@ -144,6 +149,7 @@ def evaluate(
         "control_dt": env.dt,
         "seed": seed,
         "trace_episode": trace_episode,
+        "commands": commands if commands is not None else env.config.commands.spec,
         "env": env.config.to_dict() | {"terrain": env.terrain.spec},
         "wall_time_s": time.monotonic() - started,
         "versions": provenance.versions(_VERSIONED_PACKAGES),

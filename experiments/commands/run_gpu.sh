@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# The commanded-gait campaign (experiments/commands/README.md) on a host of one or more GPUs, one
+# training run per GPU, from the repository root:
+#   bash experiments/commands/run_gpu.sh train RUN...     # start runs in the background, return
+#   bash experiments/commands/run_gpu.sh wait  RUN...     # until they have ended (their policies)
+#   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
+# RUN is NAME@ROBOT@SEED[@extra train flags, comma-separated], e.g.
+# go1_s0@menagerie:unitree_go1@0. The runs work from a copy of the tree under
+# /tmp/qc (the tree a later call brings may differ), their folders under /tmp/qc_runs/NAME; the
+# summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines, NAME_eval.json,
+# NAME_robustness.json, and the kept policy as NAME_policy.tar.
+set -uo pipefail
+verb=${1:?usage: run_gpu.sh train|wait|evaluate RUN...}; shift
+export MENAGERIE_ROOT=${MENAGERIE_ROOT:-$PWD/.menagerie}
+OUT=${OUT:-/tmp/qc_out}; mkdir -p "$OUT"
+runs=/tmp/qc_runs; mkdir -p "$runs"
+gpus=$(nvidia-smi -L | wc -l)
+
+split_run() { IFS=@ read -r NAME ROBOT SEED EXTRA <<< "$1"; }
+
+case $verb in
+train)
+  rm -rf /tmp/qc && mkdir -p /tmp/qc && cp -r quadcos pyproject.toml .menagerie /tmp/qc/ 2>/dev/null
+  i=0
+  for spec in "$@"; do
+    split_run "$spec"
+    extra=(); [ -n "${EXTRA:-}" ] && IFS=, read -r -a extra <<< "$EXTRA"
+    rm -rf "$runs/$NAME"
+    (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$((i % gpus)) setsid nohup python3 -m quadcos.train \
+      --preset=command --robot="$ROBOT" --seed="$SEED" --output_dir="$runs/$NAME" --no_progress \
+      "${extra[@]}" > "$runs/$NAME.log" 2>&1 < /dev/null &)
+    echo "$(date +%T) $NAME on GPU $((i % gpus)): $ROBOT seed $SEED ${extra[*]}"
+    i=$((i + 1))
+  done ;;
+wait)
+  for spec in "$@"; do
+    split_run "$spec"
+    while pgrep -f "output_dir=$runs/$NAME " > /dev/null; do sleep 5; done
+    tail -n 5 "$runs/$NAME.log" > "$OUT/${NAME}_train.log"
+    echo "$(date +%T) $NAME ended: $(tail -n 1 "$runs/$NAME.log")"
+  done ;;
+evaluate)
+  i=0
+  for spec in "$@"; do
+    split_run "$spec"
+    kept=$runs/$NAME/policy_best; [ -d "$kept" ] || kept=$runs/$NAME/policy
+    (
+      export CUDA_VISIBLE_DEVICES=$((i % gpus))
+      python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=1024 \
+        --seconds=20 --commands=random --out="$OUT/${NAME}_eval.json" > "$runs/${NAME}_eval.log" 2>&1
+      echo "$(date +%T) $NAME evaluated: exit $?"
+      python3 experiments/robustness/measure.py --policy="$kept" --num_envs=1024 --commands=random \
+        --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" "friction 0.4" \
+        --out="$OUT/${NAME}_robustness.json" > "$runs/${NAME}_robustness.log" 2>&1
+      echo "$(date +%T) $NAME robustness: exit $?"
+      tar -C "$kept" -cf "$OUT/${NAME}_policy.tar" .
+    ) &
+    i=$((i + 1))
+  done
+  wait ;;
+*) echo "unknown verb $verb" >&2; exit 2 ;;
+esac
