@@ -1,11 +1,10 @@
 #!/usr/bin/env bash
 # Runs one experiment on a GPU machine, from the repository root:
 #   bash experiments/run_gpu.sh EXPERIMENT
-# EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | robustness |
-#   any_slope_seeds | fixed_params | warp | scaling | bench_slope5 | robots | robots_alone |
-#   anymal_search10 | anymal | anymal_slope5 | anymal_any_slope | profile | launch_levers |
-#   xla_levers | precision_levers | imports | startup | randomized | any_slope_gpus | any_slope_lever |
-#   robust_scratch | overlap_levers (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
+# EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | any_slope_seeds |
+#   robustness | robust_scratch | fixed_params | warp | scaling | bench_slope5 | robots |
+#   robots_alone | anymal | anymal_slope5 | anymal_any_slope | profile | imports | startup |
+#   randomized (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
 #   Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
@@ -117,32 +116,6 @@ any_slope_seeds)  # --preset=any_slope as it ships, one run per seed with a time
   python3 experiments/any_slope/seeds.py "$OUT" --runs "any_slope${ANY_NAME:-}_s[0-9]+" --out "$OUT/seeds.json"
   python3 experiments/any_slope/falls.py "$OUT"/eval_any_slope${ANY_NAME:-}_s*_testset2026.json \
     --keep "$OUT" > "$OUT/falls.md" ;;  # where they fall; the kept episodes: *.episodes.json.gz
-any_slope_gpus)  # --preset=any_slope over every GPU of the host at equal per-GPU work (4096 envs,
-  # batch 8192 and a 4 M replay a GPU; evaluations as often per GPU), against any_slope_seeds' one GPU
-  gpus=$(nvidia-smi -L | wc -l)
-  export NCCL_NVLS_ENABLE=0
-  for s in ${SEEDS:-0}; do
-    name=any_slope_${gpus}gpu_s$s
-    # shellcheck disable=SC2086  # ANY_FLAGS: several flags
-    train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300} \
-      --num_devices=$gpus --num_envs=$((4096 * gpus)) --config.sac.batch_size=$((8192 * gpus)) \
-      --config.sac.replay_size=$((4000000 * gpus)) --config.sac.eval_interval=$((10000000 * gpus)) \
-      ${ANY_FLAGS:-}  # ANY_FLAGS: train flags on top
-    best=$OUT/runs/$name/policy_best
-    CUDA_VISIBLE_DEVICES=0 evaluate "$best" ${name}_testset2026 testset:2026 4288 40 &
-    (export CUDA_VISIBLE_DEVICES=1
-     evaluate "$best" ${name}_slope5 slope5 1024 40; evaluate "$best" ${name}_s4 s4 1024 30
-     evaluate "$best" ${name}_flat flat 1024 20)
-    wait
-  done ;;
-any_slope_lever)  # --preset=any_slope with LEVER_FLAGS on top, run LEVER: one GPU, held-out courses
-  for s in ${SEEDS:-0}; do
-    name=${LEVER:?name the lever}_s$s
-    # shellcheck disable=SC2086  # LEVER_FLAGS: several flags
-    train $((${ANY_S:-300} + 60)) $name --preset=any_slope --seed=$s --max_seconds=${ANY_S:-300} \
-      ${LEVER_FLAGS:?flags}
-    evaluate "$OUT/runs/$name/policy_best" ${name}_testset2026 testset:2026 4288 40
-  done ;;
 robust_scratch)  # a flat policy from nothing (--preset=scratch) trained with randomisation and
   # observation noise, then measured under the robustness conditions
   name=robust_scratch${ROBUST_NAME:-}_s${SEEDS:-0}
@@ -202,7 +175,7 @@ scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench); IMPL=warp f
   [ "${SCALING_CROSS:-1}" = 1 ] && bench slope5cross_2dev --num_devices 2 --only slope5
   bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows "$rows2"
   python3 -m quadcos.benchmarking.scaling --out "$OUT/scaling.json" "$OUT"/*_?dev.json > "$OUT/table.md" 2>&1 ;;
-bench_slope5)  # BENCHMARKS.md's slope5 section: time until >= 99 % of 1024 episodes cross
+bench_slope5)  # docs/benchmarks.md's slope5 rows: time until >= 99 % of 1024 episodes cross
   python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_timeout_s=420 \
     --out="$OUT/bench_warp_slope5_scratch.json" > "$OUT/bench_warp_slope5_scratch.log" 2>&1
   python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_training_preset=gpu --walk_timeout_s=240 \
@@ -316,14 +289,6 @@ anymal_any_slope)  # ANYmal C with --preset=any_slope (hip offsets, slope and ph
   evaluate "$best" ${name}_flat flat 1024 20
   evaluate "$best" ${name}_testset testset:2026 4288 40
   wait ;;
-anymal_search10)  # ANYmal C with a gait search of 10-s episodes, 4 robots a candidate
-  : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
-  export MENAGERIE_ROOT
-  name=anybotics_anymal_c_search10_s0
-  train $((${ANYMAL_S:-300} + 60)) $name --preset=scratch --robot=menagerie:anybotics_anymal_c \
-    --seed=0 --max_seconds=${ANYMAL_S:-300} --config.sac.gait_search.seconds=10 \
-    --config.sac.gait_search.num_candidates=1024 --config.sac.gait_search.robots_per_candidate=4
-  evaluate "$OUT/runs/$name/policy_best" ${name}_flat flat 1024 20 --trace="$OUT/trace_${name}_flat.json" ;;
 anymal)  # ANYmal C from nothing alone, with the current preset and gait search
   : "${MENAGERIE_ROOT:?set MENAGERIE_ROOT to a folder of MuJoCo Menagerie robots}"
   export MENAGERIE_ROOT
@@ -350,63 +315,6 @@ profile)  # where the 1- and 8-update training rows' time goes (flat and slope5,
       python3 -m quadcos.benchmarking.profile "/tmp/quadcos_profile/$terrain/$row" --top 25 \
         > "$OUT/profile_${terrain}_$row.md" 2>&1
     done
-  done ;;
-launch_levers)  # the physics launch settings against the training and raw physics rates (flat,
-  # Warp, 4096 envs, 1 and 8 updates per env step), one bench process per setting (LEVERS: a subset)
-  # (a lever of several settings joins them with "+": warp.graph_mode=jax+warp.graph_conditional=false)
-  for lever in ${LEVERS:-default substep_unroll=10 warp.graph_mode=warp_staged warp.graph_mode=none \
-      warp.graph_mode=jax+warp.graph_conditional=false}; do
-    flags=(); [ "$lever" = default ] || for setting in ${lever//+/ }; do flags+=(--env "$setting"); done
-    name=bench_launch_${lever//[^a-z0-9_]/_}
-    python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
-      --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 "${flags[@]}" \
-      --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
-    note "$name: exit $? $(grep -o 'train 4096x8192x1: [^,]*' "$OUT/$name.log")"
-  done ;;
-xla_levers)  # XLA's command buffers (CUDA graphs of its own kernels) against the GPU's idle time
-  # between launches: the launch_levers rows (flat, Warp, 4096 envs) under other XLA_FLAGS, one
-  # bench process each (XLA_LEVERS: values of --xla_gpu_enable_command_buffer separated by ";";
-  # "default": the flag unset, "none": command buffers off)
-  IFS=';' read -r -a sets <<< "${XLA_LEVERS:-default;none;+WHILE,+CONDITIONAL}"
-  for set in "${sets[@]}"; do
-    flags="--xla_gpu_triton_gemm_any=true"
-    [ "$set" = default ] || flags="$flags --xla_gpu_enable_command_buffer=${set/none/}"
-    name=bench_xla_${set//[^A-Za-z0-9_]/_}
-    XLA_FLAGS=$flags python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train \
-      --env_counts=4096 --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
-      --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
-    note "$name ($flags): exit $? $(grep -o 'train 4096x8192x1: [^,]*' "$OUT/$name.log")"
-  done ;;
-overlap_levers)  # trainer settings (--sac KEY=VALUE) against the physics, flat and slope5, Warp, 4096
-  # envs, one bench process per setting, each with its own raw physics rate. OVERLAP_SETS:
-  # NAME:SAC_FLAGS:EXTRA_XLA_FLAGS entries separated by ";" (run per terrain in OVERLAP_TERRAINS, rows
-  # OVERLAP_ROWS). The updates on a stream of their own need benchmarks/h200/overlap_levers/
-  # overlap_updates.patch applied and e.g. "overlap_stream:overlap_updates=True:--xla_gpu_experimental_stream_annotation=true".
-  IFS=';' read -r -a sets <<< "${OVERLAP_SETS:-inline::;inline_spc8:steps_per_chunk=8:}"
-  for terrain in ${OVERLAP_TERRAINS:-flat slope5}; do
-    rows=4096x8192x1,4096x8192x8; [ "$terrain" = flat ] || rows=4096x8192x1
-    rows=${OVERLAP_ROWS:-$rows}
-    for set in "${sets[@]}"; do
-      IFS=: read -r label sac extra <<< "$set"
-      name=bench_${terrain}_$label
-      XLA_FLAGS="--xla_gpu_triton_gemm_any=true $extra" python3 -m quadcos.bench --impl=warp \
-        --terrain=$terrain --only=physics,train --env_counts=4096 --train_rows=$rows \
-        --train_seconds=8 --steps=20 ${sac:+--sac=$sac} --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1
-      note "$name: exit $? $(grep -o 'train 4096x8192x[18]: [^,]*' "$OUT/$name.log" | tr '\n' ' ')"
-    done
-  done ;;
-precision_levers)  # the networks' matmul precision against the 8-update row's update time: the
-  # launch_levers rows (flat, Warp, 4096 envs) under JAX_DEFAULT_MATMUL_PRECISION, one bench
-  # process each (PRECISIONS: values separated by ";", "default": unset); Warp's physics kernels
-  # do not take it, so the raw physics rate stays the baseline
-  IFS=';' read -r -a sets <<< "${PRECISIONS:-default;float32;tensorfloat32;bfloat16}"
-  for set in "${sets[@]}"; do
-    name=bench_precision_$set
-    ( [ "$set" = default ] || export JAX_DEFAULT_MATMUL_PRECISION=$set
-      python3 -m quadcos.bench --impl=warp --terrain=flat --only=physics,train --env_counts=4096 \
-        --train_rows=4096x8192x1,4096x8192x8 --train_seconds=8 --steps=20 \
-        --out="$OUT/$name.json" > "$OUT/$name.log" 2>&1 )
-    note "$name: exit $? $(grep -o 'train 4096x8192x[18]: [^,]*' "$OUT/$name.log" | tr '\n' ' ')"
   done ;;
 imports)  # where the import seconds go: `python3 -X importtime` of quadcos.train (twice: the second
   # with a warm file cache), then the first calls that start JAX's and Warp's GPU back ends
