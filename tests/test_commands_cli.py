@@ -220,3 +220,53 @@ def test_sim2sim_follows_commands(commanded, tmp_path, capsys):
     summary = json.loads(out.read_text())
     assert summary["setup"]["commands"] == "0.4,0.2@5"
     assert summary["yaw_rate_tracking_rms"] is not None
+
+
+@pytest.mark.parametrize(
+    "robot, turn_mode",
+    [("quadcos", "hip_amplitude_difference"), ("quad12", "abduction_stride")],
+)
+def test_host_joint_targets_turn_as_the_envs(robot, turn_mode):
+    from quadcos import env as env_lib
+
+    options = dict(robot=robot, turn_mode=turn_mode, posture_bound=0.2, start_ramp_s=0.5)
+    config = evaluation.env_config(options)
+    host = host_robot.HostRobot("flat", config)
+    mjx_env = env_lib.QuadrupedEnv("flat", config)
+    host.reset(0)
+    host.command = np.random.default_rng(3).uniform(-1, 1, host.action_size)
+    host.phase, host.data.time = 1.3, 0.3
+    original = mjx_env.joint_targets(host.command.astype(np.float32), 1.3, 0.3)
+    straight = host.command.copy()
+    straight[-1] = 0.0
+    turned = host._joint_targets(host.rhythm_parameters())  # noqa: SLF001
+    np.testing.assert_allclose(turned, original, atol=1e-5)
+    host.command = straight
+    assert np.abs(turned - host._joint_targets(host.rhythm_parameters())).max() > 1e-3  # noqa: SLF001
+
+
+def test_tracking_reward_twin_equals_the_envs():
+    from quadcos.equations import reward, slope
+
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        x, y, angles = rng.normal(size=2) * 0.05, rng.normal(size=2) * 0.05, rng.normal(size=5)
+        body = slope.Attitude(roll=angles[0] * 0.1, pitch=angles[1] * 0.1, yaw=angles[2])
+        common = dict(x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=False, moving=True)
+        tracking = dict(heading=angles[3], commanded_progress=abs(angles[4]) * 0.05)
+        host = twins.reward_terms(
+            **common, **tracking, body=body, slope_estimate=0.0,
+            weights=reward.RewardWeights(), variant="full", max_progress=0.03,
+        )
+        original = reward.reward_terms(
+            **common, **tracking, pitch=body.pitch, yaw=body.yaw, roll=body.roll, slope=0.0,
+            max_progress=0.03,
+        )
+        for term in reward.TERM_NAMES:
+            assert host[term] == pytest.approx(float(original[term]), abs=1e-5)
+
+
+def test_mjx_evaluation_records_policy_env_steps(commanded):
+    result = evaluation.evaluate(str(commanded), num_envs=2, seconds=0.1, commands="0.5,0@5")
+    assert result.summary["setup"]["policy_env_steps"] == 1234
+    assert result.summary["speed_tracking_rms"] is not None
