@@ -11,8 +11,8 @@ Shift-Tab show MuJoCo's own panels. A policy trained with velocity commands is s
 follows its own commands (or `--commands=SPEC`) until an arrow key is pressed, then the command
 given by hand until a restart: up / down change the forward speed v* by 0.1 m/s, left / right
 the yaw rate ω* by 0.1 rad/s (left turns left), within the ranges the policy was trained with;
-space stops it (v* = ω* = 0, v* at least the range's minimum); P pauses. A fallen robot waits for a restart. Without a display the
-command says so in one line and exits with status 2: render a video instead with
+space stops it (v* = ω* = 0, v* at least the range's minimum); P pauses. A fallen robot waits
+for a restart. Without a display the command says so in one line and exits with status 2: render a video instead with
 `python -m quadcos.evaluate ... --video=walk.mp4`.
 """
 

@@ -16,7 +16,8 @@ control step, as the MJX env's randomised latency). Both are recorded in the set
 the physics a policy must transfer to); `--physics=training` with the iterations it trained with;
 `--physics=N/M` with N solver and M line-search iterations. `--commands=SPEC` (a policy trained
 with velocity commands): `random` (its training distribution, NumPy's draws) or a schedule
-`v,w@s;...`; the JSON then reports `speed_tracking_rms` and `yaw_rate_tracking_rms`. `--out` is an evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
+`v,w@s;...`; the JSON then reports `speed_tracking_rms` and `yaw_rate_tracking_rms`.
+`--out` is an evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
 per-episode values), so the two compare key by key; it is
 `python -m quadcos.evaluate --engine=mujoco` with the deployment faults and the solver choice.
 Env options: `--env.KEY=VALUE`, as in `quadcos.evaluate`. The library: `quadcos.deploy.engines`

@@ -239,10 +239,11 @@ def test_host_joint_targets_turn_as_the_envs(robot, turn_mode):
     original = mjx_env.joint_targets(host.command.astype(np.float32), 1.3, 0.3)
     straight = host.command.copy()
     straight[-1] = 0.0
-    turned = host._joint_targets(host.rhythm_parameters())  # noqa: SLF001
+    targets = host._joint_targets  # noqa: SLF001
+    turned = targets(host.rhythm_parameters())
     np.testing.assert_allclose(turned, original, atol=1e-5)
     host.command = straight
-    assert np.abs(turned - host._joint_targets(host.rhythm_parameters())).max() > 1e-3  # noqa: SLF001
+    assert np.abs(turned - targets(host.rhythm_parameters())).max() > 1e-3  # the turn acts
 
 
 def test_tracking_reward_twin_equals_the_envs():
@@ -254,18 +255,17 @@ def test_tracking_reward_twin_equals_the_envs():
         body = slope.Attitude(roll=angles[0] * 0.1, pitch=angles[1] * 0.1, yaw=angles[2])
         common = dict(x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=False, moving=True)
         tracking = dict(heading=angles[3], commanded_progress=abs(angles[4]) * 0.05)
+        weights, shared = reward.RewardWeights(), {**common, **tracking, "max_progress": 0.03}
         host = twins.reward_terms(
-            **common, **tracking, body=body, slope_estimate=0.0,
-            weights=reward.RewardWeights(), variant="full", max_progress=0.03,
+            **shared, body=body, slope_estimate=0.0, weights=weights, variant="full"
         )
-        original = reward.reward_terms(
-            **common, **tracking, pitch=body.pitch, yaw=body.yaw, roll=body.roll, slope=0.0,
-            max_progress=0.03,
-        )
+        angles = dict(pitch=body.pitch, yaw=body.yaw, roll=body.roll, slope=0.0)
+        original = reward.reward_terms(**shared, **angles, weights=weights)
         for term in reward.TERM_NAMES:
             assert host[term] == pytest.approx(float(original[term]), abs=1e-5)
 
 
+@pytest.mark.slow  # an MJX compile: ~45 s on the CPU
 def test_mjx_evaluation_records_policy_env_steps(commanded):
     result = evaluation.evaluate(str(commanded), num_envs=2, seconds=0.1, commands="0.5,0@5")
     assert result.summary["setup"]["policy_env_steps"] == 1234
