@@ -7,8 +7,12 @@ env options as `--env.KEY=VALUE`. The overlay reads the time, forward
 speed, attitude, the slope estimate beside the ground truth and the five rhythm parameters.
 
 Keys: space pauses and resumes; R or Backspace restarts (next reset noise seed); Tab and
-Shift-Tab show MuJoCo's own panels. A fallen robot waits for a restart. Without a display the
-command says so in one line and exits with status 2: render a video instead with
+Shift-Tab show MuJoCo's own panels. A policy trained with velocity commands is steered: it
+follows its own commands (or `--commands=SPEC`) until an arrow key is pressed, then the command
+given by hand until a restart: up / down change the forward speed v* by 0.1 m/s, left / right
+the yaw rate ω* by 0.1 rad/s (left turns left), within the ranges the policy was trained with;
+space stops it (v* = ω* = 0, v* at least the range's minimum); P pauses. A fallen robot waits
+for a restart. Without a display the command says so in one line and exits with status 2: render a video instead with
 `python -m quadcos.evaluate ... --video=walk.mp4`.
 """
 
@@ -17,18 +21,44 @@ import math
 import os
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import mujoco
+import numpy as np
 
 from quadcos._util import cli
 from quadcos.deploy import engines, solver
 from quadcos.deploy.host_robot import HostRobot, Pilot, StepResult
 from quadcos.robot import constants
 
-KEY_SPACE, KEY_R, KEY_BACKSPACE = 32, ord("R"), 259  # GLFW key codes
+KEY_SPACE, KEY_R, KEY_P, KEY_BACKSPACE = 32, ord("R"), ord("P"), 259  # GLFW key codes
+KEY_RIGHT, KEY_LEFT, KEY_DOWN, KEY_UP = 262, 263, 264, 265
+COMMAND_STEP = 0.1  # m/s or rad/s per arrow key press
+_STEERING = {  # key -> (Δv*, Δω*) in COMMAND_STEPs
+    KEY_UP: (1, 0),
+    KEY_DOWN: (-1, 0),
+    KEY_LEFT: (0, 1),
+    KEY_RIGHT: (0, -1),
+}
 _TEXT_INTERVAL = 0.2  # s of wall time between overlay updates
 _MAX_LAG = 0.25  # s: behind real time by more than this, pacing starts over instead of rushing
+
+
+def steer(
+    keycode: int, command: Sequence[float], ranges: Mapping[str, float]
+) -> np.ndarray | None:
+    """The (2,) command (v* m/s, ω* rad/s) that key `keycode` makes of `command`: arrows step it
+    by COMMAND_STEP, space stops (0, 0); clipped to `ranges` ("speed_min", "speed_max",
+    "yaw_rate_max"; a resolved env `commands` config's). None for any other key."""
+    if keycode == KEY_SPACE:
+        target = np.zeros(2)
+    elif keycode in _STEERING:
+        target = np.asarray(command, np.float64) + COMMAND_STEP * np.array(_STEERING[keycode])
+    else:
+        return None
+    speed = np.clip(target[0], ranges["speed_min"], ranges["speed_max"])
+    yaw_rate = np.clip(target[1], -ranges["yaw_rate_max"], ranges["yaw_rate_max"])
+    return np.round([speed, yaw_rate], 6)
 
 
 class Session:
@@ -43,11 +73,21 @@ class Session:
         self.paused = False
         self.episode = -1
         self._restart_requested = False
+        self._steer_to: np.ndarray | None = None
         self.restart()
 
     def key(self, keycode: int) -> None:
-        """The viewer's key callback: space pauses, R / Backspace restarts."""
-        if keycode == KEY_SPACE:
+        """The viewer's key callback: R / Backspace restarts; a commanded policy's arrows and
+        space steer it (`steer`) and P pauses; otherwise space pauses."""
+        commands = self.host.commands
+        if commands is not None:
+            ranges = self.host.config.commands
+            now = commands.velocity if self._steer_to is None else self._steer_to
+            steered = steer(keycode, now, ranges)
+            if steered is not None:
+                self._steer_to = steered
+                return
+        if keycode == (KEY_SPACE if commands is None else KEY_P):
             self.paused = not self.paused
         elif keycode in (KEY_R, KEY_BACKSPACE):
             self._restart_requested = True
@@ -55,7 +95,7 @@ class Session:
     def restart(self) -> None:
         """A fresh episode: reset with the next noise seed."""
         self.episode += 1
-        self._restart_requested = False
+        self._restart_requested, self._steer_to = False, None
         self.obs = self.host.reset((self.seed, self.episode))
         self.last: StepResult | None = None
 
@@ -67,6 +107,8 @@ class Session:
         """One control step, unless paused or fallen; first a restart if one was asked for."""
         if self._restart_requested:
             self.restart()
+        if self._steer_to is not None:
+            self.host.commands.steer(self._steer_to)
         if self.paused or self.fell:
             return
         self.last = self.host.step(self.act(self.obs))
@@ -87,6 +129,9 @@ class Session:
                 ("roll / pitch / yaw", _degrees(body.roll, body.pitch, body.yaw)),
                 ("slope est. / true", _degrees(self.last.slope_estimate, self.last.slope_truth)),
             ]
+        if self.host.commands is not None:
+            speed, yaw_rate = self.host.commands.velocity
+            rows.append(("command v* / w*", f"{speed:+.2f} m/s / {yaw_rate:+.2f} rad/s"))
         params = self.host.rhythm_parameters()
         if params is not None:
             rows += [
@@ -94,7 +139,8 @@ class Session:
                 ("T", f"{params.period:.3f} s"),
                 ("phi1 / phi3", f"{params.phi1:+.2f} / {params.phi3:+.2f} rad"),
             ]
-        rows.append(("keys", "space pause, R restart"))
+        keys = "space pause" if self.host.commands is None else "arrows steer, space stop, P pause"
+        rows.append(("keys", f"{keys}, R restart"))
         return "\n".join(label for label, _ in rows), "\n".join(value for _, value in rows)
 
 
@@ -177,7 +223,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise cli.UsageError("--policy is required")
         pilot = Pilot.load(args.policy, overrides)
         terrain = args.terrain or pilot.spec.training_terrain
-        host = HostRobot(terrain, pilot.config, physics=args.physics)
+        host = HostRobot(terrain, pilot.config, physics=args.physics, commands=args.commands)
         session = Session(pilot, host, args.seed)
     except (ValueError, FileNotFoundError) as error:
         cli.print_error("quadcos.play", error)

@@ -14,7 +14,10 @@ control step: the previous action for the first round(latency / physics_dt) subs
 control step, as the MJX env's randomised latency). Both are recorded in the setup.
 `--physics=reference` (default) solves contacts with the MJCF's own solver iterations (converged:
 the physics a policy must transfer to); `--physics=training` with the iterations it trained with;
-`--physics=N/M` with N solver and M line-search iterations. `--out` is an evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
+`--physics=N/M` with N solver and M line-search iterations. `--commands=SPEC` (a policy trained
+with velocity commands): `random` (its training distribution, NumPy's draws) or a schedule
+`v,w@s;...`; the JSON then reports `speed_tracking_rms` and `yaw_rate_tracking_rms`.
+`--out` is an evaluation JSON in `quadcos.evaluate`'s format (aggregates, "setup" with `"engine": "mujoco"`,
 per-episode values), so the two compare key by key; it is
 `python -m quadcos.evaluate --engine=mujoco` with the deployment faults and the solver choice.
 Env options: `--env.KEY=VALUE`, as in `quadcos.evaluate`. The library: `quadcos.deploy.engines`
@@ -87,6 +90,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             obs_noise=args.obs_noise,
             latency_s=args.latency_ms / 1000.0,
             physics=args.physics,
+            commands=args.commands,
             progress=None if args.no_progress else _print_progress,
         )
     except (ValueError, FileNotFoundError) as error:

@@ -38,6 +38,9 @@ from quadcos.evaluation import report, rollout, sources
 ENGINES = ("mjx", "mujoco")
 # Per-episode maxima of evaluation.EpisodeStats: |y − y0|, |roll|, |yaw|, |pitch − true slope|.
 _MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
+# GaitEpisodeStats fields that the host episodes do not sum: the end-of-step samples (only the
+# rollout's next step reads them) and the flags.
+_NOT_SUMMED = ("reward_terms", "command", "yaw", "foot_xy", "foot_contact", "commanded", "mass")
 _MUJOCO_ONLY = {"obs_noise": 0.0, "latency_s": 0.0, "physics": "reference"}
 
 
@@ -93,8 +96,6 @@ def evaluate(
             progress=progress,
             commands=commands,
         )
-    if commands is not None:
-        raise ValueError("--commands is not yet followed by the mujoco engine")
     if trace_episode:
         raise ValueError("the mujoco engine traces no episode: trace_episode is an mjx option")
     if episodes < 1 or not (math.isfinite(seconds) and seconds > 0):
@@ -103,7 +104,7 @@ def evaluate(
         raise ValueError(f"the observation noise must be >= 0 and finite; got {obs_noise}")
     pilot = host_robot.Pilot.load(spec, env_overrides)
     ground = terrain if terrain is not None else spec.training_terrain
-    host = host_robot.HostRobot(ground, pilot.config, latency_s, physics)
+    host = host_robot.HostRobot(ground, pilot.config, latency_s, physics, commands)
     return _mujoco_episodes(pilot, host, episodes, seconds, seed, obs_noise, progress)
 
 
@@ -116,8 +117,8 @@ def run_episode(
 ) -> dict[str, Any]:
     """One episode of at most `num_steps` control steps from `host.reset(seed)`, the policy
     seeing each observation value plus N(0, obs_noise²) noise (a stream spawned from `seed`);
-    returns the fields of `evaluation.EpisodeStats` for it (scalars), accumulated as `evaluate`
-    does."""
+    returns the fields of `evaluation.GaitEpisodeStats` for it (scalars), accumulated as
+    `evaluate` does."""
     obs = host.reset(seed)
     key_noise = np.random.SeedSequence(seed).spawn(1)[0]
     noise = np.random.default_rng(key_noise)
@@ -127,9 +128,12 @@ def run_episode(
     maxima = np.zeros(len(_MAXIMA))
     slope_sq_error, reward_terms = 0.0, dict.fromkeys(reward.TERM_NAMES, 0.0)
     course_end_x = host.terrain.course_end_x
+    gait = _GaitSums(host)
     for _ in range(num_steps):
         seen = obs + noise.normal(0.0, obs_noise, obs.shape) if obs_noise > 0 else obs
+        command = host.commands.velocity if host.commands is not None else None
         result = host.step(act(seen))
+        gait.add(host, command)
         obs, qpos = result.obs, host.data.qpos
         body = twins.attitude(qpos[host.layout.quaternion])  # as evaluate: from qpos
         x, y, _ = (float(value) for value in qpos[position])
@@ -151,7 +155,56 @@ def run_episode(
         "slope_sq_error": slope_sq_error,
         "episode_reward": sum(reward_terms.values()),
         "reward_terms": reward_terms,
+        **gait.sums,
     }
+
+
+class _GaitSums:
+    """An episode's running gait sums of `rollout.GaitEpisodeStats` (the mjx rollout's
+    `_update_gait_stats`, one robot): tracking errors, foot slip, energy, path, peak torque;
+    feet and torques sampled at the end of each control step."""
+
+    def __init__(self, host: host_robot.HostRobot):
+        self.sums = dict.fromkeys(
+            ("speed_sq_error", "yaw_rate_sq_error", "slip_sum", "energy", "path"), 0.0
+        )
+        self.sums |= {"slip_steps": 0, "peak_torque_ratio": 0.0}
+        self.sample = self._sample(host)
+
+    @staticmethod
+    def _sample(host: host_robot.HostRobot) -> dict[str, Any]:
+        data, layout = host.data, host.layout
+        feet = data.geom_xpos[layout.foot_geoms]
+        ground = twins.height_at(host.terrain, feet[:, 0], feet[:, 1])
+        return {
+            "xy": data.qpos[layout.position][:2].copy(),
+            "yaw": twins.attitude(data.qpos[layout.quaternion]).yaw,
+            "feet": feet[:, :2].copy(),
+            "touching": feet[:, 2] - layout.foot_radius - ground < rollout.CONTACT_CLEARANCE,
+        }
+
+    def add(self, host: host_robot.HostRobot, command: np.ndarray | None) -> None:
+        """One control step just taken by `host`, which followed `command` (v*, ω*) in it."""
+        last, now, dt, layout = self.sample, self._sample(host), host.dt, host.layout
+        step_x, step_y = now["xy"] - last["xy"]
+        yaw = now["yaw"]
+        sums = self.sums
+        if command is not None:
+            speed = (step_x * math.cos(yaw) + step_y * math.sin(yaw)) / dt
+            yaw_rate = twins.wrap_angle(yaw - last["yaw"]) / dt
+            sums["speed_sq_error"] += (speed - command[0]) ** 2
+            sums["yaw_rate_sq_error"] += (yaw_rate - command[1]) ** 2
+        slipping = now["touching"] & last["touching"]
+        foot_speed = np.linalg.norm(now["feet"] - last["feet"], axis=-1) / dt
+        sums["slip_sum"] += float((foot_speed * slipping).sum() / max(slipping.sum(), 1))
+        sums["slip_steps"] += int(slipping.any())
+        torque = host.data.qfrc_actuator[layout.joint_qvel]
+        sums["energy"] += float(np.abs(torque * host.data.qvel[layout.joint_qvel]).sum()) * dt
+        sums["path"] += math.hypot(step_x, step_y)
+        limit = np.asarray(layout.torque_limit, np.float64)
+        ratio = float((np.abs(torque) / limit).max()) if np.isfinite(limit).any() else math.nan
+        sums["peak_torque_ratio"] = max(sums["peak_torque_ratio"], ratio)
+        self.sample = now
 
 
 def _mujoco_episodes(
@@ -177,11 +230,20 @@ def _mujoco_episodes(
             progress(index + 1, episodes)
     fields = {
         name: np.array([record[name] for record in records])
-        for name in evaluation.EpisodeStats.__dataclass_fields__
-        if name != "reward_terms"
+        for name in rollout.GaitEpisodeStats.__dataclass_fields__
+        if name not in _NOT_SUMMED
     }
     terms = {t: np.array([r["reward_terms"][t] for r in records]) for t in reward.TERM_NAMES}
-    stats = evaluation.EpisodeStats(**fields, reward_terms=terms)
+    stats = rollout.GaitEpisodeStats(
+        **fields,
+        command=np.zeros((episodes, 2)),
+        yaw=np.zeros(episodes),
+        foot_xy=np.zeros((episodes, 4, 2)),
+        foot_contact=np.zeros((episodes, 4), bool),
+        reward_terms=terms,
+        commanded=host.commands is not None,
+        mass=float(host.layout.mass),
+    )
     values = evaluation.episode_values(stats, host.dt, num_steps)
     course = host.terrain.course_end_x is not None
     for episode in values:
@@ -191,6 +253,7 @@ def _mujoco_episodes(
         "engine": "mujoco",
         "policy": pilot.name,
         "policy_kind": "fixed" if pilot.spec.kind == "fixed" else "sac",
+        "policy_env_steps": pilot.spec.env_steps,
         "robot": host.robot.provenance(),
         "terrain": host.terrain.spec,
         "course_end_x": host.terrain.course_end_x,
@@ -199,6 +262,7 @@ def _mujoco_episodes(
         "num_steps": num_steps,
         "control_dt": host.dt,
         "seed": seed,
+        "commands": host.config.commands.spec,
         "obs_noise": obs_noise,
         "latency_s": host.latency_s,
         "latency_physics_steps": host.latency_steps,

@@ -12,14 +12,25 @@ robot stack) needs to give the same deterministic actions as `quadcos.load_polic
 - `env_config`: JSON of the full quadcos env config the policy expects (observation layout:
   `observe_slope`, `observe_phase`, the command when `action_filter_tau` > 0; `control_dt`, the
   action map `action_centre` / `period_min`; its training terrain as `terrain`);
-- `format`, `observation_size`.
+- `format`, `observation_size` (the whole observation, the command included);
+- `env_steps`: the env steps of training behind the policy, where its directory records them
+  (`PolicySpec.env_steps`);
+- for a policy trained with velocity commands, its command ranges (the robot's, resolved):
+  `command_speed_min`, `command_speed_max` (m/s), `command_yaw_rate_max` (rad/s),
+  `command_resample_seconds` (s).
 
 The .onnx (opset 17, built with `onnx.helper`; run by `quadcos.deploy.onnx_policy.OnnxPolicy`)
 is the same forward pass as a graph: input "observation" float32 (batch, observation_size), Sub
 mean, Div std, MatMul + Add with Relu between the layers, the last layer's loc columns only (the
 scale half does not touch the deterministic action), Tanh; output "action" float32 (batch,
 action_size). `metadata_props` hold `format` ("quadcos.onnx_policy"), `env_config` (the JSON
-above), `observation_size` and `action_size`.
+above), `observation_size` and `action_size`, and `env_steps` where known.
+
+A policy trained with velocity commands takes its command as a second input, "command" float32
+(batch, 2): one (v* m/s, ω* rad/s) per observation row; "observation" is then (batch,
+observation_size − 2), the observation without its last two values, and the graph concatenates
+the two (the policy's observation ends with the command). Its metadata adds the command ranges
+above (`command_speed_min`, ...) as decimal strings.
 """
 
 import json
@@ -29,6 +40,8 @@ import pathlib
 import numpy as np
 
 from quadcos import env as env_lib
+from quadcos.deploy.host_commands import COMMAND_SIZE
+from quadcos.env import commands as env_commands
 from quadcos._util import overrides as config_lib
 from quadcos.deploy import onnx_policy
 from quadcos.deploy.numpy_policy import FORMAT, NumpyPolicy
@@ -38,6 +51,8 @@ ACTIVATION = "relu"  # quadcos.training.sac.make_networks: Brax's default, linen
 ONNX_OPSET = 17
 ONNX_IR_VERSION = 8  # the IR of opset 17, so that older ONNX Runtimes load the file too
 SUFFIXES = (".npz", ".onnx")
+# The command ranges an export records (the resolved env `commands` config's keys).
+COMMAND_RANGES = ("speed_min", "speed_max", "yaw_rate_max", "resample_seconds")
 
 
 def policy_arrays(spec: PolicySpec | str | os.PathLike[str]) -> dict[str, np.ndarray]:
@@ -68,6 +83,11 @@ def policy_arrays(spec: PolicySpec | str | os.PathLike[str]) -> dict[str, np.nda
         "normalizer_std": np.asarray(policy.params["normalizer"]["std"], np.float32),
         "env_config": np.asarray(json.dumps(config.to_dict())),
     }
+    if spec.env_steps is not None:
+        arrays["env_steps"] = np.asarray(spec.env_steps)
+    if env_commands.parse_commands(config.commands.spec).enabled:
+        ranges = env_lib.resolve(config).commands
+        arrays |= {f"command_{key}": np.asarray(float(ranges[key])) for key in COMMAND_RANGES}
     for index, name in enumerate(names):
         arrays[f"kernel_{index}"] = np.asarray(layers[name]["kernel"], np.float32)
         arrays[f"bias_{index}"] = np.asarray(layers[name]["bias"], np.float32)
@@ -88,9 +108,18 @@ def onnx_model(arrays: dict[str, np.ndarray]):
 
     count, action_size = int(arrays["num_layers"]), int(arrays["action_size"])
     observation_size = int(arrays["observation_size"])
+    ranges = {f"command_{key}": arrays.get(f"command_{key}") for key in COMMAND_RANGES}
+    commanded = ranges["command_speed_max"] is not None
     weights = {"mean": arrays["normalizer_mean"], "std": arrays["normalizer_std"]}
-    nodes = [
-        helper.make_node("Sub", [onnx_policy.INPUT, "mean"], ["centred"]),
+    inputs = [(onnx_policy.INPUT, observation_size - COMMAND_SIZE * commanded)]
+    nodes = []
+    if commanded:  # the policy's observation ends with the command
+        inputs.append((onnx_policy.COMMAND, COMMAND_SIZE))
+        names = [name for name, _ in inputs]
+        nodes.append(helper.make_node("Concat", names, ["observed"], axis=-1))
+    observed = "observed" if commanded else onnx_policy.INPUT
+    nodes += [
+        helper.make_node("Sub", [observed, "mean"], ["centred"]),
         helper.make_node("Div", ["centred", "std"], ["hidden_in_0"]),
     ]
     for index in range(count):
@@ -110,9 +139,8 @@ def onnx_model(arrays: dict[str, np.ndarray]):
         nodes,
         "quadcos_policy",
         [
-            helper.make_tensor_value_info(
-                onnx_policy.INPUT, TensorProto.FLOAT, ["batch", observation_size]
-            )
+            helper.make_tensor_value_info(name, TensorProto.FLOAT, ["batch", size])
+            for name, size in inputs
         ],
         [
             helper.make_tensor_value_info(
@@ -136,6 +164,10 @@ def onnx_model(arrays: dict[str, np.ndarray]):
         "observation_size": str(observation_size),
         "action_size": str(action_size),
     }
+    if "env_steps" in arrays:
+        metadata["env_steps"] = str(int(arrays["env_steps"]))
+    if commanded:
+        metadata |= {key: repr(float(value)) for key, value in ranges.items()}
     helper.set_model_props(model, metadata)
     onnx.checker.check_model(model, full_check=True)
     return model

@@ -40,9 +40,10 @@ import numpy as np
 from quadcos import env as env_lib
 from quadcos import robot
 from quadcos import terrain as terrain_lib
-from quadcos.deploy import export, solver, twins
+from quadcos.deploy import export, host_commands, solver, twins
 from quadcos.deploy.numpy_policy import NumpyPolicy
 from quadcos.deploy.onnx_policy import OnnxPolicy
+from quadcos.env import commands as env_commands
 from quadcos.env.layout import Layout
 from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import sources
@@ -117,10 +118,12 @@ class StepResult(NamedTuple):
 class HostRobot:
     """One robot on a terrain in C MuJoCo under the env's controller path (`QuadrupedEnv.step`);
     `latency_s`: the control latency, s; `physics`: "reference", "training" or "N/M" solver
-    iterations (module docstring).
+    iterations (module docstring); `commands`: a command spec followed instead of the config's
+    own (`quadcos.deploy.host_commands`; None: the config's).
 
     Raises:
-      ValueError: a latency that is negative or not finite, or an unknown `physics`.
+      ValueError: a latency that is negative or not finite, an unknown `physics`, or commands
+        for a config without them.
     """
 
     def __init__(
@@ -129,13 +132,16 @@ class HostRobot:
         config: ml_collections.ConfigDict,
         latency_s: float = 0.0,
         physics: str = "reference",
+        commands: str | None = None,
     ):
         if not (math.isfinite(latency_s) and latency_s >= 0):
             raise ValueError(f"the latency must be >= 0 s and finite; got {latency_s}")
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.robot = robot.load(config.robot)
-        config = env_lib.resolve(config)
+        config = env_lib.resolve(host_commands.follow(config, commands))
         self.config = config
+        commanded = env_commands.parse_commands(config.commands.spec).enabled
+        self.commands = host_commands.HostCommands(config.commands) if commanded else None
         iterations, ls_iterations = solver.iterations(physics, config)
         self.model = robot.build_model(
             self.terrain,
@@ -190,6 +196,8 @@ class HostRobot:
         mujoco.mj_forward(self.model, self.data)
         self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
         self._pending = [np.zeros(self.action_size)] * self._queue_length
+        if self.commands is not None:
+            self.commands.start(seed)
         return self._observe()[0]
 
     def rhythm_parameters(self) -> oscillator.RhythmParameters | None:
@@ -208,6 +216,7 @@ class HostRobot:
         moving towards the action due after the latency), then observe, reward and check for a
         fall."""
         x_last, y_last, _ = self.data.qpos[self.layout.position]
+        time_before = self.data.time
         actions = [*self._pending, np.clip(np.asarray(action, np.float64), -1.0, 1.0)]
         period = oscillator.FIXED_TROT.period
         for index in range(self.substeps):
@@ -221,6 +230,10 @@ class HostRobot:
         self._pending = actions[len(actions) - self._queue_length :]
         if self.config.oscillator_form == "literal":
             self.phase = math.fmod(oscillator.TWO_PI * self.data.time / period, oscillator.TWO_PI)
+        tracking = {}
+        if self.commands is not None:  # the env's _track: before the observation that shows it
+            yaw = twins.attitude(self.layout.orientation(self.data)).yaw
+            tracking = self.commands.track(yaw, time_before, self.data.time, self.dt)
         obs, body, slope_estimate = self._observe()
         x, y, _ = self.data.qpos[self.layout.position]
         slope_truth = float(twins.slope_at(self.terrain, x, y))
@@ -236,17 +249,22 @@ class HostRobot:
             body=body,
             slope_estimate=slope_estimate,
             fell=fell,
-            moving=self._moving(self.mean_speed),
+            moving=self._moving(self.mean_speed, tracking),
             weights=self.weights,
             variant=self.config.reward_variant,
             max_progress=env_lib.max_progress(self.config, self.dt),
+            **tracking,
         )
         return StepResult(obs, body, slope_estimate, slope_truth, forward_speed, terms, fell)
 
-    def _moving(self, mean_speed: float) -> bool:
+    def _moving(self, mean_speed: float, tracking: dict[str, float]) -> bool:
         """`QuadrupedEnv._moving`: whether the step earns Eq. 9's r_s."""
         min_speed = self.config.survival_min_speed
-        return min_speed == 0 or mean_speed >= min_speed
+        if min_speed == 0:
+            return True
+        if tracking:
+            min_speed = min(min_speed, 0.5 * tracking["commanded_progress"] / self.dt)
+        return mean_speed >= min_speed
 
     def _joint_targets(self, params: oscillator.RhythmParameters | None) -> np.ndarray:
         """`QuadrupedEnv.joint_targets` of the current command and phase."""
@@ -255,15 +273,22 @@ class HostRobot:
         phase = self.phase
         if self.config.oscillator_form == "literal":
             phase = oscillator.TWO_PI * self.data.time / params.period
+        config, posture = self.config, oscillator.RHYTHM_SIZE
+        turn = self.command[posture + oscillator.POSTURE_SIZE * (config.posture_bound > 0) :]
         phases = twins.trot_phases(params.phi1, params.phi3)
-        targets = twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
-        if self.config.posture_bound > 0:
-            targets += twins.posture_offsets(
-                self.command[oscillator.RHYTHM_SIZE :], self.config.posture_bound
-            )
-        if self.config.start_ramp_s > 0:
-            targets = targets * twins.start_ramp(self.data.time, self.config.start_ramp_s)
-        return self.layout.rhythm_targets(targets)
+        swing = twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
+        if config.turn_mode == "hip_amplitude_difference":
+            swing = twins.hip_amplitude_difference(swing, turn[0], config.turn_bound)
+        ramp = twins.start_ramp(self.data.time, config.start_ramp_s)
+        targets = swing
+        if config.posture_bound > 0:
+            offsets = self.command[posture : posture + oscillator.POSTURE_SIZE]
+            targets = targets + twins.posture_offsets(offsets, config.posture_bound)
+        targets = self.layout.rhythm_targets(targets * ramp)
+        if config.turn_mode == "abduction_stride":
+            abduction = twins.abduction_stride(swing * ramp, turn[0], config.turn_bound)
+            targets = targets + self.layout.abduction_targets(abduction)
+        return targets
 
     def _observe(self) -> tuple[np.ndarray, slope.Attitude, float]:
         """`QuadrupedEnv._observe`: (obs, attitude, slope estimate)."""
@@ -279,6 +304,8 @@ class HostRobot:
             parts.append([math.cos(self.phase), math.sin(self.phase)])
         if self.config.action_filter_tau > 0:
             parts.append(self.command)
+        if self.commands is not None:
+            parts.append(self.commands.velocity)
         return np.concatenate(parts), body, slope_estimate
 
     def _fell(self, body: slope.Attitude, slope_truth: float) -> bool:

@@ -6,6 +6,12 @@ The graph: input "observation" float32 (batch, observation_size), output "action
 (batch, action_size). Its metadata (`model.metadata_props`): `format` ("quadcos.onnx_policy"),
 `env_config` (JSON of the quadcos env config the policy was trained in: observation layout,
 control_dt, action map, robot, training terrain), `observation_size`, `action_size`.
+
+A policy trained with velocity commands has a second input, "command" float32 (batch, 2): v*
+(m/s), ω* (rad/s); "observation" is then (batch, observation_size − 2), and the metadata holds
+the command ranges `command_speed_min`, `command_speed_max` (m/s), `command_yaw_rate_max`
+(rad/s) and `command_resample_seconds` (s) (`OnnxPolicy.command_ranges`). Called with the whole
+observation (the command as its last two values, as the env's), `OnnxPolicy` splits it.
 """
 
 import json
@@ -14,8 +20,14 @@ import os
 import numpy as np
 
 FORMAT = "quadcos.onnx_policy"
-INPUT, OUTPUT = "observation", "action"
+INPUT, COMMAND, OUTPUT = "observation", "command", "action"
 METADATA_KEYS = ("format", "env_config", "observation_size", "action_size")
+COMMAND_KEYS = (
+    "command_speed_min",
+    "command_speed_max",
+    "command_yaw_rate_max",
+    "command_resample_seconds",
+)
 
 
 class OnnxPolicy:
@@ -29,17 +41,26 @@ class OnnxPolicy:
             self.env_config = json.loads(metadata["env_config"])
             self.observation_size = int(metadata["observation_size"])
             self.action_size = int(metadata["action_size"])
+            commanded = COMMAND_KEYS[0] in metadata
+            # {"speed_min": m/s, ...} of a commanded policy, else {}
+            self.command_ranges = {
+                key.removeprefix("command_"): float(metadata[key])
+                for key in (COMMAND_KEYS if commanded else ())
+            }
         except (KeyError, ValueError) as error:
             raise ValueError(f"{source} is not a {FORMAT} file: {error} missing or wrong") from None
+        self.command_size = 2 if commanded else 0
+        names = [INPUT, COMMAND] if commanded else [INPUT]
+        sizes = [self.observation_size - self.command_size, self.command_size][: len(names)]
         inputs, outputs = session.get_inputs(), session.get_outputs()
         if (
-            [node.name for node in inputs] != [INPUT]
+            [node.name for node in inputs] != names
             or [node.name for node in outputs] != [OUTPUT]
-            or inputs[0].shape[-1] != self.observation_size
+            or [node.shape[-1] for node in inputs] != sizes
         ):
+            expected = ", ".join(f"{name!r} (batch, {size})" for name, size in zip(names, sizes))
             raise ValueError(
-                f"{source}: the graph does not take {INPUT!r} (batch, {self.observation_size})"
-                f" to {OUTPUT!r} as its metadata says"
+                f"{source}: the graph does not take {expected} to {OUTPUT!r} as its metadata says"
             )
 
     @classmethod
@@ -71,8 +92,13 @@ class OnnxPolicy:
         return cls(session, metadata, source=os.fspath(path))
 
     def __call__(self, observation: np.ndarray) -> np.ndarray:
-        """(..., action_size) actions in [−1, 1] for (..., observation_size) observations."""
+        """(..., action_size) actions in [−1, 1] for (..., observation_size) observations (a
+        commanded policy's: the command last)."""
         observation = np.asarray(observation, np.float32)
         batch = observation.reshape(-1, self.observation_size)
-        (action,) = self.session.run([OUTPUT], {INPUT: batch})
+        split = self.observation_size - self.command_size
+        feeds = {INPUT: batch[:, :split]}
+        if self.command_size:
+            feeds[COMMAND] = batch[:, split:]
+        (action,) = self.session.run([OUTPUT], feeds)
         return action.reshape(*observation.shape[:-1], self.action_size)

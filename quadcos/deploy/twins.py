@@ -13,6 +13,9 @@ from quadcos.equations import oscillator, reward, slope
 from quadcos.terrain import Terrain
 
 _HIP_MASK = np.array([True, False] * 4)
+_LEFT_HIPS = np.array([1.0, 0, 0, 0, 1.0, 0, 0, 0])  # LF, LB hips in the Eq. 3 order
+_RIGHT_HIPS = np.array([0, 0, 1.0, 0, 0, 0, 1.0, 0])  # RF, RB hips
+_STRIDE_ROTATION = np.array([1.0, 1.0, -1.0, -1.0])  # front legs one way, hind legs the other
 # The map's centre and spans, computed once per (period_min, centre) instead of every substep.
 _centre_and_spans = functools.lru_cache(oscillator._centre_and_spans)  # noqa: SLF001
 
@@ -47,6 +50,20 @@ def posture_offsets(posture: np.ndarray, bound: float) -> np.ndarray:
     """`oscillator.posture_offsets`: (8,) hip offsets, rad, of (2,) posture actions."""
     front, hind = bound * np.clip(posture, -1.0, 1.0)
     return np.array([front, 0.0, front, 0.0, hind, 0.0, hind, 0.0])
+
+
+def hip_amplitude_difference(rhythm: np.ndarray, turn: float, bound: float) -> np.ndarray:
+    """`oscillator.hip_amplitude_difference`: (8,) Eq. 3 outputs, right hips × (1 + bound·u),
+    left hips × (1 − bound·u), for a turn action u."""
+    turn = bound * float(np.clip(turn, -1.0, 1.0))
+    return rhythm * (1.0 + turn * (_RIGHT_HIPS - _LEFT_HIPS))
+
+
+def abduction_stride(rhythm: np.ndarray, turn: float, bound: float) -> np.ndarray:
+    """`oscillator.abduction_stride`: (4,) abduction angles, rad (LF, RF, LB, RB), following each
+    hip's swing, for a turn action u."""
+    turn = bound * float(np.clip(turn, -1.0, 1.0))
+    return turn * _STRIDE_ROTATION * rhythm[0::2]
 
 
 def start_ramp(time: float, ramp_seconds: float) -> float:
@@ -121,6 +138,22 @@ def slope_at(terrain: Terrain, x, y) -> np.ndarray:
     return np.where((x >= knots[0]) & (x < knots[-1]), np.arctan(gradient), 0.0)
 
 
+def wrap_angle(angle: float) -> float:
+    """`reward.wrap_angle`: `angle` (rad) in [−π, π], unchanged where it already is."""
+    if abs(angle) <= np.pi:
+        return float(angle)
+    return float(np.mod(angle + np.pi, 2 * np.pi) - np.pi)
+
+
+def advance_heading(heading: float, yaw_rate: float, yaw: float, dt: float, leash: float) -> float:
+    """`commands.advance_heading`: ψ* + ω*·dt (rad), moved back to within `leash` of the yaw."""
+    target = wrap_angle(heading + yaw_rate * dt)
+    lag = wrap_angle(target - yaw)
+    if abs(lag) <= leash:
+        return target
+    return wrap_angle(yaw + float(np.clip(lag, -leash, leash)))
+
+
 def reward_terms(
     *,
     x_now: float,
@@ -134,20 +167,31 @@ def reward_terms(
     weights: reward.RewardWeights,
     variant: str,
     max_progress: float = np.inf,
+    heading: float | None = None,
+    commanded_progress: float | None = None,
 ) -> dict[str, float]:
-    """`reward.reward_terms` (Eqs. 8–13), each term weighted by α (fell) or β (alive)."""
+    """`reward.reward_terms` (Eqs. 8–13), each term weighted by α (fell) or β (alive); with a
+    commanded `heading` ψ* (rad) and `commanded_progress` v*·dt (m), the tracking terms."""
     alpha = float(fell)
     beta = 1.0 - alpha
     walking = beta if variant == "full" else 0.0
+    progress, sideways, yaw = x_now - x_last, y_now - y_last, body.yaw
+    if heading is not None:
+        cos, sin = np.cos(heading), np.sin(heading)
+        progress, sideways = progress * cos + sideways * sin, sideways * cos - progress * sin
+        yaw = wrap_angle(yaw - heading)
+    progress = min(progress, max_progress)
+    if commanded_progress is not None:
+        progress = commanded_progress - abs(progress - commanded_progress)
     orientation = (
         -weights.pitch * abs(body.pitch - slope_estimate)
-        - weights.yaw * abs(body.yaw)
+        - weights.yaw * abs(yaw)
         - weights.roll * abs(body.roll)
     )
     return {
         "fall": alpha * weights.fall_penalty,
         "survival": walking * (weights.survival if moving else 0.0),
-        "forward": beta * weights.forward * min(x_now - x_last, max_progress),
-        "lateral": beta * -weights.lateral * abs(y_now - y_last),
+        "forward": beta * weights.forward * progress,
+        "lateral": beta * -weights.lateral * abs(sideways),
         "orientation": walking * orientation,
     }

@@ -137,6 +137,7 @@ def evaluate(
     setup = {
         "policy": source.name,
         "policy_kind": source.kind,
+        "policy_env_steps": source.env_steps,
         "fixed_parameters": None
         if source.fixed_parameters is None
         else dict(zip(PARAMETER_NAMES, map(float, source.fixed_parameters))),

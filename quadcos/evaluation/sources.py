@@ -47,6 +47,7 @@ class ActionSource:
       training_terrain: the terrain spec the policy was trained on ("flat" for fixed parameters).
       fixed_parameters: the rhythm parameters of a fixed source, else None.
       observation_size, action_size: what the policy expects (None: anything).
+      env_steps: the env steps of training behind the policy (`PolicySpec.env_steps`).
     """
 
     name: str
@@ -58,6 +59,7 @@ class ActionSource:
     fixed_parameters: oscillator.RhythmParameters | None = None
     observation_size: int | None = None
     action_size: int | None = None
+    env_steps: int | None = None
 
 
 def parse_fixed(text: str) -> oscillator.RhythmParameters:
@@ -148,6 +150,10 @@ class PolicySpec:
       path: the directory or file; None for fixed parameters.
       fixed_parameters: the rhythm parameters of a fixed spec, else None.
       observation_size, action_size: what the policy expects (None for fixed parameters).
+      env_steps: the env steps of training behind the policy (0: the gait search's gait under
+        the untrained actor); None where unknown (fixed parameters, a file or a policy saved
+        without it). A policy directory records it in its policy.json's config: `env_steps` (a
+        run's last policy) or `best_of_run.step` (its best, policy_best/).
       policy: the loaded `quadcos.training.Policy` of a directory, else None.
     """
 
@@ -159,6 +165,7 @@ class PolicySpec:
     fixed_parameters: oscillator.RhythmParameters | None = None
     observation_size: int | None = None
     action_size: int | None = None
+    env_steps: int | None = None
     policy: Any = dataclasses.field(default=None, compare=False, repr=False)
 
     @classmethod
@@ -186,9 +193,18 @@ class PolicySpec:
             raise ValueError(f"bad policy {text!r}: a file that is not {POLICY_FORMS}")
         saved = dict(_exported_env(text, path, kind))
         observation_size, action_size = (int(saved.pop(key)) for key in _SIZES)
+        env_steps = saved.pop(ENV_STEPS, None)
         terrain = str(saved.pop("terrain", "flat"))
         return cls(
-            text, kind, flatten(saved), terrain, path, None, observation_size, action_size
+            text,
+            kind,
+            flatten(saved),
+            terrain,
+            path,
+            None,
+            observation_size,
+            action_size,
+            None if env_steps is None else int(env_steps),
         )
 
     @property
@@ -235,6 +251,7 @@ class PolicySpec:
             training_terrain=self.training_terrain,
             observation_size=self.observation_size,
             action_size=self.action_size,
+            env_steps=self.env_steps,
         )
 
 
@@ -243,6 +260,7 @@ POLICY_FORMS = (
 )
 EXPORTED_KINDS = ("npz", "onnx")
 _SIZES = ("observation_size", "action_size")
+ENV_STEPS = "env_steps"  # an exported policy's record of `PolicySpec.env_steps`, when known
 
 
 def _directory_spec(text: str, path: pathlib.Path) -> PolicySpec:
@@ -261,22 +279,35 @@ def _directory_spec(text: str, path: pathlib.Path) -> PolicySpec:
     except ValueError as error:
         raise ValueError(f"the policy at {text}: {error}") from None
     sizes = policy.spec.observation_size, policy.spec.action_size
-    return PolicySpec(text, "directory", options, terrain, path, None, *sizes, policy=policy)
+    steps = _trained_env_steps(policy.config)
+    return PolicySpec(
+        text, "directory", options, terrain, path, None, *sizes, steps, policy=policy
+    )
+
+
+def _trained_env_steps(saved: Mapping[str, Any]) -> int | None:
+    """The env steps of training a policy.json's config records: `env_steps` (a run's last
+    policy), else `best_of_run.step` (policy_best/); None where it records neither."""
+    steps = saved.get(ENV_STEPS, saved.get("best_of_run", {}).get("step"))
+    return None if steps is None else int(steps)
 
 
 def _exported_env(text: str, path: pathlib.Path, kind: str) -> dict[str, Any]:
     """The env config (terrain included) and sizes an exported policy records: the .npz arrays
-    `env_config`, `observation_size`, `action_size`, or the .onnx metadata of the same names."""
+    `env_config`, `observation_size`, `action_size` (and `env_steps` where recorded), or the .onnx
+    metadata of the same names."""
     try:
         if kind == "npz":
             with np.load(path, allow_pickle=False) as arrays:
-                fields = {key: str(arrays[key]) for key in ("env_config", *_SIZES)}
+                keys = ("env_config", *_SIZES) + ((ENV_STEPS,) if ENV_STEPS in arrays else ())
+                fields = {key: str(arrays[key]) for key in keys}
         else:
             import onnx  # the export extra: only needed for .onnx files
 
             model = onnx.load(path, load_external_data=False)
             metadata = {prop.key: prop.value for prop in model.metadata_props}
-            fields = {key: metadata[key] for key in ("env_config", *_SIZES)}
+            keys = ("env_config", *_SIZES) + ((ENV_STEPS,) if ENV_STEPS in metadata else ())
+            fields = {key: metadata[key] for key in keys}
         return json.loads(fields.pop("env_config")) | fields
     except Exception as error:  # noqa: BLE001 -- zip, protobuf and JSON readers raise many types
         detail = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__

@@ -211,7 +211,8 @@ def train(
         if store is not None:
             store.close()
 
-    policy = policy_lib.Policy.from_training_state(state, spec, run_info)
+    env_steps = {"env_steps": int(state.env_steps)}  # read by evaluation.PolicySpec.env_steps
+    policy = policy_lib.Policy.from_training_state(state, spec, run_info | env_steps)
     if run_dir is not None and writer:
         policy_lib.save_policy(run_dir / "policy", policy)
     return TrainResult(

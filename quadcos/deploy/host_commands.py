@@ -1,0 +1,90 @@
+"""Velocity commands for one robot in C MuJoCo: `quadcos.env.commands.Plan` and the env's
+`_track` with NumPy, no JAX in the loop (`quadcos.deploy.host_robot.HostRobot`).
+
+The command (v* m/s, ω* rad/s) follows a spec as the env's does: "random" draws v* ~
+U(speed_min, speed_max), ω* ~ U(±yaw_rate_max) (0 with probability `zero_yaw_rate_probability`)
+at every reset and again each time the episode crosses a multiple of `resample_seconds` (the draws
+are NumPy's, from the episode's reset seed, not the MJX env's JAX stream: the same distribution,
+other numbers); a schedule gives its segment at the episode's time. The commanded heading ψ*
+integrates ω* as the env's (`commands.advance_heading`). `steer` holds a command given by hand
+(`quadcos.play`'s keys) until the next reset.
+"""
+
+from collections.abc import Sequence
+
+import ml_collections
+import numpy as np
+
+from quadcos.deploy import twins
+from quadcos.env import commands as env_commands
+
+COMMAND_SIZE = 2  # v* (m/s), ω* (rad/s): the last values of a commanded policy's observation
+
+
+def follow(config: ml_collections.ConfigDict, spec: str | None) -> ml_collections.ConfigDict:
+    """`config` (an env config) following command spec `spec` instead of its own, as
+    `QuadrupedEnv.with_commands`; None: `config` itself.
+
+    Raises:
+      ValueError: a bad spec, "", or a config without commands (its policy observes none).
+    """
+    if spec is None:
+        return config
+    parsed = env_commands.parse_commands(spec)
+    if not (parsed.enabled and env_commands.parse_commands(config.commands.spec).enabled):
+        raise ValueError(
+            f"commands {spec!r}: only an env with commands can take other ones (its policy"
+            f" observes them); this one has commands.spec {config.commands.spec!r}"
+        )
+    config = ml_collections.ConfigDict(config.to_dict())
+    config.commands.spec = spec
+    return config
+
+
+class HostCommands:
+    """One robot's command under a resolved env `commands` config (`quadcos.env.resolve`)."""
+
+    def __init__(self, config: ml_collections.ConfigDict):
+        self.config = config
+        self.spec = env_commands.validate(config)
+        segments = self.spec.schedule or (env_commands.Segment(0.0, 0.0, 1.0),)
+        self._velocities = np.array([(s.speed, s.yaw_rate) for s in segments])
+        self._ends = np.cumsum([s.seconds for s in segments])[:-1]
+        self.velocity, self.heading, self.held = np.zeros(COMMAND_SIZE), 0.0, False
+        self._rng = np.random.default_rng(0)
+
+    def start(self, seed: int | Sequence[int]) -> None:
+        """An episode's first command (t = 0), its draws seeded by the reset seed `seed`."""
+        self._rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
+        self.velocity, self.heading, self.held = self._at(0.0), 0.0, False
+
+    def steer(self, velocity: Sequence[float]) -> None:
+        """Follow (v*, ω*) `velocity` from now until the next `start`."""
+        self.velocity, self.held = np.asarray(velocity, np.float64), True
+
+    def track(self, yaw: float, time_before: float, time_now: float, dt: float) -> dict[str, float]:
+        """The reward's command arguments for a control step of `dt` s from `time_before` to
+        `time_now` (s) that ended at yaw `yaw` (rad): ψ* advanced and v*·dt (the env's `_track`);
+        then the command moves on to the next step's."""
+        leash = self.config.heading_leash
+        self.heading = twins.advance_heading(self.heading, self.velocity[1], yaw, dt, leash)
+        tracking = {"heading": self.heading, "commanded_progress": self.velocity[0] * dt}
+        if self.held:
+            return tracking
+        if self.spec.mode != env_commands.RANDOM:
+            self.velocity = self._at(time_now)
+        else:
+            period = self.config.resample_seconds
+            if np.floor(time_now / period) > np.floor(time_before / period):
+                self.velocity = self._at(time_now)
+        return tracking
+
+    def _at(self, time: float) -> np.ndarray:
+        """(2,) a fresh draw ("random") or the schedule's segment at `time` (s)."""
+        if self.spec.mode == env_commands.RANDOM:
+            config = self.config
+            speed = self._rng.uniform(config.speed_min, config.speed_max)
+            yaw_rate = self._rng.uniform(-config.yaw_rate_max, config.yaw_rate_max)
+            straight = self._rng.uniform() < config.zero_yaw_rate_probability
+            return np.array([speed, 0.0 if straight else yaw_rate])
+        return self._velocities[np.searchsorted(self._ends, time, side="right")].copy()

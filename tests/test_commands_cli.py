@@ -1,0 +1,272 @@
+"""The interfaces of velocity commands (issue 58): C MuJoCo follows them, the ONNX export takes the
+command as an input, play's keys steer, bad specs are refused, and every evaluation JSON says how
+much training is behind its policy. All on a tiny randomly initialised commanded policy."""
+
+import json
+import math
+import pathlib
+
+import jax
+import numpy as np
+import pytest
+
+from quadcos import evaluate, evaluation, play, sim2sim
+from quadcos.deploy import engines, host_commands, host_robot, twins
+from quadcos.deploy import export as export_lib
+from quadcos.deploy.onnx_policy import OnnxPolicy
+from quadcos.env import commands as env_commands
+from quadcos.evaluation import sources
+from quadcos.training import Policy, load_policy, save_policy
+from quadcos.training.networks import make_networks
+from quadcos.training.policy import PolicySpec
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+FLAT = ROOT / "experiments" / "policies" / "flat"
+HIDDEN = (16, 16)
+
+
+def _commanded_policy(directory: pathlib.Path, turn_mode: str = "none", **saved) -> pathlib.Path:
+    """A policy directory with random weights, trained (so its config says) on the flat policy's
+    env with random commands and `turn_mode`; `saved`: more keys of its policy.json config."""
+    config = json.loads((FLAT / "policy.json").read_text())["config"]
+    env = config["run_info"]["env"]
+    env["commands"] = env_commands.default_config().to_dict() | {"spec": "random"}
+    env["turn_mode"] = turn_mode
+    options, terrain = sources.trained_env(config)
+    host = host_robot.HostRobot(terrain, evaluation.env_config(trained=options))
+    observation_size, action_size = host.reset(0).size, host.action_size
+    networks = make_networks(observation_size, action_size, HIDDEN, HIDDEN, True)
+    key_policy, key_mean, key_std = jax.random.split(jax.random.PRNGKey(0), 3)
+    params = {
+        "normalizer": {
+            "mean": np.asarray(jax.random.normal(key_mean, (observation_size,))),
+            "std": np.asarray(1.0 + jax.random.uniform(key_std, (observation_size,))),
+        },
+        "policy": networks.policy_network.init(key_policy),
+    }
+    spec = PolicySpec(observation_size, action_size, HIDDEN, True)
+    return save_policy(directory, Policy(spec, params, config | saved))
+
+
+@pytest.fixture(scope="module")
+def commanded(tmp_path_factory) -> pathlib.Path:
+    return _commanded_policy(tmp_path_factory.mktemp("commanded") / "policy", env_steps=1234)
+
+
+# --- C MuJoCo follows the commands ----------------------------------------------------------------
+
+
+def test_host_robot_observes_the_schedule_it_follows(commanded):
+    pilot = host_robot.Pilot.load(str(commanded))
+    host = host_robot.HostRobot("flat", pilot.config, commands="0.3,0.1@0.1;0.6,-0.2@1")
+    obs = host.reset(0)
+    assert obs.size == pilot.spec.observation_size
+    np.testing.assert_allclose(obs[-2:], [0.3, 0.1])
+    seen = [host.step(pilot.actor()(obs)).obs[-2:] for _ in range(8)]
+    np.testing.assert_allclose(seen[-1], [0.6, -0.2])  # past 0.1 s: the second segment
+    assert host.commands.heading != 0.0  # ψ* integrates ω*
+
+
+def test_random_commands_are_drawn_in_range_and_resampled():
+    config = env_commands.default_config()
+    config.update(spec="random", speed_min=0.2, speed_max=0.8, yaw_rate_max=0.4)
+    config.resample_seconds = 1.0
+    follower = host_commands.HostCommands(config)
+    follower.start(3)
+    first = follower.velocity.copy()
+    assert 0.2 <= first[0] <= 0.8 and abs(first[1]) <= 0.4
+    follower.track(0.0, 0.0, 0.5, 0.5)
+    np.testing.assert_array_equal(follower.velocity, first)  # within the period: held
+    follower.track(0.0, 0.5, 1.0, 0.5)
+    assert not np.array_equal(follower.velocity, first)  # crossed 1 s: drawn anew
+    follower.start(3)
+    np.testing.assert_array_equal(follower.velocity, first)  # the reset seed decides
+
+
+def test_commands_for_a_policy_without_them_are_refused():
+    with pytest.raises(ValueError, match="only an env with commands"):
+        host_robot.HostRobot("flat", evaluation.env_config({}), commands="0.5,0@5")
+
+
+@pytest.mark.parametrize("mode", ["hip_amplitude_difference", "abduction_stride"])
+def test_turn_twins_equal_the_oscillators(mode):
+    from quadcos.equations import oscillator
+
+    rhythm, turn = np.random.default_rng(1).normal(size=8), 0.7
+    host = getattr(twins, mode)(rhythm, turn, 0.3)
+    np.testing.assert_allclose(host, getattr(oscillator, mode)(rhythm, turn, 0.3), atol=1e-6)
+
+
+def test_advance_heading_twin_equals_the_envs():
+    rng = np.random.default_rng(2)
+    for heading, yaw_rate, yaw in rng.uniform(-3.1, 3.1, (20, 3)):
+        original = env_commands.advance_heading(heading, yaw_rate, yaw, 0.05, 0.5)
+        host = twins.advance_heading(heading, yaw_rate, yaw, 0.05, 0.5)
+        assert host == pytest.approx(float(original), abs=1e-5)
+
+
+def test_mujoco_evaluation_reports_tracking_and_training_steps(commanded):
+    result = engines.evaluate(
+        str(commanded), engine="mujoco", episodes=2, seconds=0.5, commands="0.5,0@5"
+    )
+    summary = result.summary
+    assert summary["setup"]["commands"] == "0.5,0@5"
+    assert summary["setup"]["policy_env_steps"] == 1234
+    for key in ("speed_tracking_rms", "yaw_rate_tracking_rms", "cost_of_transport"):
+        assert summary[key] is not None and math.isfinite(summary[key]) and summary[key] >= 0
+    episode = result.episodes[0]
+    assert episode["speed_tracking_rms"] > 0
+
+
+def test_policy_env_steps_of_fixed_parameters_is_null():
+    summary = engines.evaluate("fixed:trot", engine="mujoco", episodes=1, seconds=0.1).summary
+    assert "policy_env_steps" in summary["setup"] and summary["setup"]["policy_env_steps"] is None
+
+
+def test_policy_env_steps_of_a_best_policy_is_its_step(tmp_path):
+    best = _commanded_policy(tmp_path / "policy_best", best_of_run={"step": 0})
+    assert evaluation.PolicySpec.parse(str(best)).env_steps == 0  # the search's gait
+
+
+# --- the ONNX export ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("turn_mode", ["none", "hip_amplitude_difference"])
+def test_onnx_takes_the_command_as_an_input(tmp_path, turn_mode):
+    directory = _commanded_policy(tmp_path / "policy", turn_mode, env_steps=7)
+    out = export_lib.export_policy(directory, tmp_path / "commanded.onnx")
+    onnx_policy = OnnxPolicy.load(out)
+    inputs = {node.name: node.shape for node in onnx_policy.session.get_inputs()}
+    size = onnx_policy.observation_size
+    assert inputs == {"observation": ["batch", size - 2], "command": ["batch", 2]}
+    trained = evaluation.PolicySpec.parse(str(directory)).env_config()
+    ranges = host_robot.HostRobot("flat", trained).config.commands
+    assert onnx_policy.command_ranges == {
+        key: pytest.approx(ranges[key])
+        for key in ("speed_min", "speed_max", "yaw_rate_max", "resample_seconds")
+    }
+    assert onnx_policy.command_ranges["speed_max"] > 0  # resolved to the robot's
+    rng = np.random.default_rng(0)
+    observations = rng.normal(size=(32, size - 2)).astype(np.float32)
+    command = rng.uniform(-1, 1, (32, 2)).astype(np.float32)
+    (onnx_actions,) = onnx_policy.session.run(
+        ["action"], {"observation": observations, "command": command}
+    )
+    whole = np.concatenate([observations, command], axis=-1)
+    jax_actions = np.asarray(load_policy(directory).act(whole))
+    assert np.abs(onnx_actions - jax_actions).max() <= 1e-5
+    assert np.abs(onnx_policy(whole[0]) - jax_actions[0]).max() <= 1e-5  # split by OnnxPolicy
+    assert evaluation.PolicySpec.parse(str(out)).env_steps == 7
+
+
+# --- play's keys ----------------------------------------------------------------------------------
+
+
+RANGES = {"speed_min": 0.0, "speed_max": 1.0, "yaw_rate_max": 0.5}
+
+
+@pytest.mark.parametrize(
+    "key, command, expected",
+    [
+        (play.KEY_UP, (0.5, 0.0), (0.6, 0.0)),
+        (play.KEY_DOWN, (0.5, 0.2), (0.4, 0.2)),
+        (play.KEY_LEFT, (0.5, 0.2), (0.5, 0.3)),
+        (play.KEY_RIGHT, (0.5, 0.2), (0.5, 0.1)),
+        (play.KEY_UP, (1.0, 0.0), (1.0, 0.0)),  # clipped to the range
+        (play.KEY_DOWN, (0.0, 0.0), (0.0, 0.0)),
+        (play.KEY_LEFT, (0.0, 0.5), (0.0, 0.5)),
+        (play.KEY_RIGHT, (0.0, -0.45), (0.0, -0.5)),
+        (play.KEY_SPACE, (0.8, -0.3), (0.0, 0.0)),
+    ],
+)
+def test_steer_keys(key, command, expected):
+    np.testing.assert_allclose(play.steer(key, command, RANGES), expected)
+
+
+def test_steer_ignores_other_keys():
+    assert play.steer(play.KEY_R, (0.5, 0.0), RANGES) is None
+
+
+def test_play_session_is_steered(commanded):
+    pilot = host_robot.Pilot.load(str(commanded))
+    session = play.Session(pilot, host_robot.HostRobot("flat", pilot.config))
+    session.key(play.KEY_SPACE)
+    session.key(play.KEY_UP)
+    session.advance()
+    np.testing.assert_allclose(session.obs[-2:], [0.1, 0.0])
+    assert not session.paused
+    session.key(play.KEY_P)
+    assert session.paused
+
+
+# --- the command lines refuse a bad spec ----------------------------------------------------------
+
+
+@pytest.mark.parametrize("module", [evaluate, sim2sim])
+@pytest.mark.parametrize("spec", ["fast", "0.5@5", "0.5,0@-1"])
+def test_a_bad_commands_spec_is_one_line_and_writes_nothing(tmp_path, capsys, module, spec):
+    out = tmp_path / "eval.json"
+    argv = ["--policy=fixed:trot", f"--commands={spec}", f"--out={out}"]
+    assert module.main(argv) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "command" in lines[0]
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_sim2sim_follows_commands(commanded, tmp_path, capsys):
+    out = tmp_path / "commanded.json"
+    argv = [f"--policy={commanded}", "--commands=0.4,0.2@5", "--episodes=1", "--seconds=0.3"]
+    assert sim2sim.main([*argv, f"--out={out}", "--no_progress"]) == 0
+    summary = json.loads(out.read_text())
+    assert summary["setup"]["commands"] == "0.4,0.2@5"
+    assert summary["yaw_rate_tracking_rms"] is not None
+
+
+@pytest.mark.parametrize(
+    "robot, turn_mode",
+    [("quadcos", "hip_amplitude_difference"), ("quad12", "abduction_stride")],
+)
+def test_host_joint_targets_turn_as_the_envs(robot, turn_mode):
+    from quadcos import env as env_lib
+
+    options = dict(robot=robot, turn_mode=turn_mode, posture_bound=0.2, start_ramp_s=0.5)
+    config = evaluation.env_config(options)
+    host = host_robot.HostRobot("flat", config)
+    mjx_env = env_lib.QuadrupedEnv("flat", config)
+    host.reset(0)
+    host.command = np.random.default_rng(3).uniform(-1, 1, host.action_size)
+    host.phase, host.data.time = 1.3, 0.3
+    original = mjx_env.joint_targets(host.command.astype(np.float32), 1.3, 0.3)
+    straight = host.command.copy()
+    straight[-1] = 0.0
+    targets = host._joint_targets  # noqa: SLF001
+    turned = targets(host.rhythm_parameters())
+    np.testing.assert_allclose(turned, original, atol=1e-5)
+    host.command = straight
+    assert np.abs(turned - targets(host.rhythm_parameters())).max() > 1e-3  # the turn acts
+
+
+def test_tracking_reward_twin_equals_the_envs():
+    from quadcos.equations import reward, slope
+
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        x, y, angles = rng.normal(size=2) * 0.05, rng.normal(size=2) * 0.05, rng.normal(size=5)
+        body = slope.Attitude(roll=angles[0] * 0.1, pitch=angles[1] * 0.1, yaw=angles[2])
+        common = dict(x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=False, moving=True)
+        tracking = dict(heading=angles[3], commanded_progress=abs(angles[4]) * 0.05)
+        weights, shared = reward.RewardWeights(), {**common, **tracking, "max_progress": 0.03}
+        host = twins.reward_terms(
+            **shared, body=body, slope_estimate=0.0, weights=weights, variant="full"
+        )
+        angles = dict(pitch=body.pitch, yaw=body.yaw, roll=body.roll, slope=0.0)
+        original = reward.reward_terms(**shared, **angles, weights=weights)
+        for term in reward.TERM_NAMES:
+            assert host[term] == pytest.approx(float(original[term]), abs=1e-5)
+
+
+@pytest.mark.slow  # an MJX compile: ~45 s on the CPU
+def test_mjx_evaluation_records_policy_env_steps(commanded):
+    result = evaluation.evaluate(str(commanded), num_envs=2, seconds=0.1, commands="0.5,0@5")
+    assert result.summary["setup"]["policy_env_steps"] == 1234
+    assert result.summary["speed_tracking_rms"] is not None
