@@ -11,7 +11,8 @@ from unittest import mock
 
 import pytest
 
-from quadcos import gait_search, terrain, train, training
+from quadcos import terrain, train, training
+from quadcos.evaluation import gait_search
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # The README first (its first Python block is the library example), then the pages in name order.

@@ -10,7 +10,8 @@ import time
 import jax
 import jax.numpy as jnp
 
-from quadcos import caches, make_env
+from quadcos import make_env
+from quadcos._util import caches
 
 
 def main() -> None:

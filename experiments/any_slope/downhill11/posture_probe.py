@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from quadcos import env as env_lib
-from quadcos import oscillator
+from quadcos.equations import oscillator
 
 COURSE = "sections:0@1,-11@4,0@2"
 BOUND = 0.6  # rad
