@@ -132,7 +132,7 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
         return {"action_centre": "0.3,0.15,0.5,1.8,-1.3", "setup": {"wall_time_s": 0.0}}
 
     with (
-        mock.patch.object(training, "train", side_effect=fake_train),
+        mock.patch.object(training.loop, "train", side_effect=fake_train),
         mock.patch.object(gait_search, "find_gait", side_effect=fake_search),
     ):
         assert train.main(command[3:] + [f"--output_dir={tmp_path / 'run'}"]) == 0
