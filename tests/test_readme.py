@@ -85,7 +85,7 @@ def test_readme_custom_terrain_commands_build_their_envs(registry, tmp_path, mon
 
     for command in commands:
         assert command[:3] == ["python", "-m", "quadcos.train"], command
-        with mock.patch.object(training, "train", side_effect=fake_train):
+        with mock.patch.object(training.loop, "train", side_effect=fake_train):
             assert train.main(command[3:]) == 0, command
     heightfield = "heightfield:course.npy;x_range=-2,10"
     assert set(built) == {"my_courses:hills", "my_courses:climb", heightfield}
