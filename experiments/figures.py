@@ -15,7 +15,7 @@ HERE = Path(__file__).resolve().parent
 # would shadow the warp package that MJX imports.
 sys.path = [entry for entry in sys.path if Path(entry or ".").resolve() != HERE]
 
-from quadcos import plots  # noqa: E402
+from quadcos.viz import plots  # noqa: E402
 
 
 def main() -> None:

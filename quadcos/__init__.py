@@ -6,72 +6,14 @@ Cosine Oscillator Based Rhythm Controller" (Appl. Sci. 13, 11045), as a JAX libr
 Layers, lowest first (each imports only those below it; tests/test_layers.py checks):
 `_util`, `equations`, `robot`, `terrain`, `viz`, `env`, `training`, `evaluation`, `deploy`,
 `benchmarking`, then the command lines `train`, `evaluate`, `bench`, `play`, `sim2sim`,
-`export`. Modules that moved into the layers keep their old names (`quadcos.oscillator` is
-`quadcos.equations.oscillator`).
+`export`. `quadcos.oscillator` (`quadcos.equations.oscillator`), `quadcos.terrain` and
+`quadcos.courses` (`quadcos.terrain.courses`) are the modules a library example reaches for first.
 """
 
-import importlib
-import importlib.abc
-import importlib.util
-import sys
-
+from quadcos import terrain
 from quadcos.env import QuadrupedEnv, default_config, make_env
-
-# Old module names -> where they live now; `import quadcos.oscillator` and
-# `from quadcos import oscillator` give the very same module object.
-MOVED_MODULES = {
-    "quadcos.backends": "quadcos.env.backends",
-    "quadcos.caches": "quadcos._util.caches",
-    "quadcos.cli": "quadcos._util.cli",
-    "quadcos.constants": "quadcos.robot.constants",
-    "quadcos.courses": "quadcos.terrain.courses",
-    "quadcos.env_config": "quadcos.env.config",
-    "quadcos.episodes": "quadcos.env.episodes",
-    "quadcos.gait_search": "quadcos.evaluation.gait_search",
-    "quadcos.ground": "quadcos.terrain.ground",
-    "quadcos.numpy_policy": "quadcos.deploy.numpy_policy",
-    "quadcos.numpy_twins": "quadcos.deploy.twins",
-    "quadcos.oscillator": "quadcos.equations.oscillator",
-    "quadcos.overrides": "quadcos._util.overrides",
-    "quadcos.plots": "quadcos.viz.plots",
-    "quadcos.provenance": "quadcos._util.provenance",
-    "quadcos.quiet": "quadcos._util.quiet",
-    "quadcos.randomization": "quadcos.env.randomization",
-    "quadcos.reward": "quadcos.equations.reward",
-    "quadcos.run_dirs": "quadcos.training.run_dirs",
-    "quadcos.runs": "quadcos.training.run_config",
-    "quadcos.slope": "quadcos.equations.slope",
-    "quadcos.terrain_spec": "quadcos.terrain.external",
-    "quadcos.training.files": "quadcos._util.files",
-    "quadcos.video": "quadcos.viz.video",
-}
-
-
-class _MovedModuleLoader(importlib.abc.Loader):
-    def __init__(self, target: str):
-        self.target = target
-
-    def create_module(self, spec):
-        module = importlib.import_module(self.target)
-        self.target_spec = module.__spec__
-        return module
-
-    def exec_module(self, module) -> None:
-        """The target module ran when it was imported; give back its own spec, which the import
-        system replaced by the old name's."""
-        module.__spec__ = self.target_spec
-        module.__loader__ = self.target_spec.loader
-
-
-class _MovedModuleFinder(importlib.abc.MetaPathFinder):
-    def find_spec(self, fullname, path, target=None):
-        if fullname not in MOVED_MODULES:
-            return None
-        return importlib.util.spec_from_loader(fullname, _MovedModuleLoader(MOVED_MODULES[fullname]))
-
-
-if not any(isinstance(finder, _MovedModuleFinder) for finder in sys.meta_path):
-    sys.meta_path.append(_MovedModuleFinder())
+from quadcos.equations import oscillator
+from quadcos.terrain import courses
 
 
 def load_policy(path):
@@ -101,4 +43,13 @@ def evaluate_policy(policy, terrain=None, *, episodes=64, seconds=20.0, seed=0, 
     )
 
 
-__all__ = ["QuadrupedEnv", "default_config", "evaluate_policy", "load_policy", "make_env"]
+__all__ = [
+    "QuadrupedEnv",
+    "courses",
+    "default_config",
+    "evaluate_policy",
+    "load_policy",
+    "make_env",
+    "oscillator",
+    "terrain",
+]

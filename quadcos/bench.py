@@ -167,28 +167,63 @@ def run(
     A measurement that raises (e.g. out of device memory) is recorded in `details.errors` and
     the others still run. Returns the number of failed measurements.
     """
-    details = results["details"]
-    details["startup_s"] = startup_s
-    errors: dict[str, str] = {}
+    results["details"]["startup_s"] = startup_s
+    bench = _Sections(settings, results, startup_s, out, previous)
+    bench.save()
+    sections = settings.sections
+    if {"physics", "gait", "env"} & set(sections):
+        bench.simulation(sections)
+    if "train" in sections:
+        for row in settings.train_rows:
+            bench.attempt(f"train {row}", functools.partial(bench.ours, row))
+    if "stock" in sections:
+        for row in settings.stock_rows:
+            bench.attempt(f"stock {row}", functools.partial(bench.stock, row))
+    for section in ("walk", "slope5"):
+        if section in sections:
+            bench.attempt(section, functools.partial(bench.walk, section))
+    return len(bench.errors)
 
-    def save() -> None:
-        if errors:
-            details["errors"] = errors
-        out.parent.mkdir(parents=True, exist_ok=True)
-        merged = results if previous is None else results_lib.merge_results(previous, results)
-        files.atomic_write_text(out, json.dumps(merged, indent=2) + "\n")
 
-    def attempt(label: str, measure: Callable[[], str]) -> None:
+class _Sections:
+    """The measurements of one bench run, each writing into `results` (saved to `out` after
+    every one)."""
+
+    def __init__(
+        self,
+        settings: Settings,
+        results: dict[str, Any],
+        startup_s: float,
+        out: pathlib.Path,
+        previous: dict[str, Any] | None,
+    ):
+        self.settings, self.results, self.details = settings, results, results["details"]
+        self.startup_s = startup_s
+        self.out, self.previous = out, previous
+        self.errors: dict[str, str] = {}
+
+    def save(self) -> None:
+        results, details = self.results, self.details
+        if self.errors:
+            details["errors"] = self.errors
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        merged = (
+            results if self.previous is None else results_lib.merge_results(self.previous, results)
+        )
+        files.atomic_write_text(self.out, json.dumps(merged, indent=2) + "\n")
+
+    def attempt(self, label: str, measure: Callable[[], str]) -> None:
+        """Logs `measure()`'s line, or records its exception in `errors`; then saves."""
         try:
             log(f"{label}: {measure()}")
         except Exception as error:  # noqa: BLE001 - recorded; the other measurements still run
-            errors[label] = f"{type(error).__name__}: {error}"[:2_000]
-            log(f"{label}: FAILED {errors[label][:300]}")
-        save()
+            self.errors[label] = f"{type(error).__name__}: {error}"[:2_000]
+            log(f"{label}: FAILED {self.errors[label][:300]}")
+        self.save()
 
-    save()
-    sections = settings.sections
-    if {"physics", "gait", "env"} & set(sections):
+    def simulation(self, sections: Sequence[str]) -> None:
+        """The physics, gait and env sections: steps per s of one env at each count."""
+        settings, results, details = self.settings, self.results, self.details
         env = make_bench_env(
             settings.terrain,
             settings.training_preset,
@@ -220,12 +255,14 @@ def run(
         for count in settings.env_counts:
             for section in ("physics", "gait", "env"):
                 if section in sections:
-                    attempt(
+                    self.attempt(
                         f"{section} {count} envs", functools.partial(simulation, section, count)
                     )
-        del env, reset_batch
 
-    def ours(row: TrainRow) -> str:
+    def ours(self, row: TrainRow) -> str:
+        """Our trainer's row: env steps per s and start-up."""
+        settings, results, details = self.settings, self.results, self.details
+        startup_s = self.startup_s
         measured = trainers.measure_trainer(
             row,
             settings.training_preset,
@@ -259,7 +296,10 @@ def run(
             f" {measured['start_to_first_step_s']:.1f} s"
         )
 
-    def stock(row: TrainRow) -> str:
+    def stock(self, row: TrainRow) -> str:
+        """Stock Brax SAC's row, on the same env."""
+        settings, results, details = self.settings, self.results, self.details
+        startup_s = self.startup_s
         section_start = time.perf_counter()
         measured = trainers.measure_stock_brax(
             make_bench_env(
@@ -289,7 +329,10 @@ def run(
             f" {measured['start_to_first_step_s']:.1f} s"
         )
 
-    def walk(section: str) -> str:
+    def walk(self, section: str) -> str:
+        """Time until a fresh trainer's policy crosses the section's course."""
+        settings, results, details = self.settings, self.results, self.details
+        startup_s = self.startup_s
         course = SECTION_COURSES[section]
         section_start = time.perf_counter()
         centre = None
@@ -335,17 +378,6 @@ def run(
         }
         details[section]["episodes"] = settings.walk_eval_episodes
         return f"{results_lib.format_seconds(outcome['seconds'])} {outcome['reason'] or ''}"
-
-    if "train" in sections:
-        for row in settings.train_rows:
-            attempt(f"train {row}", functools.partial(ours, row))
-    if "stock" in sections:
-        for row in settings.stock_rows:
-            attempt(f"stock {row}", functools.partial(stock, row))
-    for section in ("walk", "slope5"):
-        if section in sections:
-            attempt(section, functools.partial(walk, section))
-    return len(errors)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -21,11 +21,9 @@ import sys
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-import jax
-import ml_collections
-
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
+from quadcos import training
 from quadcos._util import caches, cli, provenance
 from quadcos._util.cli import UsageError
 from quadcos._util.overrides import parse_value
@@ -164,16 +162,18 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
     return args, overrides
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """CLI entry point; returns the exit status."""
+def main(argv: Sequence[str] | None = None, trainers: reuse.Trainers | None = None) -> int:
+    """CLI entry point; returns the exit status. `trainers`: the envs and trainers of the
+    caller's earlier runs (`training.Trainers`), reused by a run of the same programs and given
+    this run's."""
     argv = sys.argv[1:] if argv is None else list(argv)
     # Read when JAX starts its backend (building the env), so it is set before anything else.
     os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
     with _logging_to_stderr():
-        return _main(argv)
+        return _main(argv, trainers)
 
 
-def _main(argv: list[str]) -> int:
+def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
     startup = host.StartUp(provenance.process_start())
     startup.mark("imports")
     cache_dirs = caches.enable()
@@ -202,75 +202,27 @@ def _main(argv: list[str]) -> int:
             run_dir = run_dirs.numbered_dir(run_dir)
         if writer or run_dir is None:
             run_dirs.check_output_dir(run_dir, args.resume)
-        # Warp's contact buffer is shared by a batch's worlds: size it for the largest batch.
-        config.env.warp.max_envs = max(
-            config.env.warp.max_envs,
-            config.sac.num_envs,
-            config.sac.num_eval_envs,
-            gait_search.search_envs(config),
-        )
-        search = gait_search.resolve_centre(config, run_dir)  # None: a centre was given
-        if search is not None:
-            startup.mark("gait_search")
-        key = reuse.program_key(config.env, config.sac)
-        reused = _BUILT.get(key, config.sac) if jax.process_count() == 1 else None
-        env, eval_env, trainer = reused or (*_envs(config.env), None)
-        startup.mark("envs_built")
-    except (UsageError, ValueError, FileNotFoundError) as error:
-        cli.print_error("quadcos.train", error)
-        return 2
-    except gait_search.NoGaitFound as error:
-        cli.print_error("quadcos.train", error)
-        return 1
-
-    from quadcos import training
-
-    try:
-        result = training.train(
-            env,
-            config.sac,
+        result = training.run(
+            config,
             run_dir,
-            eval_env=eval_env,
             resume=args.resume,
+            trainers=trainers,
+            find_gait=gait_search.find_gait,
             progress_bar=not args.no_progress,
-            extra_run_info={
-                "env": config.env.to_dict(),
-                "argv": argv,
-                "impl": env.impl,
-                "robot": env.robot.provenance(),
-                "caches": cache_dirs,
-                **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
-            },
+            extra_run_info={"argv": argv, "caches": cache_dirs},
             started_at=provenance.process_start(),
             startup=startup,
-            trainer=trainer,
         )
-    except training.ConfigError as error:  # raised before anything is written
+    except (UsageError, ValueError, FileNotFoundError) as error:  # training.ConfigError too
         cli.print_error("quadcos.train", error)
         return 2
-    except training.NonFiniteLossError as error:
+    except (gait_search.NoGaitFound, training.NonFiniteLossError) as error:
         cli.print_error("quadcos.train", error)
         return 1
-    _BUILT.keep(key, env, eval_env, result.trainer)
     if writer:
         logger.info("env step %s: policy in %s", f"{result.env_steps:,}", run_dir / "policy")
         print(run_dir)
     return 0
-
-
-# The envs and trainer of this process's runs: a later run of the same programs in the process
-# (tests, notebooks calling `main`) reuses them, with the programs they compiled.
-_BUILT = reuse.Trainers()
-
-
-def _envs(env_config: ml_collections.ConfigDict) -> tuple[Any, Any]:
-    """The training env and the evaluation env (the same unless robots spawn along the ground:
-    evaluations start at the spawn point, as quadcos.evaluate's do)."""
-    env = env_lib.QuadrupedEnv(env_config.terrain, ml_collections.ConfigDict(env_config.to_dict()))
-    if env_config.spawn_x_max <= 0:
-        return env, env
-    eval_config = ml_collections.ConfigDict({**env_config.to_dict(), "spawn_x_max": 0.0})
-    return env, env_lib.QuadrupedEnv(env_config.terrain, eval_config)
 
 
 class _Formatter(logging.Formatter):

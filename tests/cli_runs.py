@@ -52,26 +52,28 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
 
 
-_CLEARED_FOR_MAIN = False
+# The envs and trainers of this process's in-process CLI runs (a `quadcos.training.Trainers`,
+# made by the first run): one smoke trainer per worker.
+_TRAINERS = None
 
 
 def run_in_process(*args: str) -> subprocess.CompletedProcess:
     """`python -m quadcos.train` in this process: its exit status, stdout and stderr. A later
     run of the same programs in this process reuses the envs and trainer of an earlier one
-    (quadcos.train keeps them), which saves the tracing, lowering and loading a subprocess pays.
+    (kept in `_TRAINERS`), which saves the tracing, lowering and loading a subprocess pays.
 
     The first call clears JAX's in-memory caches: how JAX names a program's inner functions
     depends on what the process traced before, so after other tests' programs the trainer's
     would differ from the CLI subprocesses' in text and miss their persistent-cache entries."""
-    global _CLEARED_FOR_MAIN
-    if not _CLEARED_FOR_MAIN:
-        jax.clear_caches()
-        _CLEARED_FOR_MAIN = True
-    from quadcos import train  # the CLI's module (heavy: builds nothing until called)
+    global _TRAINERS
+    from quadcos import train, training  # heavy: only the tests that run the CLI need them
 
+    if _TRAINERS is None:
+        jax.clear_caches()
+        _TRAINERS = training.Trainers()
     stdout, stderr = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
-        status = train.main(list(args))
+        status = train.main(list(args), _TRAINERS)
     return subprocess.CompletedProcess(
         ["quadcos.train", *args], status, stdout.getvalue(), stderr.getvalue()
     )

@@ -346,7 +346,7 @@ def test_hostile_mjcf_files_fail_in_one_line_and_write_nothing(content):
         mjcf.write_bytes(content)
         for path in (mjcf, pathlib.Path(directory), pathlib.Path(directory) / "no\nsuch.xml"):
             run_dir = pathlib.Path(directory) / "out"
-            with mock.patch.object(training, "train", side_effect=AssertionError("trained")):
+            with mock.patch.object(training.loop, "train", side_effect=AssertionError("trained")):
                 status, stderr = run_main(
                     ["--preset=smoke", f"--config.env.robot={path}", f"--output_dir={run_dir}"]
                 )
@@ -357,7 +357,7 @@ def test_hostile_mjcf_files_fail_in_one_line_and_write_nothing(content):
 def test_an_output_dir_that_cannot_be_a_directory_is_refused(tmp_path):
     (tmp_path / "file").write_text("not a directory")
     for run_dir in (tmp_path / "file", tmp_path / "file" / "run"):
-        with mock.patch.object(training, "train", side_effect=AssertionError("trained")):
+        with mock.patch.object(training.loop, "train", side_effect=AssertionError("trained")):
             status, stderr = run_main(["--preset=smoke", f"--output_dir={run_dir}"])
         assert_one_line_error(status, stderr)
         assert str(tmp_path / "file") in stderr
@@ -373,8 +373,8 @@ def without_timing(rows: list[dict]) -> list[dict]:
 
 @pytest.mark.slow
 def test_same_seed_same_metrics_other_seed_other_rewards(smoke_run, tmp_path):
-    """The session's `--seed=3` smoke run (a process of its own) against the same command again
-    and with --seed=4, both in this process (the second with the first's programs)."""
+    """The session's `--seed=3` smoke run against the same command again and with --seed=4, both
+    in this process (with the programs of the worker's first smoke-sized run)."""
     runs = {}
     for seed in (3, 4):
         runs[seed] = tmp_path / str(seed)

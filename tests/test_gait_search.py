@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import quadcos
-from quadcos import train
+from quadcos import train, training
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from quadcos.equations import oscillator
 from tests.cli_runs import ROOT, run_cli
@@ -115,6 +115,36 @@ def test_a_confirmation_that_does_not_fill_the_search_batch_is_named():
     config.gait_search.confirm_robots = 3
     with pytest.raises(checks.ConfigError, match="confirm_robots must be 0 or .* = 4096, got 3"):
         checks.check_config(config)
+
+
+class _Searched(Exception):
+    """Stands in for the gait search's result: the run stops there."""
+
+
+def test_a_library_run_sizes_warp_for_the_search_and_hands_it_the_run_config(tmp_path):
+    smaller = {"env.warp.max_envs": 1, "sac.num_envs": 256, "sac.num_eval_envs": 128}
+    config = train.build_config(train.PRESETS["scratch"], smaller)
+    seen = {}
+
+    def find_gait(searched):
+        seen.update(max_envs=searched.env.warp.max_envs, terrain=searched.env.terrain)
+        raise _Searched
+
+    with pytest.raises(_Searched):
+        training.run(config, tmp_path / "run", find_gait=find_gait)
+    search = config.sac.gait_search
+    assert seen == {
+        "max_envs": search.num_candidates * search.robots_per_candidate,
+        "terrain": config.env.terrain,
+    }
+    assert seen["max_envs"] > 256  # the largest batch of the run: the search's
+
+
+def test_a_library_run_with_a_search_centre_needs_the_search(tmp_path):
+    config = train.build_config(train.PRESETS["scratch"], {})
+    with pytest.raises(training.ConfigError, match="find_gait=quadcos.evaluation.gait_search"):
+        training.run(config, tmp_path / "run")
+    assert not (tmp_path / "run").exists()
 
 
 @pytest.mark.slow

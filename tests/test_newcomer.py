@@ -50,7 +50,7 @@ def fake_train(env, config, run_dir, **kwargs):
 def test_a_second_run_into_a_taken_dir_gets_the_next_number(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     argv = ["--preset=smoke", "--output_dir=runs/flat", "--numbered"]
-    with mock.patch.object(training, "train", side_effect=fake_train):
+    with mock.patch.object(training.loop, "train", side_effect=fake_train):
         outputs = []
         for _ in range(3):
             assert train.main(argv) == 0
@@ -217,7 +217,7 @@ def test_a_bad_config_value_names_its_key_and_range(tmp_path, capsys, flag, mess
 
 
 def test_an_unwritable_output_dir_is_refused_before_training(capsys):
-    with mock.patch.object(training, "train", side_effect=AssertionError("trained")):
+    with mock.patch.object(training.loop, "train", side_effect=AssertionError("trained")):
         assert train.main(["--preset=smoke", "--output_dir=/proc/quadcos-run"]) == 2
     assert "--output_dir /proc/quadcos-run cannot be written" in one_error_line(capsys)
 

@@ -11,7 +11,8 @@ from unittest import mock
 
 import pytest
 
-from quadcos import gait_search, terrain, train, training
+from quadcos import terrain, train, training
+from quadcos.evaluation import gait_search
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # The README first (its first Python block is the library example), then the pages in name order.
@@ -84,7 +85,7 @@ def test_readme_custom_terrain_commands_build_their_envs(registry, tmp_path, mon
 
     for command in commands:
         assert command[:3] == ["python", "-m", "quadcos.train"], command
-        with mock.patch.object(training, "train", side_effect=fake_train):
+        with mock.patch.object(training.loop, "train", side_effect=fake_train):
             assert train.main(command[3:]) == 0, command
     heightfield = "heightfield:course.npy;x_range=-2,10"
     assert set(built) == {"my_courses:hills", "my_courses:climb", heightfield}
@@ -131,7 +132,7 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
         return {"action_centre": "0.3,0.15,0.5,1.8,-1.3", "setup": {"wall_time_s": 0.0}}
 
     with (
-        mock.patch.object(training, "train", side_effect=fake_train),
+        mock.patch.object(training.loop, "train", side_effect=fake_train),
         mock.patch.object(gait_search, "find_gait", side_effect=fake_search),
     ):
         assert train.main(command[3:] + [f"--output_dir={tmp_path / 'run'}"]) == 0

@@ -28,16 +28,6 @@ LEARNED_RETURN = -2.5
 TIMING_KEYS = ("wall_time_s", "env_steps_per_s")
 
 
-@pytest.fixture(scope="module", autouse=True)
-def compilation_cache(tmp_path_factory):
-    """Shares compiled programs between the many `train` calls of this file."""
-    if jax.config.jax_compilation_cache_dir is None:
-        cache = Path(__file__).parents[1] / ".jax_cache"
-        jax.config.update("jax_compilation_cache_dir", str(cache))
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
-    yield
-
-
 def without_timing(rows):
     return [{name: value for name, value in row.items() if name not in TIMING_KEYS} for row in rows]
 
@@ -353,6 +343,37 @@ def test_a_time_budget_keeps_room_for_what_is_due_another_chunk_and_the_final_ev
     assert not spent(94.4, evaluating_now=True)
     assert spent(94.5, evaluating_now=True)
     assert not spent(1e9, deadline=None)  # no budget
+
+
+def test_run_hands_a_later_run_of_the_same_programs_the_envs_and_trainer_it_kept(monkeypatch):
+    """`training.run` with a `Trainers`: another seed reuses the first run's envs and trainer
+    (reseeded), another batch size builds its own."""
+    from quadcos.training import presets, sac, session
+
+    built, trained = [], []
+
+    def fake_envs(env_config):
+        env = types.SimpleNamespace(impl="jax", robot=types.SimpleNamespace(provenance=dict))
+        built.append(env)
+        return env, env
+
+    def fake_train(env, config, run_dir, *, trainer, **kwargs):
+        if trainer is None:
+            trainer = object.__new__(sac.SACTrainer)
+            trainer.config = config.copy_and_resolve_references()
+        trained.append((env, trainer))
+        return types.SimpleNamespace(trainer=trainer)
+
+    monkeypatch.setattr(session, "_envs", fake_envs)
+    monkeypatch.setattr(loop, "train", fake_train)
+    trainers = training.Trainers()
+    for overrides in ({}, {"sac.seed": 4}, {"sac.batch_size": 64}):
+        training.run(presets.build_config(presets.PRESETS["smoke"], overrides), trainers=trainers)
+    (first_env, first), (second_env, second), (third_env, third) = trained
+    assert len(built) == 2 and second_env is first_env and third_env is not first_env
+    assert second is not first and second.config.seed == 4 and first.config.seed == 0
+    assert second._key_init.tolist() == jax.random.split(jax.random.PRNGKey(4))[0].tolist()
+    assert third.config.batch_size == 64
 
 
 # --- Failures ---------------------------------------------------------------

@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import quadcos
-from quadcos import oscillator
+from quadcos.equations import oscillator
 
 ROBOTS, STEPS = 8, 500
 GAITS = {

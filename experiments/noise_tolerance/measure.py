@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import quadcos
-from quadcos import oscillator
+from quadcos.equations import oscillator
 
 ROBOTS, STEPS = 48, 200
 TAUS = (0.0, 0.1, 0.25, 0.5)  # s

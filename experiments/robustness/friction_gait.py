@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 from measure import NOMINAL
 
-from quadcos import caches, evaluation
+from quadcos import evaluation
+from quadcos._util import caches
 
 
 def gait_at(policy: str, friction: float, num_envs: int, seconds: float) -> dict:

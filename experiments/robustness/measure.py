@@ -83,7 +83,8 @@ def main() -> None:
     if not (args.policy and args.out):
         parser.error("--policy and --out are needed to measure")
 
-    from quadcos import caches, evaluation
+    from quadcos import evaluation
+    from quadcos._util import caches
 
     caches.enable()
     extra = env_overrides(args.env)

@@ -10,7 +10,7 @@ of the deepest). Each variant runs episodes 0..N-1 of `mujoco_s4.json` (same res
 import argparse
 import dataclasses
 
-from quadcos import overrides as config_lib
+from quadcos._util import overrides as config_lib
 from quadcos import evaluation, sim2sim
 
 S4 = "sections:5@1.4,0@1.4,9@1.2,0@1.4"  # = the registered "s4"

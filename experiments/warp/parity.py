@@ -19,7 +19,8 @@ SPEED_TOLERANCE = 0.03
 
 
 def run(out: Path, num_envs: int, seconds_scale: float = 1.0) -> None:
-    from quadcos import caches, evaluation
+    from quadcos import evaluation
+    from quadcos._util import caches
 
     caches.enable()
     for policy, (terrain, seconds) in CASES.items():

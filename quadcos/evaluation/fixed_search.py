@@ -72,6 +72,63 @@ def search_fixed(
       best score and that candidate's speed; "confirmation" (with `confirm_robots`: robots,
       candidates, how many never fell, wall time; else None); "setup"}.
     """
+    _check_arguments(
+        num_candidates,
+        robots_per_candidate,
+        rounds,
+        seconds,
+        min_speed,
+        min_speed_of,
+        confirm_robots,
+    )
+    num_envs = num_candidates * robots_per_candidate
+    search = _Search(terrain, env_overrides, num_envs, seconds, seed, min_speed, min_speed_of)
+    env = search.env
+    started = time.monotonic()
+    evaluated, rounds_log = search.run_rounds(
+        rounds, elite, num_candidates, include_trot, symmetric, progress, on_round, started
+    )
+    ranked = sorted(evaluated, key=search.rank_key, reverse=True)
+    confirmation = None
+    if confirm_robots:
+        ranked, confirmation = search.confirm(ranked, confirm_robots, rounds, started)
+    return {
+        "format": SEARCH_FORMAT,
+        "format_version": FORMAT_VERSION,
+        "ranking": [_ranking_entry(c) for c in ranked[:top]],
+        "rounds": rounds_log,
+        "confirmation": confirmation,
+        "num_without_falls": sum(math.isfinite(c["score"]) for c in evaluated),
+        "num_evaluated": len(evaluated),
+        "setup": {
+            "terrain": env.terrain.spec,
+            "num_candidates": num_candidates,
+            "robots_per_candidate": robots_per_candidate,
+            "lanes": candidate_lanes(env.terrain.num_lanes, robots_per_candidate).tolist(),
+            "rounds": rounds,
+            "elite": elite,
+            "seconds": search.num_steps * env.dt,
+            "seed": seed,
+            "include_trot": include_trot,
+            "symmetric": symmetric,
+            "min_speed": min_speed,
+            "min_speed_of": min_speed_of,
+            "confirm_robots": confirm_robots,
+            "env": env.config.to_dict() | {"terrain": env.terrain.spec},
+            "wall_time_s": time.monotonic() - started,
+        },
+    }
+
+
+def _check_arguments(
+    num_candidates: int,
+    robots_per_candidate: int,
+    rounds: int,
+    seconds: float,
+    min_speed: float,
+    min_speed_of: str,
+    confirm_robots: int,
+) -> None:
     if num_candidates < 1 or robots_per_candidate < 1 or rounds < 1:
         raise ValueError("num_candidates, robots_per_candidate and rounds must be >= 1")
     if not (math.isfinite(seconds) and seconds > 0):
@@ -88,18 +145,100 @@ def search_fixed(
             f"confirm_robots must be 0 or divide num_candidates x robots_per_candidate = {num_envs}"
             f"; got {confirm_robots}"
         )
-    source = fixed_source(oscillator.FIXED_TROT, name="search")
-    env = build_env(source, terrain, env_overrides)
-    num_steps = math.ceil(seconds / env.dt - 1e-9)
-    lower, upper = oscillator.parameter_bounds(env.config.period_min)
-    # Candidates stay strictly inside the box (0.1 % of each range from its ends), so that the
-    # best can be an action centre (`env.action_centre` needs a span on both sides).
-    inner = 1e-3 * (upper - lower)
-    rng = np.random.default_rng(seed)
-    rank_key = functools.partial(ranking_key, min_speed=min_speed, min_speed_of=min_speed_of)
-    floor_key = functools.partial(_eligible, min_speed=min_speed, min_speed_of=min_speed_of)
+
+
+class _Search:
+    """The batch every round of a search runs in: one env, one compiled rollout of
+    `num_envs` robots for `seconds`, and how candidates are ranked."""
+
+    def __init__(
+        self,
+        terrain: terrain_lib.Terrain | str,
+        env_overrides: Mapping[str, Any] | None,
+        num_envs: int,
+        seconds: float,
+        seed: int,
+        min_speed: float,
+        min_speed_of: str,
+    ):
+        self.source = fixed_source(oscillator.FIXED_TROT, name="search")
+        self.env = build_env(self.source, terrain, env_overrides)
+        self.num_envs, self.seed = num_envs, seed
+        self.num_steps = math.ceil(seconds / self.env.dt - 1e-9)
+        self.bounds = oscillator.parameter_bounds(self.env.config.period_min)
+        # Candidates stay strictly inside the box (0.1 % of each range from its ends), so that
+        # the best can be an action centre (`env.action_centre` needs a span on both sides).
+        lower, upper = self.bounds
+        inner = 1e-3 * (upper - lower)
+        self.inner_bounds = (lower + inner, upper - inner)
+        floor = {"min_speed": min_speed, "min_speed_of": min_speed_of}
+        self.rank_key = functools.partial(ranking_key, **floor)
+        self.confirmation_key = functools.partial(confirmation_key, **floor)
+        self.floor_key = functools.partial(_eligible, **floor)
+
+    def draw(
+        self,
+        rng: np.random.Generator,
+        round_index: int,
+        elites: list[dict[str, Any]],
+        num_candidates: int,
+        include_trot: bool,
+        symmetric: bool,
+    ) -> np.ndarray:
+        """A round's candidates, (num_candidates, 5), inside the inner box: round 1 uniform
+        over the box (`FIXED_TROT` first with `include_trot`); later rounds the `elites` (the
+        best so far) and Gaussian draws around them, std 10 % of each range in round 2, halved
+        every round after. `symmetric`: φ3 = φ1 − π."""
+        lower, upper = self.bounds
+        if round_index == 0:
+            candidates = rng.uniform(lower, upper, size=(num_candidates, 5))
+            if include_trot:
+                candidates[0] = np.asarray(oscillator.FIXED_TROT)
+        else:
+            parameters = np.array([c["parameters_array"] for c in elites[:num_candidates]])
+            std = 0.1 * (upper - lower) / 2 ** (round_index - 1)
+            parents = parameters[rng.integers(len(parameters), size=num_candidates)]
+            candidates = np.clip(parents + rng.normal(size=parents.shape) * std, lower, upper)
+            candidates[: len(parameters)] = parameters
+        candidates = np.clip(candidates, *self.inner_bounds)
+        if symmetric:  # after the clip: φ3 = φ1 − π holds exactly, inside the inner box
+            low, high = self.inner_bounds
+            candidates[:, 4] = _wrap(candidates[:, 3] - np.pi, low[4], high[4])
+        return candidates
+
+    def run_rounds(
+        self,
+        rounds: int,
+        elite: int,
+        num_candidates: int,
+        include_trot: bool,
+        symmetric: bool,
+        progress: Callable[[int, int], None] | None,
+        on_round: Callable[[dict[str, Any]], None] | None,
+        started: float,
+    ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+        """The search's rounds (`search_fixed`), each on `num_candidates` candidates of
+        `num_envs // num_candidates` robots: every candidate scored, and each round's entry of
+        "rounds" (wall times from `started`)."""
+        rng = np.random.default_rng(self.seed)
+        robots = self.num_envs // num_candidates
+        evaluated: list[dict[str, Any]] = []
+        rounds_log: list[dict[str, Any]] = []
+        for round_index in range(rounds):
+            ranked = sorted(evaluated, key=self.rank_key, reverse=True)
+            candidates = self.draw(
+                rng, round_index, ranked[:elite], num_candidates, include_trot, symmetric
+            )
+            round_progress = _round_progress(progress, round_index, rounds)
+            evaluated += self.score(candidates, robots, round_index, round_progress)
+            this_round = evaluated[-num_candidates:]
+            rounds_log.append(_round_entry(round_index + 1, this_round, self.rank_key, started))
+            if on_round is not None:
+                on_round(rounds_log[-1])
+        return evaluated, rounds_log
 
     def score(
+        self,
         candidates: np.ndarray,
         robots: int,
         round_index: int,
@@ -107,15 +246,16 @@ def search_fixed(
     ) -> list[dict[str, Any]]:
         """Runs `candidates` on `robots` robots each (the batch padded with the first's) and
         scores them (`_candidate_entry`)."""
+        env, num_envs, num_steps = self.env, self.num_envs, self.num_steps
         per_robot = np.repeat(candidates, robots, axis=0)
         pad = num_envs - len(per_robot)
         per_robot = np.concatenate([per_robot, np.repeat(candidates[:1], pad, axis=0)])
         result = rollout(
             env,
-            source,
+            self.source,
             num_envs=num_envs,
             num_steps=num_steps,
-            seed=seed + round_index,
+            seed=self.seed + round_index,
             act_params=per_robot.astype(np.float32),
             progress=on_progress,
             lanes=np.resize(candidate_lanes(env.terrain.num_lanes, robots), num_envs),
@@ -123,96 +263,65 @@ def search_fixed(
         episodes = episode_values(result.stats, env.dt, num_steps)
         return [
             _candidate_entry(
-                params, episodes[c * robots : (c + 1) * robots], round_index + 1, floor_key
+                params, episodes[c * robots : (c + 1) * robots], round_index + 1, self.floor_key
             )
             for c, params in enumerate(candidates)
         ]
 
-    evaluated: list[dict[str, Any]] = []
-    rounds_log: list[dict[str, Any]] = []
-    started = time.monotonic()
-    for round_index in range(rounds):
-        if round_index == 0:
-            candidates = rng.uniform(lower, upper, size=(num_candidates, 5))
-            if include_trot:
-                candidates[0] = np.asarray(oscillator.FIXED_TROT)
-        else:
-            ranked = sorted(evaluated, key=rank_key, reverse=True)
-            elites = np.array([c["parameters_array"] for c in ranked[: min(elite, num_candidates)]])
-            std = 0.1 * (upper - lower) / 2 ** (round_index - 1)
-            parents = elites[rng.integers(len(elites), size=num_candidates)]
-            candidates = np.clip(parents + rng.normal(size=parents.shape) * std, lower, upper)
-            candidates[: len(elites)] = elites
-        candidates = np.clip(candidates, lower + inner, upper - inner)
-        if symmetric:  # after the clip: φ3 = φ1 − π holds exactly, inside the inner box
-            candidates[:, 4] = _wrap(
-                candidates[:, 3] - np.pi, lower[4] + inner[4], upper[4] - inner[4]
-            )
 
-        def round_progress(done: int, total: int, round_index: int = round_index) -> None:
-            if progress is not None:
-                progress(round_index * total + done, rounds * total)
-
-        evaluated += score(candidates, robots_per_candidate, round_index, round_progress)
-        this_round = evaluated[-len(candidates) :]
-        best = max(this_round, key=rank_key)
-        rounds_log.append(
-            {
-                "round": round_index + 1,
-                "wall_time_s": time.monotonic() - started,
-                "fall_rate": float(np.mean([c["fall_rate"] for c in this_round])),
-                "num_without_falls": sum(math.isfinite(c["score"]) for c in this_round),
-                "best_score": best["score"] if math.isfinite(best["score"]) else None,
-                "best_forward_speed": best["mean_forward_speed"],
-            }
-        )
-        if on_round is not None:
-            on_round(rounds_log[-1])
-    ranked = sorted(evaluated, key=rank_key, reverse=True)
-    confirmation = None
-    if confirm_robots:
-        finalists = _distinct(ranked, num_envs // confirm_robots)
-        ranked = sorted(
-            score(finalists, confirm_robots, rounds, lambda done, total: None),
-            key=functools.partial(confirmation_key, min_speed=min_speed, min_speed_of=min_speed_of),
+    def confirm(
+        self, ranked: list[dict[str, Any]], robots: int, rounds: int, started: float
+    ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+        """The best distinct candidates of `ranked` (as many as the batch holds) run once more
+        on `robots` robots each: their ranking by that run, and the confirmation's entry."""
+        finalists = _distinct(ranked, self.num_envs // robots)
+        confirmed = sorted(
+            self.score(finalists, robots, rounds, lambda done, total: None),
+            key=self.confirmation_key,
             reverse=True,
         )
-        confirmation = {
-            "robots": confirm_robots,
+        return confirmed, {
+            "robots": robots,
             "candidates": len(finalists),
-            "num_without_falls": sum(math.isfinite(c["score"]) for c in ranked),
+            "num_without_falls": sum(math.isfinite(c["score"]) for c in confirmed),
             "wall_time_s": time.monotonic() - started,
         }
-    ranking = [
-        {key: value for key, value in c.items() if key != "parameters_array"}
-        | {"score": c["score"] if math.isfinite(c["score"]) else None}
-        for c in ranked[:top]
-    ]
+
+
+def _round_progress(
+    progress: Callable[[int, int], None] | None, round_index: int, rounds: int
+) -> Callable[[int, int], None]:
+    """A round's progress (robot steps done, of all) as progress of the whole search."""
+
+    def round_progress(done: int, total: int) -> None:
+        if progress is not None:
+            progress(round_index * total + done, rounds * total)
+
+    return round_progress
+
+
+def _round_entry(
+    round_number: int,
+    this_round: list[dict[str, Any]],
+    rank_key: Callable[[Mapping[str, Any]], tuple[float, ...]],
+    started: float,
+) -> dict[str, Any]:
+    """A round's line of the search's "rounds"."""
+    best = max(this_round, key=rank_key)
     return {
-        "format": SEARCH_FORMAT,
-        "format_version": FORMAT_VERSION,
-        "ranking": ranking,
-        "rounds": rounds_log,
-        "confirmation": confirmation,
-        "num_without_falls": sum(math.isfinite(c["score"]) for c in evaluated),
-        "num_evaluated": len(evaluated),
-        "setup": {
-            "terrain": env.terrain.spec,
-            "num_candidates": num_candidates,
-            "robots_per_candidate": robots_per_candidate,
-            "lanes": candidate_lanes(env.terrain.num_lanes, robots_per_candidate).tolist(),
-            "rounds": rounds,
-            "elite": elite,
-            "seconds": num_steps * env.dt,
-            "seed": seed,
-            "include_trot": include_trot,
-            "symmetric": symmetric,
-            "min_speed": min_speed,
-            "min_speed_of": min_speed_of,
-            "confirm_robots": confirm_robots,
-            "env": env.config.to_dict() | {"terrain": env.terrain.spec},
-            "wall_time_s": time.monotonic() - started,
-        },
+        "round": round_number,
+        "wall_time_s": time.monotonic() - started,
+        "fall_rate": float(np.mean([c["fall_rate"] for c in this_round])),
+        "num_without_falls": sum(math.isfinite(c["score"]) for c in this_round),
+        "best_score": best["score"] if math.isfinite(best["score"]) else None,
+        "best_forward_speed": best["mean_forward_speed"],
+    }
+
+
+def _ranking_entry(candidate: Mapping[str, Any]) -> dict[str, Any]:
+    """A ranked candidate as the search returns it (JSON: no array, a score of None for −inf)."""
+    return {key: value for key, value in candidate.items() if key != "parameters_array"} | {
+        "score": candidate["score"] if math.isfinite(candidate["score"]) else None
     }
 
 

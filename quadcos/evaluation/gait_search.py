@@ -1,10 +1,10 @@
 """The first phase of a from-scratch run: find a gait, then let SAC learn from it.
 
-With `env.action_centre="search"`, `python -m quadcos.train` knows no walking gait. Before it
-builds the env it searches constant rhythm parameters (A_k, A_h, T, φ1, φ3) with
-`evaluation.search_fixed` — round 1 uniform over §3.3's ranges, no hand-set trot among the
-candidates, later rounds around the best — scored by the run's own reward (Eq. 13) on the run's
-own terrain. The best candidate without falls (with `gait_search.confirm_robots`: the best of a
+With `env.action_centre="search"`, a run knows no walking gait. `quadcos.training.run` (given
+`find_gait`, as `python -m quadcos.train` gives it) first searches constant rhythm parameters
+(A_k, A_h, T, φ1, φ3) with `evaluation.search_fixed` — round 1 uniform over §3.3's ranges, no
+hand-set trot among the candidates, later rounds around the best — scored by the run's own reward
+(Eq. 13) on the run's own terrain. The best candidate without falls (with `gait_search.confirm_robots`: the best of a
 rerun of the finalists on more robots) becomes the action centre (what SAC's zero action
 commands), and the search's wall time starts the run's clock, so a time to walk counts it.
 
@@ -15,9 +15,7 @@ does not have: ANYmal C's best gait so found walks 1.3 m/s after the ramp, and w
 shuffles at 0.33 m/s and falls within 2-13 s (experiments/robots).
 """
 
-import json
 import logging
-import pathlib
 from typing import Any
 
 import ml_collections
@@ -27,17 +25,9 @@ from quadcos.equations import oscillator
 
 logger = logging.getLogger("quadcos.train")
 
-SEARCH_FILE = "gait_search.json"
-
 
 class NoGaitFound(RuntimeError):
     """No candidate of the search finished its episodes without a fall."""
-
-
-def search_envs(config: ml_collections.ConfigDict) -> int:
-    """Robots the search steps at once (for sizing Warp's buffers)."""
-    search = config.sac.gait_search
-    return search.num_candidates * search.robots_per_candidate
 
 
 def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
@@ -131,20 +121,3 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     )
     return result | {"action_centre": centre}
 
-
-def resolve_centre(
-    config: ml_collections.ConfigDict, run_dir: pathlib.Path | None
-) -> dict[str, Any] | None:
-    """For a run config whose action centre is "search": runs `find_gait`, puts the gait found
-    in `config.env.action_centre` and writes the search to `run_dir`/gait_search.json. Other
-    configs: nothing (None)."""
-    if config.env.action_centre != oscillator.SEARCH_CENTRE:
-        return None
-    search = find_gait(config)
-    config.env.action_centre = search["action_centre"]
-    if run_dir is not None:
-        from quadcos._util import files
-
-        run_dir.mkdir(parents=True, exist_ok=True)
-        files.atomic_write_text(run_dir / SEARCH_FILE, json.dumps(search, indent=2) + "\n")
-    return search

@@ -11,8 +11,17 @@ def default_config() -> ml_collections.ConfigDict:
     `num_envs` environments is `num_envs` env steps.
     """
     config = ml_collections.ConfigDict()
+    _interaction(config)
+    _sac(config)
+    _gait_search(config)
+    _curriculum(config)
+    _host_loop(config)
+    config.lock()
+    return config
 
-    # --- Interaction -----------------------------------------------------------
+
+def _interaction(config: ml_collections.ConfigDict) -> None:
+    """How many envs step, for how long."""
     # Training environments stepped in parallel (one vectorised step).
     config.num_envs = 256
     # Env steps to train for, prefill included. Training stops at the first
@@ -26,7 +35,9 @@ def default_config() -> ml_collections.ConfigDict:
     # the critic does not treat truncation as a terminal state).
     config.episode_length = 1000
 
-    # --- SAC (Haarnoja et al. 2018, arXiv:1812.05905) --------------------------
+
+def _sac(config: ml_collections.ConfigDict) -> None:
+    """SAC's own settings (Haarnoja et al. 2018), exploration, networks and replay."""
     # Transitions per gradient update.
     config.batch_size = 256
     # Initial entropy temperature α (then tuned automatically, as in Brax's SAC). A small value
@@ -87,7 +98,9 @@ def default_config() -> ml_collections.ConfigDict:
     # divide evenly by it.
     config.num_devices = config_dict.placeholder(int)
 
-    # --- Gait search (only with env.action_centre="search") ------------------------
+
+def _gait_search(config: ml_collections.ConfigDict) -> None:
+    """The gait search of a from-scratch run."""
     # A from-scratch run's first phase (quadcos.gait_search, timed with the run): a population
     # search over constant rhythm parameters (A_k, A_h, T, φ1, φ3), round 1 uniform over §3.3's
     # ranges, later rounds around the `elite` best; a candidate scores its robots' mean Eq. 13
@@ -112,7 +125,9 @@ def default_config() -> ml_collections.ConfigDict:
         )
     )
 
-    # --- Course curriculum (only on lane terrains: quadcos.courses) -------------------
+
+def _curriculum(config: ml_collections.ConfigDict) -> None:
+    """The course curriculum of a lane terrain."""
     # Each env runs on the lane of its level (a random: family's lanes are in order of slope):
     # up promote_lanes lanes after an episode without a fall that crossed its course or walked
     # promote_m m, down one after a fall or a time-out short of promote_m / 2 m
@@ -128,7 +143,9 @@ def default_config() -> ml_collections.ConfigDict:
         )
     )
 
-    # --- Host loop -------------------------------------------------------------
+
+def _host_loop(config: ml_collections.ConfigDict) -> None:
+    """The host loop: chunks, evaluations, checkpoints, the best policy."""
     # Vectorised env steps per compiled chunk; the host sees results (metrics,
     # NaN checks, signals) once per chunk.
     config.steps_per_chunk = 64
@@ -155,6 +172,3 @@ def default_config() -> ml_collections.ConfigDict:
     config.best_policy_max_fall_rate = 1.0
     # Store the replay buffer in checkpoints (exact resume, large files).
     config.save_replay = False
-
-    config.lock()
-    return config

@@ -24,11 +24,11 @@ import jax
 import ml_collections
 from brax import envs
 
-from quadcos._util import files, provenance
-from quadcos.training import best_policy, checkpoint, host, metrics_log, parallel, sac
+from quadcos._util import provenance
+from quadcos.training import best_policy, checkpoint, host, metrics_log, parallel, run_files, sac
 from quadcos.training import config as config_lib
 from quadcos.training import policy as policy_lib
-from quadcos.training.checks import ConfigError, check_config, check_memory
+from quadcos.training.checks import check_config, check_memory
 
 logger = logging.getLogger(__name__)
 
@@ -98,18 +98,16 @@ def train(
     Args:
       env: unbatched, unwrapped Brax env (wrapped here for training).
       config: trainer config (`quadcos.training.default_config()` when None).
-      run_dir: directory for config, metrics, checkpoints and the final policy;
-        None keeps everything in memory.
+      run_dir: directory for config, metrics, checkpoints and the final policy; None keeps
+        everything in memory.
       eval_env: env for evaluation; `env` when None.
-      resume: continue from the newest readable checkpoint in `run_dir` (a
-        fresh run when there is none). `config.num_timesteps` may exceed that
-        of the original run to extend it; other fields must keep the network,
-        replay and env shapes.
-      progress: report progress on stderr (a redrawn line on a terminal, one
-        line per evaluation otherwise).
+      resume: continue from the newest readable checkpoint in `run_dir` (a fresh run when there
+        is none). `config.num_timesteps` may exceed that of the original run to extend it; other
+        fields must keep the network, replay and env shapes.
+      progress: report progress on stderr (a redrawn line on a terminal, one line per
+        evaluation otherwise).
       progress_bar: False prints the one line per evaluation on a terminal too.
-      extra_run_info: JSON-serialisable data stored in config.json under
-        `run_info` (e.g. the env config).
+      extra_run_info: JSON-serialisable data stored in config.json under `run_info`.
       started_at: `time.monotonic()` at the run's start (quadcos.train: the process's start, so
         a from-scratch run's gait search and every compilation count); None: this call.
       startup: the start-up times so far (quadcos.train: imports, gait search, env), counted
@@ -139,77 +137,32 @@ def train(
         trainer = sac.SACTrainer(env, config, eval_env=eval_env)
     startup.mark("trainer_built")
     check_memory(trainer)
-    spec = policy_lib.PolicySpec(
-        observation_size=trainer.observation_size,
-        action_size=trainer.action_size,
-        hidden_sizes=tuple(int(size) for size in config.hidden_sizes.policy),
-        normalize_observations=bool(config.normalize_observations),
-    )
+    spec = run_files.policy_spec(trainer)
     run_info = _run_info(config, extra_run_info)
     state = jax.block_until_ready(trainer.init())
     startup.mark("state_initialised")
-    wall_time_offset = None
-    store = None
-    log = None
-    # Over several processes (hosts) only process 0 writes config, metrics and policy; the
-    # checkpoints are orbax's, written together (each process its shards of the envs).
-    writer = parallel.is_writer()
+    run = run_files.RunFiles(state=state)
     if run_dir is not None:
         run_dir = Path(run_dir)
-        run_dir.mkdir(parents=True, exist_ok=True)
-        store = checkpoint.CheckpointStore(run_dir / "checkpoints", keep=config.keep_checkpoints)
-        keep_rows_up_to = None
-        if resume:
-            try:
-                restored = store.restore_latest(state)
-            except checkpoint.ShapeMismatchError as error:
-                store.close()
-                raise ConfigError(str(error)) from None
-            if restored is None:
-                logger.warning("no checkpoint in %s; starting a new run", store.directory)
-            else:
-                state = restored.state
-                wall_time_offset = restored.meta["wall_time_s"]
-                keep_rows_up_to = restored.step
-                logger.info("resuming from %s", store.path(restored.step))
-        elif store.steps() or (writer and (run_dir / "metrics.jsonl").exists()):
-            raise FileExistsError(
-                f"{run_dir} already holds a run; pass resume=True or use another directory"
-            )
-        if writer:
-            files.atomic_write_text(run_dir / "config.json", json.dumps(run_info, indent=2) + "\n")
-            startup.path = run_dir / host.StartUp.FILE
-            log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
-
-    best = None
-    if run_dir is not None and writer and config.keep_best_policy:
-        best = best_policy.BestPolicy(
-            run_dir / "policy_best",
-            spec,
-            run_info,
-            log.rows if log else [],
-            config.best_policy_max_fall_rate,
-        )
+        run = run_files.open_run_dir(run_dir, config, state, resume, run_info, spec, startup)
     startup.mark("run_dir_ready")
+    writer = parallel.is_writer()  # of several processes (hosts), only process 0 writes files
     try:
         with host.SignalStop() as stop:
             state, history = _train_loop(
                 trainer,
-                state,
-                store,
-                log,
+                run.state,
+                run.store,
+                run.log,
                 stop,
-                host.Clock(host.run_age(wall_time_offset, started_at)),
+                host.Clock(host.run_age(run.wall_time_offset, started_at)),
                 host.Progress(config.num_timesteps, enabled=progress and writer, bar=progress_bar),
-                best,
+                run.best,
                 host.deadline(config.max_seconds, started_at),
                 startup,
             )
     finally:
-        if log is not None:
-            log.close()
-        if store is not None:
-            store.close()
+        run.close()
 
     env_steps = {"env_steps": int(state.env_steps)}  # read by evaluation.PolicySpec.env_steps
     policy = policy_lib.Policy.from_training_state(state, spec, run_info | env_steps)
@@ -393,18 +346,7 @@ def _train_loop(
         if out_of_time:
             logger.info("time budget of %g s spent at env step %d", config.max_seconds, step)
         if finished or evaluating:
-            record_evaluation(
-                {
-                    "step": step,
-                    "wall_time_s": clock(),
-                    "env_steps_per_s": window.steps_per_second(),
-                    **window.means(),
-                    "train/nan_resets": int(state.nan_resets),
-                    "train/gradient_steps": int(state.gradient_steps),
-                    "train/replay_size": trainer.replay_size(state),
-                },
-                state,
-            )
+            record_evaluation(_training_row(trainer, state, step, clock(), window), state)
             window = host.Window()
         if store is not None and (finished or stopping or saving):
             save(step, state)
@@ -427,6 +369,25 @@ def _train_loop(
     finally:
         progress.close()
     return state, history
+
+
+def _training_row(
+    trainer: sac.SACTrainer,
+    state: sac.TrainingState,
+    step: int,
+    wall_time_s: float,
+    window: host.Window,
+) -> dict[str, Any]:
+    """A metrics row's training part: the chunks since the last row, and the state's counters."""
+    return {
+        "step": step,
+        "wall_time_s": wall_time_s,
+        "env_steps_per_s": window.steps_per_second(),
+        **window.means(),
+        "train/nan_resets": int(state.nan_resets),
+        "train/gradient_steps": int(state.gradient_steps),
+        "train/replay_size": trainer.replay_size(state),
+    }
 
 
 def _host_floats(metrics: dict[str, jax.Array]) -> dict[str, float]:

@@ -55,8 +55,8 @@ def for_run(trainer: sac.SACTrainer, config: ml_collections.ConfigDict) -> sac.S
 
 
 class Trainers:
-    """The envs and trainer of the last run per `program_key` in this process (tests, notebooks
-    calling `quadcos.train.main` again)."""
+    """The envs and trainer of the last run per `program_key`, kept by the caller of
+    `quadcos.training.run` (or `quadcos.train.main`) for its later runs: tests, notebooks."""
 
     def __init__(self) -> None:
         self._built: dict[str, tuple[Any, Any, sac.SACTrainer]] = {}

@@ -107,7 +107,15 @@ class SACTrainer:
             config.normalize_observations,
         )
         self._make_policy = sac_networks.make_inference_fn(self.networks)
+        self._sgd_step = self._sac_update(config)
+        self.replay = self._replay(config, shards)
+        self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
+        self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
+        self.chunk_traces = 0
+        self._compile(config, getattr(env, "compiler_options", None) or None)
 
+    def _sac_update(self, config: ml_collections.ConfigDict) -> updates.SACUpdate:
+        """The losses (Brax's) and optimizers of one SAC gradient update."""
         self._policy_optimizer = _optimizer(config.learning_rate.actor, config.max_grad_norm)
         self._q_optimizer = _optimizer(config.learning_rate.critic, config.max_grad_norm)
         self._alpha_optimizer = optax.adam(config.learning_rate.alpha)
@@ -121,7 +129,7 @@ class SACTrainer:
             if config.target_entropy is None
             else -2.0 * config.target_entropy,
         )
-        self._sgd_step = updates.SACUpdate(
+        return updates.SACUpdate(
             alpha_loss=alpha_loss,
             critic_loss=critic_loss,
             actor_loss=actor_loss,
@@ -132,6 +140,9 @@ class SACTrainer:
             actor_warmup_steps=config.actor_warmup_steps,
         )
 
+    def _replay(self, config: ml_collections.ConfigDict, shards: int) -> Any:
+        """The replay buffer: one ring per device, filled by that device's envs and sampled
+        by it."""
         dummy_obs = jnp.zeros((self.observation_size,))
         dummy_transition = types.Transition(
             observation=dummy_obs,
@@ -141,13 +152,15 @@ class SACTrainer:
             next_observation=dummy_obs,
             extras={"state_extras": {"truncation": jnp.zeros(())}, "policy_extras": {}},
         )
-        # One ring per device, filled by that device's envs and sampled by it.
         ring = replay_lib.RingReplay(config.replay_size // shards, dummy_transition)
-        self.replay = ring if shards == 1 else replay_lib.ShardedReplay(ring, shards)
-        self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
+        return ring if shards == 1 else replay_lib.ShardedReplay(ring, shards)
 
-        self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
-        self.chunk_traces = 0
+    def _compile(self, config: ml_collections.ConfigDict, options: dict | None) -> None:
+        """Jits `init`, `prefill`, `train_chunk` and the evaluation, placed on the devices of
+        `self.layout`. `options`: XLA's options for the programs that step the training envs
+        (none but with MJX-Warp's calls recorded by XLA: `quadcos.env.backends.compiler_options`).
+        Not the evaluation's: with them its program took 55 s more to compile (one H200) for no
+        gain to speak of."""
         self._init = jax.jit(self._init_state)
         self._specs = None  # where each part of the state lives; on one device, nowhere to say
         if self.layout.mesh is not None:
@@ -157,10 +170,6 @@ class SACTrainer:
                 config.num_envs,
             )
             self._init = parallel.jit(self._init_state, self.layout, None, self._specs)
-        # XLA's options for the programs that step the training envs (none but with MJX-Warp's
-        # calls recorded by XLA: `quadcos.env.backends.compiler_options`). Not the evaluation's:
-        # with them its program took 55 s more to compile (one H200) for no gain to speak of.
-        options = getattr(env, "compiler_options", None) or None
         self.prefill = parallel.jit(
             self._prefill, self.layout, self._specs, self._specs, True, options
         )

@@ -42,7 +42,7 @@ import mujoco
 import numpy as np
 
 import quadcos
-from quadcos import oscillator
+from quadcos.equations import oscillator
 from quadcos import robot as robot_lib
 from quadcos.env.layout import Layout
 from quadcos.robot import presets

@@ -1,0 +1,150 @@
+"""A whole training run from one config: `run(config, run_dir)`.
+
+What `python -m quadcos.train` does once its flags are a config, and what a library caller gets
+the same way: Warp's contact buffer sized for the largest batch, the gait search of a
+from-scratch run (`env.action_centre="search"`), the envs built, the run trained (or resumed) by
+`loop.train`, and the envs and trainer kept in a `reuse.Trainers` the caller holds, for a later
+run of the same programs.
+"""
+
+import json
+import os
+import pathlib
+from collections.abc import Callable
+from typing import Any
+
+import jax
+import ml_collections
+
+from quadcos import env as env_lib
+from quadcos._util import files
+from quadcos.equations import oscillator
+from quadcos.training import host, loop, reuse
+from quadcos.training.checks import ConfigError
+
+SEARCH_FILE = "gait_search.json"
+
+# config -> the search's result with "action_centre" (`quadcos.evaluation.gait_search.find_gait`:
+# the search evaluates fixed gaits, a layer above training, so the caller hands it in).
+GaitSearch = Callable[[ml_collections.ConfigDict], dict[str, Any]]
+
+
+def search_envs(config: ml_collections.ConfigDict) -> int:
+    """Robots the gait search steps at once (for sizing Warp's buffers)."""
+    search = config.sac.gait_search
+    return search.num_candidates * search.robots_per_candidate
+
+
+def run(
+    config: ml_collections.ConfigDict,
+    run_dir: str | os.PathLike[str] | None = None,
+    *,
+    resume: bool = False,
+    trainers: reuse.Trainers | None = None,
+    find_gait: GaitSearch | None = None,
+    progress: bool = True,
+    progress_bar: bool = True,
+    extra_run_info: dict[str, Any] | None = None,
+    started_at: float | None = None,
+    startup: host.StartUp | None = None,
+) -> loop.TrainResult:
+    """Trains the run `config` describes (`{"env", "sac"}`: `quadcos.training.presets.build_config`).
+
+    Sets `config.env.warp.max_envs` to the largest batch of the run (training, evaluation, gait
+    search). With `env.action_centre="search"`, first runs `find_gait` on the run's terrain and
+    trains from the gait it found (in `config.env.action_centre`, and `run_dir`/gait_search.json).
+    Then builds the envs, or takes them and their compiled trainer from `trainers` when it holds
+    a run of the same programs (`reuse.program_key`), trains with `loop.train` and keeps the envs
+    and trainer in `trainers`.
+
+    Args:
+      config: the run config; changed in place as above.
+      run_dir: as for `loop.train` (None: nothing written).
+      resume: continue the run in `run_dir` (`loop.train`).
+      trainers: the envs and trainers of earlier runs, kept by the caller; None: build afresh.
+      find_gait: the gait search (`quadcos.evaluation.gait_search.find_gait`); needed only with
+        `env.action_centre="search"`.
+      progress, progress_bar, started_at, startup: as for `loop.train`; `startup` is marked
+        after the gait search ("gait_search") and the envs ("envs_built").
+      extra_run_info: stored in config.json's `run_info` beside the env config, the physics
+        implementation, the robot's provenance and the gait search's wall time.
+
+    Returns:
+      `loop.train`'s result.
+
+    Raises:
+      ConfigError: a search centre without `find_gait`, or as `loop.train` raises it.
+      Whatever `find_gait`, the env or `loop.train` raise (`loop.train`'s docstring).
+    """
+    run_dir = pathlib.Path(run_dir) if run_dir is not None else None
+    startup = host.StartUp(started_at) if startup is None else startup
+    config.env.warp.max_envs = max(
+        config.env.warp.max_envs,
+        config.sac.num_envs,
+        config.sac.num_eval_envs,
+        search_envs(config),
+    )
+    search = _resolve_centre(config, run_dir, find_gait)
+    if search is not None:
+        startup.mark("gait_search")
+    key = reuse.program_key(config.env, config.sac)
+    reused = None
+    if trainers is not None and jax.process_count() == 1:
+        reused = trainers.get(key, config.sac)
+    env, eval_env, trainer = reused or (*_envs(config.env), None)
+    startup.mark("envs_built")
+    result = loop.train(
+        env,
+        config.sac,
+        run_dir,
+        eval_env=eval_env,
+        resume=resume,
+        progress=progress,
+        progress_bar=progress_bar,
+        extra_run_info={
+            "env": config.env.to_dict(),
+            **(extra_run_info or {}),
+            "impl": env.impl,
+            "robot": env.robot.provenance(),
+            **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
+        },
+        started_at=started_at,
+        startup=startup,
+        trainer=trainer,
+    )
+    if trainers is not None:
+        trainers.keep(key, env, eval_env, result.trainer)
+    return result
+
+
+def _resolve_centre(
+    config: ml_collections.ConfigDict,
+    run_dir: pathlib.Path | None,
+    find_gait: GaitSearch | None,
+) -> dict[str, Any] | None:
+    """For a run config whose action centre is "search": runs `find_gait`, puts the gait found
+    in `config.env.action_centre` and writes the search to `run_dir`/gait_search.json. Other
+    configs: nothing (None)."""
+    if config.env.action_centre != oscillator.SEARCH_CENTRE:
+        return None
+    if find_gait is None:
+        raise ConfigError(
+            f'env.action_centre="{oscillator.SEARCH_CENTRE}" needs a gait search: pass'
+            " find_gait=quadcos.evaluation.gait_search.find_gait"
+        )
+    search = find_gait(config)
+    config.env.action_centre = search["action_centre"]
+    if run_dir is not None:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        files.atomic_write_text(run_dir / SEARCH_FILE, json.dumps(search, indent=2) + "\n")
+    return search
+
+
+def _envs(env_config: ml_collections.ConfigDict) -> tuple[Any, Any]:
+    """The training env and the evaluation env (the same unless robots spawn along the ground:
+    evaluations start at the spawn point, as quadcos.evaluate's do)."""
+    env = env_lib.QuadrupedEnv(env_config.terrain, ml_collections.ConfigDict(env_config.to_dict()))
+    if env_config.spawn_x_max <= 0:
+        return env, env
+    eval_config = ml_collections.ConfigDict({**env_config.to_dict(), "spawn_x_max": 0.0})
+    return env, env_lib.QuadrupedEnv(env_config.terrain, eval_config)
