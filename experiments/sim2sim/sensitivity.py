@@ -8,10 +8,9 @@ of the deepest). Each variant runs episodes 0..N-1 of `mujoco_s4.json` (same res
 """
 
 import argparse
-import dataclasses
 
-from quadcos._util import overrides as config_lib
-from quadcos import evaluation, sim2sim
+from quadcos import evaluation
+from quadcos.deploy import engines
 
 S4 = "sections:5@1.4,0@1.4,9@1.2,0@1.4"  # = the registered "s4"
 VARIANTS = {  # name: (env overrides, terrain)
@@ -27,13 +26,12 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=128)
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
-    pilot = sim2sim.load_pilot("experiments/policies/slope5_trot")
     rows = {}
     for name, (overrides, terrain) in VARIANTS.items():
-        config = config_lib.apply_overrides(pilot.config, overrides)
-        result = sim2sim.evaluate_mujoco(
-            dataclasses.replace(pilot, config=config), terrain, episodes=args.episodes, seconds=30.0
-        )
+        result = engines.evaluate(
+            "experiments/policies/slope5_trot", terrain, engine="mujoco", episodes=args.episodes,
+            seconds=30.0, env_overrides=overrides,
+        ).summary
         rows[name] = {"env_overrides": overrides, "terrain": terrain}
         rows[name] |= {key: result[key] for key in KEYS}
         print(name, {key: round(result[key], 3) for key in KEYS}, flush=True)

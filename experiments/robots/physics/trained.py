@@ -17,7 +17,7 @@ import json
 import math
 import pathlib
 
-from quadcos.deploy import host_robot
+from quadcos.deploy import engines
 from quadcos.evaluation import report
 
 
@@ -60,12 +60,11 @@ def main() -> None:
             args.policy, "flat", num_envs=args.mjx_episodes, seconds=20.0, env_overrides=overrides
         )
         rows.append(_row(setting, "mjx-jax", result.summary, result.episodes))
-    pilot = host_robot.load_pilot(args.policy)
-    for physics in host_robot.PHYSICS:
-        result = host_robot.evaluate_mujoco(
-            pilot, "flat", episodes=args.c_episodes, physics=physics
+    for physics in ("reference", "training"):
+        result = engines.evaluate(
+            args.policy, "flat", engine="mujoco", episodes=args.c_episodes, physics=physics
         )
-        rows.append(_row(physics, "mujoco", result, result["episodes"]))
+        rows.append(_row(physics, "mujoco", result.summary, result.episodes))
     args.out.write_text(json.dumps({"policy": args.policy, "rows": rows}, indent=1) + "\n")
 
 
