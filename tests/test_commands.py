@@ -375,3 +375,24 @@ def test_gait_metrics_on_a_synthetic_trace():
     assert pooled["peak_joint_torque_ratio"] == pytest.approx(0.2)
     uncommanded = metrics.gait_values(host.replace(commanded=False), 0)
     assert uncommanded["speed_tracking_rms"] is None
+
+
+def test_command_tracking_figure_has_a_column_per_robot_and_needs_commands():
+    from quadcos.viz import plots
+
+    time = np.arange(40) * 0.05
+    series = {
+        "time": time.tolist(),
+        "forward_speed": np.full(40, 0.5).tolist(),
+        "yaw": (0.2 * time).tolist(),
+        "speed_command": np.full(40, 0.5).tolist(),
+        "yaw_rate_command": np.full(40, 0.2).tolist(),
+    }
+    trace = {"series": series, "success": True, "fell": False, "finished_course": False}
+    figure = plots.plot_command_tracking({"a": trace, "b": trace})
+    assert len(figure.axes) == 4
+    achieved_yaw_rate = figure.axes[2].lines[0].get_ydata()  # row 2, column 1
+    np.testing.assert_allclose(achieved_yaw_rate, 0.2, atol=1e-9)
+    without = {"series": {k: v for k, v in series.items() if "command" not in k}}
+    with pytest.raises(ValueError, match="no velocity command"):
+        plots.plot_command_tracking({"plain": without})

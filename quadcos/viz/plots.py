@@ -348,3 +348,35 @@ def plot_course(
     ax.legend(fontsize="small", loc="upper left")
     ax.set_title(title or f"terrain {terrain.name}")
     return _finish(figure, path)
+
+
+def plot_command_tracking(
+    traces: Mapping[str, TraceLike],
+    *,
+    path: str | os.PathLike[str] | None = None,
+) -> Figure:
+    """Commanded against achieved velocity, one column per {label: trace} of a commanded policy:
+    forward speed against v* (m/s) above, yaw rate (the unwrapped yaw's rate) against ω* (rad/s)
+    below."""
+    labelled = {label: load_trace(trace) for label, trace in traces.items()}
+    figure = Figure(figsize=(4.5 * len(labelled), 5.5))
+    axes = figure.subplots(2, len(labelled), squeeze=False, sharex=True)
+    for column, (label, trace) in enumerate(labelled.items()):
+        if "speed_command" not in trace["series"]:
+            raise ValueError(f"trace {label!r} has no velocity command: not a commanded policy")
+        time = _series(trace, "time")
+        yaw_rate = np.gradient(np.unwrap(_series(trace, "yaw")), time)
+        rows = (
+            ("forward speed (m/s)", _series(trace, "forward_speed"), "speed_command"),
+            ("yaw rate (rad/s)", yaw_rate, "yaw_rate_command"),
+        )
+        for row, (name, achieved, command) in enumerate(rows):
+            ax = axes[row, column]
+            ax.plot(time, achieved, color="tab:blue", label="achieved")
+            ax.plot(time, _series(trace, command), color="black", linestyle="--", label="command")
+            ax.set_ylabel(name)
+            ax.grid(alpha=0.3)
+        axes[0, column].set_title(label)
+        axes[-1, column].set_xlabel("time (s)")
+    axes[0, 0].legend(fontsize="small")
+    return _finish(figure, path)
