@@ -67,12 +67,10 @@ def test_the_any_slope_preset_is_the_generalists_recipe_with_a_time_budget():
 
 
 def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
-    # experiments/robustness: the runs behind policies/flat_robust were made with flags; the
-    # preset must be the config they recorded, but for the action centre their search resolved.
-    run = ROOT / "experiments/robustness/levers_gpu/runs"
-    recorded = json.loads(
-        (run / "robust_scratch_fric15s20fl085r8as03cf64p2t015_s0/config.json").read_text()
-    )
+    # experiments/robustness: the run behind policies/flat_robust was made with flags; the
+    # preset must be the config its policy recorded, but for the action centre its search resolved.
+    policy = ROOT / "experiments/policies/flat_robust/policy.json"
+    recorded = json.loads(policy.read_text())["config"]
     config = json.loads(json.dumps(train.build_config(train.PRESETS["robust"], {}).to_dict()))
     # Trainer options added since, at the defaults that train as the runs did.
     assert config["sac"].pop("overlap_updates") is False
@@ -82,6 +80,9 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     recorded["run_info"]["env"].pop("action_centre")
     # Launch options added since, at the defaults that behave as the runs' physics did.
     assert (env["warp"].pop("arena"), env["warp"].pop("graph_conditional")) == (False, True)
+    # Velocity commands and turning, added since: off by default.
+    assert (env.pop("commands")["spec"], env.pop("turn_mode")) == ("", "none")
+    env.pop("turn_bound")
     assert env == recorded["run_info"]["env"]
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 

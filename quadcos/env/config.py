@@ -158,30 +158,7 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
     config = resolve(config)
     if config.impl not in backends.IMPLS:
         raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
-    for key, least in (
-        ("max_envs", 1),
-        ("contacts_per_env", 1),
-        ("constraints_per_env", 0),
-        ("hfield_contacts", 1),
-    ):
-        value = config.warp[key]
-        if not (isinstance(value, int) and value >= least):
-            raise ValueError(f"warp.{key} must be a whole number >= {least}; got {value!r}")
-    if config.warp.max_envs * config.warp.contacts_per_env >= 2**31:  # Warp indexes with int32
-        raise ValueError(
-            "warp.max_envs × warp.contacts_per_env must be < 2**31; got"
-            f" {config.warp.max_envs} × {config.warp.contacts_per_env}"
-        )
-    if config.warp.graph_mode not in backends.GRAPH_MODES:
-        raise ValueError(
-            f"unknown warp.graph_mode {config.warp.graph_mode!r};"
-            f" known: {', '.join(backends.GRAPH_MODES)}"
-        )
-    if config.warp.graph_mode == "jax" and config.warp.graph_conditional:
-        raise ValueError(
-            "warp.graph_mode 'jax' needs warp.graph_conditional=false: XLA records a Warp call"
-            " as a child graph, which cannot hold the solver's conditional node"
-        )
+    _validate_warp(config.warp)
     if not (isinstance(config.substep_unroll, int) and config.substep_unroll >= 1):
         raise ValueError(
             f"substep_unroll must be a whole number >= 1; got {config.substep_unroll!r}"
@@ -246,6 +223,43 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
     if config.posture_bound > 0 and config.controller != "oscillator":
         raise ValueError("posture_bound > 0 needs controller='oscillator' (it offsets the rhythm)")
     commands.validate(config.commands)
+    _validate_turn(config)
+    if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
+        raise ValueError(
+            f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"
+        )
+
+
+def _validate_warp(warp: ml_collections.ConfigDict) -> None:
+    """Raises ValueError naming the first `warp.*` value MJX-Warp cannot run with."""
+    for key, least in (
+        ("max_envs", 1),
+        ("contacts_per_env", 1),
+        ("constraints_per_env", 0),
+        ("hfield_contacts", 1),
+    ):
+        value = warp[key]
+        if not (isinstance(value, int) and value >= least):
+            raise ValueError(f"warp.{key} must be a whole number >= {least}; got {value!r}")
+    if warp.max_envs * warp.contacts_per_env >= 2**31:  # Warp indexes with int32
+        raise ValueError(
+            "warp.max_envs × warp.contacts_per_env must be < 2**31; got"
+            f" {warp.max_envs} × {warp.contacts_per_env}"
+        )
+    if warp.graph_mode not in backends.GRAPH_MODES:
+        raise ValueError(
+            f"unknown warp.graph_mode {warp.graph_mode!r};"
+            f" known: {', '.join(backends.GRAPH_MODES)}"
+        )
+    if warp.graph_mode == "jax" and warp.graph_conditional:
+        raise ValueError(
+            "warp.graph_mode 'jax' needs warp.graph_conditional=false: XLA records a Warp call"
+            " as a child graph, which cannot hold the solver's conditional node"
+        )
+
+
+def _validate_turn(config: ml_collections.ConfigDict) -> None:
+    """Raises ValueError for a `turn_mode` / `turn_bound` the controller and robot cannot run."""
     if config.turn_mode not in oscillator.TURN_MODES:
         raise ValueError(
             f"unknown turn_mode {config.turn_mode!r}; known: {', '.join(oscillator.TURN_MODES)}"
@@ -261,7 +275,4 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
                 f"turn_mode 'abduction_stride' needs a robot with abduction joints (12 joints);"
                 f" robot {config.robot!r} has none: use 'hip_amplitude_difference'"
             )
-    if not 0.0 < config.period_min <= oscillator.PERIOD_MAX:
-        raise ValueError(
-            f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"
-        )
+

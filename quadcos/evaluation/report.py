@@ -134,27 +134,8 @@ def evaluate(
     for episode in episodes:
         course = has_course[episode["lane"]]
         episode["success"] = episode["finished_course"] if course else not episode["fell"]
-    setup = {
-        "policy": source.name,
-        "policy_kind": source.kind,
-        "policy_env_steps": source.env_steps,
-        "fixed_parameters": None
-        if source.fixed_parameters is None
-        else dict(zip(PARAMETER_NAMES, map(float, source.fixed_parameters))),
-        "robot": env.robot.provenance(),
-        "terrain": env.terrain.spec,
-        "course_end_x": env.terrain.course_end_x,
-        "num_envs": num_envs,
-        "seconds": num_steps * env.dt,
-        "num_steps": num_steps,
-        "control_dt": env.dt,
-        "seed": seed,
-        "trace_episode": trace_episode,
-        "commands": commands if commands is not None else env.config.commands.spec,
-        "env": env.config.to_dict() | {"terrain": env.terrain.spec},
-        "wall_time_s": time.monotonic() - started,
-        "versions": provenance.versions(_VERSIONED_PACKAGES),
-    }
+    setup = _setup(source, env, num_envs, num_steps, seed, trace_episode, commands)
+    setup["wall_time_s"] = time.monotonic() - started
     summary = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -182,6 +163,38 @@ def evaluate(
         qpos=np.asarray(trace["qpos"]),
         env=env,
     )
+
+
+def _setup(
+    source: ActionSource,
+    env: env_lib.QuadrupedEnv,
+    num_envs: int,
+    num_steps: int,
+    seed: int,
+    trace_episode: int,
+    commands: str | None,
+) -> dict[str, Any]:
+    """An evaluation's "setup": what ran (policy, robot, terrain, commands, env, versions)."""
+    return {
+        "policy": source.name,
+        "policy_kind": source.kind,
+        "policy_env_steps": source.env_steps,
+        "fixed_parameters": None
+        if source.fixed_parameters is None
+        else dict(zip(PARAMETER_NAMES, map(float, source.fixed_parameters))),
+        "robot": env.robot.provenance(),
+        "terrain": env.terrain.spec,
+        "course_end_x": env.terrain.course_end_x,
+        "num_envs": num_envs,
+        "seconds": num_steps * env.dt,
+        "num_steps": num_steps,
+        "control_dt": env.dt,
+        "seed": seed,
+        "trace_episode": trace_episode,
+        "commands": commands if commands is not None else env.config.commands.spec,
+        "env": env.config.to_dict() | {"terrain": env.terrain.spec},
+        "versions": provenance.versions(_VERSIONED_PACKAGES),
+    }
 
 
 def course_table(summary: Mapping[str, Any]) -> str:
