@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 from quadcos._util import cli
-from quadcos.deploy import engines, solver
+from quadcos.deploy import engines
 from quadcos.deploy.host_robot import HostRobot, Pilot, StepResult
 from quadcos.robot import constants
 
@@ -199,19 +199,7 @@ def _no_display_line(args: argparse.Namespace, reason: str) -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = engines.policy_parser(
-        "python -m quadcos.play",
-        __doc__,
-        policy_help="run or policy directory, exported .npz or .onnx, or fixed:trot",
-    )
-    parser.add_argument(
-        "--physics",
-        type=solver.physics_choice,
-        default="reference",
-        help="C MuJoCo's solver: the MJCF's iterations (reference, converged), the training"
-        " shortcut's (training), or N/M solver / line-search iterations",
-    )
-    return parser
+    return engines.host_parser("python -m quadcos.play", __doc__)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

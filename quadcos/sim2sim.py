@@ -32,24 +32,13 @@ from collections.abc import Sequence
 
 from quadcos import evaluation
 from quadcos._util import cli
-from quadcos.deploy import engines, solver
+from quadcos.deploy import engines
 
 _PROG = "quadcos.sim2sim"
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = engines.policy_parser(
-        f"python -m {_PROG}",
-        __doc__,
-        policy_help="run or policy directory, exported .npz or .onnx, or fixed:trot",
-    )
-    parser.add_argument(
-        "--physics",
-        type=solver.physics_choice,
-        default="reference",
-        help="C MuJoCo's solver: the MJCF's iterations (reference, converged), the training"
-        " shortcut's (training), or N/M solver / line-search iterations",
-    )
+    parser = engines.host_parser(f"python -m {_PROG}", __doc__)
     parser.add_argument("--episodes", type=int, default=64, help="episodes, one after another")
     parser.add_argument("--seconds", type=float, default=20.0, help="time limit of an episode, s")
     parser.add_argument(

@@ -29,7 +29,7 @@ from quadcos import evaluation
 from quadcos import terrain as terrain_lib
 from quadcos._util import cli
 from quadcos._util.overrides import parse_overrides
-from quadcos.deploy import host_robot, twins
+from quadcos.deploy import host_robot, solver, twins
 from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.env import commands as env_commands
 from quadcos.equations import reward
@@ -318,6 +318,24 @@ def policy_parser(prog: str, description: str, policy_help: str) -> argparse.Arg
     )
     return cli.raising(parser)
 
+
+
+def host_parser(prog: str, description: str) -> argparse.ArgumentParser:
+    """`policy_parser` for the commands that run a policy in C MuJoCo (`play`, `sim2sim`): every
+    kind of policy, and --physics, C MuJoCo's solver."""
+    parser = policy_parser(
+        prog,
+        description,
+        policy_help="run or policy directory, exported .npz or .onnx, or fixed:trot",
+    )
+    parser.add_argument(
+        "--physics",
+        type=solver.physics_choice,
+        default="reference",
+        help="C MuJoCo's solver: the MJCF's iterations (reference, converged), the training"
+        " shortcut's (training), or N/M solver / line-search iterations",
+    )
+    return parser
 
 def parse_command(
     parser: argparse.ArgumentParser, argv: Sequence[str] | None
