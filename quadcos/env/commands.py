@@ -203,6 +203,22 @@ class Plan:
             return sample(key, self.config)
         return schedule_at(self._velocities, self._ends, time)
 
+    def step(
+        self,
+        command: Command,
+        yaw: jax.Array,
+        dt: float,
+        time_before: jax.Array,
+        time_now: jax.Array,
+    ) -> tuple[dict[str, jax.Array], Command]:
+        """The reward's command arguments for a control step of `dt` s from `time_before` to
+        `time_now` (the heading ψ* advanced on its leash around the robot's `yaw`, rad, and the
+        commanded progress v*·dt, m) and the command after the step (`advance`)."""
+        yaw_rate, leash = command.velocity[1], self.config.heading_leash
+        heading = advance_heading(command.heading, yaw_rate, yaw, dt, leash)
+        tracking = {"heading": heading, "commanded_progress": command.velocity[0] * dt}
+        return tracking, self.advance(command.replace(heading=heading), time_before, time_now)
+
     def advance(self, command: Command, time_before: jax.Array, time_now: jax.Array) -> Command:
         """The command after a control step from `time_before` to `time_now` (s): a random
         command is drawn anew where the step crossed a multiple of `resample_seconds`; a

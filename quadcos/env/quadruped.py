@@ -167,8 +167,8 @@ class QuadrupedEnv(base.Env):
         data = mjx.forward(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
-        observed = self._observe(data, phase, command, info)
-        obs, info = self._seen(observed.obs, info)
+        observed = self._observe(data, phase, command)
+        obs, info = self._seen(self._with_command(observed.obs, info), info)
         zero = jnp.zeros(())
         metrics = {f"reward/{name}": zero for name in reward.TERM_NAMES}
         metrics |= {name: zero for name in _STEP_METRICS}
@@ -201,16 +201,15 @@ class QuadrupedEnv(base.Env):
         data, phase, command = self._actuate(before, phase, command, action, info)
         if self.randomized:
             info["action"] = jnp.clip(action, -1.0, 1.0)
-        attitude = slope.attitude(self.layout.orientation(data))
+        observed = self._observe(data, phase, command)
         position = data.qpos[self.layout.position]
         slope_truth = self.terrain.slope_at(position[0], position[1])
         finite = jnp.isfinite(data.qpos).all() & jnp.isfinite(data.qvel).all()
-        fell = self._fell(data, attitude, slope_truth) | ~finite
+        fell = self._fell(data, observed.attitude, slope_truth) | ~finite
         last = before.qpos[self.layout.position]
         forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
-        tracking, info = self._track(info, attitude.yaw, before.time, data.time)
-        observed = self._observe(data, phase, command, info)
+        tracking, info = self._track(info, observed.attitude.yaw, before.time, data.time)
         terms = reward.reward_terms(
             x_now=position[0],
             x_last=last[0],
@@ -234,7 +233,7 @@ class QuadrupedEnv(base.Env):
             "slope_truth": slope_truth,
             "slope_error": jnp.abs(observed.slope_estimate - slope_truth),
         }
-        obs, info = self._seen(observed.obs, info)
+        obs, info = self._seen(self._with_command(observed.obs, info), info)
         return state.replace(
             pipeline_state=data,
             obs=obs,
@@ -430,11 +429,9 @@ class QuadrupedEnv(base.Env):
         without commands: Eqs. 8–13) and `info` with the command advanced (`commands.Plan`)."""
         if not self.commanded:
             return {}, info
-        command = info["velocity_command"]
-        yaw_rate, leash = command.velocity[1], self.config.commands.heading_leash
-        heading = commands.advance_heading(command.heading, yaw_rate, yaw, self.dt, leash)
-        tracking = {"heading": heading, "commanded_progress": command.velocity[0] * self.dt}
-        following = self.commands.advance(command.replace(heading=heading), before, now)
+        tracking, following = self.commands.step(
+            info["velocity_command"], yaw, self.dt, before, now
+        )
         return tracking, {**info, "velocity_command": following}
 
     def _moving(self, mean_speed: jax.Array, tracking: dict[str, jax.Array]) -> jax.Array | bool:
@@ -455,9 +452,7 @@ class QuadrupedEnv(base.Env):
             return jnp.asarray(oscillator.FIXED_TROT.period, jnp.float32)
         return self.rhythm_parameters(command).period
 
-    def _observe(
-        self, data: mjx.Data, phase: jax.Array, command: jax.Array, info: dict[str, Any]
-    ) -> _Observed:
+    def _observe(self, data: mjx.Data, phase: jax.Array, command: jax.Array) -> _Observed:
         layout = self.layout
         quaternion = layout.orientation(data)
         body = slope.attitude(quaternion)
@@ -475,9 +470,13 @@ class QuadrupedEnv(base.Env):
             parts.append(jnp.stack([jnp.cos(phase), jnp.sin(phase)]))
         if self.config.action_filter_tau > 0:
             parts.append(command)
-        if self.commanded:
-            parts.append(info["velocity_command"].velocity)
         return _Observed(obs=jnp.concatenate(parts), attitude=body, slope_estimate=slope_estimate)
+
+    def _with_command(self, obs: jax.Array, info: dict[str, Any]) -> jax.Array:
+        """The observation with the velocity command (v*, ω*) last, where there are commands."""
+        if not self.commanded:
+            return obs
+        return jnp.concatenate([obs, info["velocity_command"].velocity])
 
     def _fell(self, data: mjx.Data, body: slope.Attitude, slope_truth: jax.Array) -> jax.Array:
         """Torso too low, attitude beyond limits, or the torso box touching the ground."""
