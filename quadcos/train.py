@@ -27,6 +27,7 @@ from quadcos import training
 from quadcos._util import caches, cli, provenance
 from quadcos._util.cli import UsageError
 from quadcos._util.overrides import parse_value
+from quadcos.deploy import calibration
 from quadcos.evaluation import gait_search
 from quadcos.training import host, parallel, reuse, run_dirs
 from quadcos.training.presets import PRESETS, build_config, default_config  # noqa: F401 (re-exported)
@@ -207,7 +208,7 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
             run_dir,
             resume=args.resume,
             trainers=trainers,
-            find_gait=gait_search.find_gait,
+            find_gait=calibration.find_gait,
             progress_bar=not args.no_progress,
             extra_run_info={"argv": argv, "caches": cache_dirs},
             started_at=provenance.process_start(),

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import quadcos
+from quadcos.deploy import twins
 from quadcos.env import commands
 from quadcos.equations import oscillator, reward
 from quadcos.evaluation import metrics, rollout
@@ -233,6 +234,32 @@ def test_turn_extensions_against_numpy():
         [bound * u * sign * rhythm[:, 2 * leg] for leg, sign in enumerate((1, 1, -1, -1))], -1
     )
     np.testing.assert_allclose(oscillator.abduction_stride(rhythm, turn, bound), lateral, atol=1e-7)
+
+
+def test_the_feed_forward_is_a_differential_drive():
+    velocity = np.float32([[0.6, 0.0], [0.6, 0.4], [0.0, 0.4], [0.0, 0.0], [2.0, -3.0]])
+    scales = np.asarray(commands.drive_scales(velocity, 0.3, 0.5, 1.5))
+    expected = [[2.0, 2.0], [1.33333, 2.66667], [-0.66667, 0.66667], [0.0, 0.0], [8.0, 1.67]]
+    np.testing.assert_allclose(scales, np.clip(expected, -1.5, 1.5), rtol=1e-4)
+    rhythm = _rhythm(seed=4)
+    np.testing.assert_array_equal(oscillator.side_scaled(rhythm, np.ones((len(rhythm), 2))), rhythm)
+    sides = np.random.default_rng(5).uniform(-1.5, 1.5, (len(rhythm), 2))
+    expected = rhythm.copy()
+    for leg, side in ((0, 0), (1, 1), (2, 0), (3, 1)):  # LF, RF, LB, RB: left 0, right 1
+        expected[:, 2 * leg] *= sides[:, side]
+    got = oscillator.side_scaled(rhythm, sides)
+    np.testing.assert_allclose(got, expected, rtol=1e-6, atol=1e-7)
+    for row in range(3):
+        np.testing.assert_allclose(
+            twins.side_scaled(rhythm[row], sides[row]), expected[row], rtol=1e-6, atol=1e-7
+        )
+        np.testing.assert_allclose(
+            twins.drive_scales(velocity[row], 0.3, 0.5, 1.5), scales[row], rtol=1e-5
+        )
+    with pytest.raises(ValueError, match="half_track"):
+        quadcos.make_env("flat", **{"commands.half_track": -1.0})
+    with pytest.raises(ValueError, match="feed_forward"):
+        quadcos.make_env("flat", controller="joint", **{"commands.feed_forward": True})
 
 
 # --- the env ----------------------------------------------------------------------------------

@@ -223,20 +223,27 @@ def test_sim2sim_follows_commands(commanded, tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    "robot, turn_mode",
-    [("quadcos", "hip_amplitude_difference"), ("quad12", "abduction_stride")],
+    "robot, turn_mode, feed_forward",
+    [
+        ("quadcos", "hip_amplitude_difference", False),
+        ("quad12", "abduction_stride", False),
+        ("quadcos", "hip_amplitude_difference", True),
+    ],
 )
-def test_host_joint_targets_turn_as_the_envs(robot, turn_mode):
+def test_host_joint_targets_turn_as_the_envs(robot, turn_mode, feed_forward):
     from quadcos import env as env_lib
 
     options = dict(robot=robot, turn_mode=turn_mode, posture_bound=0.2, start_ramp_s=0.5)
+    if feed_forward:  # the command (0.4 m/s, 0.3 rad/s) scales each side's hip swing
+        options |= {"commands.spec": "0.4,0.3@5", "commands.feed_forward": True}
     config = evaluation.env_config(options)
     host = host_robot.HostRobot("flat", config)
     mjx_env = env_lib.QuadrupedEnv("flat", config)
     host.reset(0)
     host.command = np.random.default_rng(3).uniform(-1, 1, host.action_size)
     host.phase, host.data.time = 1.3, 0.3
-    original = mjx_env.joint_targets(host.command.astype(np.float32), 1.3, 0.3)
+    drive = mjx_env.drive_for(np.float32([0.4, 0.3])) if feed_forward else None
+    original = mjx_env.joint_targets(host.command.astype(np.float32), 1.3, 0.3, drive)
     straight = host.command.copy()
     straight[-1] = 0.0
     targets = host._joint_targets  # noqa: SLF001
@@ -244,6 +251,9 @@ def test_host_joint_targets_turn_as_the_envs(robot, turn_mode):
     np.testing.assert_allclose(turned, original, atol=1e-5)
     host.command = straight
     assert np.abs(turned - targets(host.rhythm_parameters())).max() > 1e-3  # the turn acts
+    if feed_forward:  # the drive acts: without it the hips swing otherwise
+        plain = mjx_env.joint_targets(host.command.astype(np.float32), 1.3, 0.3)
+        assert np.abs(targets(host.rhythm_parameters()) - plain).max() > 1e-3
 
 
 def test_tracking_reward_twin_equals_the_envs():

@@ -279,6 +279,12 @@ class HostRobot:
         swing = twins.rhythm_at_phase(phase, params.amplitude_hip, params.amplitude_knee, phases)
         if config.turn_mode == "hip_amplitude_difference":
             swing = twins.hip_amplitude_difference(swing, turn[0], config.turn_bound)
+        if self.commands is not None and config.commands.feed_forward:
+            drive = config.commands
+            scales = twins.drive_scales(
+                self.commands.velocity, drive.reference_speed, drive.half_track, drive.scale_max
+            )
+            swing = twins.side_scaled(swing, scales)
         ramp = twins.start_ramp(self.data.time, config.start_ramp_s)
         targets = swing
         if config.posture_bound > 0:

@@ -59,6 +59,19 @@ def hip_amplitude_difference(rhythm: np.ndarray, turn: float, bound: float) -> n
     return rhythm * (1.0 + turn * (_RIGHT_HIPS - _LEFT_HIPS))
 
 
+def side_scaled(rhythm: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """`oscillator.side_scaled`: (8,) Eq. 3 outputs, left hips × scales[0], right × scales[1]."""
+    left, right = scales
+    return rhythm * (1.0 + (left - 1.0) * _LEFT_HIPS + (right - 1.0) * _RIGHT_HIPS)
+
+
+def drive_scales(velocity: np.ndarray, reference_speed: float, half_track: float, scale_max: float):
+    """`commands.drive_scales`: (2,) left and right hip-swing scales for a command (v*, ω*)."""
+    speed, yaw_rate = velocity
+    sides = np.array([speed - yaw_rate * half_track, speed + yaw_rate * half_track])
+    return np.clip(sides / reference_speed, -scale_max, scale_max)
+
+
 def abduction_stride(rhythm: np.ndarray, turn: float, bound: float) -> np.ndarray:
     """`oscillator.abduction_stride`: (4,) abduction angles, rad (LF, RF, LB, RB), following each
     hip's swing, for a turn action u."""

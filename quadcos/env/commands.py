@@ -52,6 +52,12 @@ def default_config() -> ml_collections.ConfigDict:
     config.zero_yaw_rate_probability = 0.1  # share of draws with ω* = 0 (walking straight)
     config.resample_seconds = 5.0  # s: a random command is drawn anew this often in an episode
     config.heading_leash = 0.5  # rad: the most the commanded heading ψ* may lead or trail the yaw
+    # The command's feed-forward (beyond the paper), off by default: each side's hip swing scaled
+    # by its commanded speed, a differential drive (`drive_scales`), before the policy acts.
+    config.feed_forward = False
+    config.reference_speed = 0.0  # m/s: v_ref, the unscaled rhythm's speed; 0 = speed_max
+    config.half_track = 0.0  # m: b, half the track width; 0 = the robot's (mean |hip y|)
+    config.scale_max = 1.5  # the largest |scale| of a side's hip swing
     return config
 
 
@@ -153,7 +159,23 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}"
         )
+    for key in ("reference_speed", "half_track", "scale_max"):
+        if not 0 <= config[key] < math.inf:
+            raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     return parsed
+
+
+def drive_scales(
+    velocity: jax.Array, reference_speed: float, half_track: float, scale_max: float
+) -> jax.Array:
+    """(2,) the feed-forward's scales of the left and right hips' swing for a command (v*, ω*)
+    (m/s, rad/s): each side's commanded speed, v* ∓ ω*·b for half track b (m), over the speed
+    v_ref (m/s) of the unscaled rhythm, clipped to ±`scale_max` — a differential drive: a side's
+    stride, and so its speed, grows with its hip amplitude. (0, 0) at v* = ω* = 0 (trotting in
+    place); opposite signs turn on the spot (a negative scale strides backwards)."""
+    speed, yaw_rate = velocity[..., 0], velocity[..., 1]
+    sides = jnp.stack([speed - yaw_rate * half_track, speed + yaw_rate * half_track], axis=-1)
+    return jnp.clip(sides / reference_speed, -scale_max, scale_max)
 
 
 @flax.struct.dataclass

@@ -138,6 +138,11 @@ def resolve(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
         resolved.commands.yaw_rate_max = commands.yaw_rate_range(
             robot.preset.command_yaw_rate_max, resolved.commands.speed_max
         )
+    if not resolved.commands.reference_speed:
+        resolved.commands.reference_speed = resolved.commands.speed_max
+    if not resolved.commands.half_track:
+        hips = [abs(leg.hip_position[1]) for leg in robot.description.legs]
+        resolved.commands.half_track = round(sum(hips) / len(hips), 4)
     return resolved
 
 
@@ -266,6 +271,8 @@ def _validate_turn(config: ml_collections.ConfigDict) -> None:
         )
     if config.turn_mode != "none" and config.controller != "oscillator":
         raise ValueError(f"turn_mode {config.turn_mode!r} needs controller='oscillator'")
+    if config.commands.feed_forward and config.controller != "oscillator":
+        raise ValueError("commands.feed_forward scales the rhythm: it needs controller='oscillator'")
     if not 0.0 < config.turn_bound <= 1.0:
         raise ValueError(f"turn_bound must be in (0, 1]; got {config.turn_bound}")
     if config.turn_mode == "abduction_stride":

@@ -271,26 +271,30 @@ class QuadrupedEnv(base.Env):
 
     # --- pieces of a step ---------------------------------------------------------------------
 
-    def joint_targets(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
+    def joint_targets(
+        self, action: jax.Array, phase: jax.Array, time: jax.Array, drive: jax.Array | None = None
+    ) -> jax.Array:
         """(J,) joint targets (rad; the robot's leg joints, `RobotDescription.joint_names`) that
         `action` commands at oscillator phase ψ / time t (s since the episode's start): the home
-        pose moved by the rhythm."""
+        pose moved by the rhythm; `drive`: the command's feed-forward (`drive_for`)."""
         if self.config.controller == "joint":
             return self.layout.home + JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
-        targets = self.layout.rhythm_targets(self.rhythm(action, phase, time))
+        targets = self.layout.rhythm_targets(self.rhythm(action, phase, time, drive))
         if self.config.turn_mode == "abduction_stride":
-            swing = self._swing(action, phase, time) * self._ramp(time)
+            swing = self._swing(action, phase, time, drive) * self._ramp(time)
             turn = action[..., self._turn_index]
             abduction = oscillator.abduction_stride(swing, turn, self.config.turn_bound)
             targets = targets + self.layout.abduction_targets(abduction)
         return targets
 
-    def rhythm(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
+    def rhythm(
+        self, action: jax.Array, phase: jax.Array, time: jax.Array, drive: jax.Array | None = None
+    ) -> jax.Array:
         """(8,) Eq. 3's oscillator outputs (rad; LF hip, LF knee, ..., RB knee) that the oscillator
         controller's `action` commands at phase ψ / time t (s since the episode's start), hip
         offsets included and, with `start_ramp_s`, a growing share of it in the first seconds
         (the "abduction_stride" turn acts on other joints: `joint_targets`)."""
-        targets = self._swing(action, phase, time)
+        targets = self._swing(action, phase, time, drive)
         if self.config.posture_bound > 0:
             targets += oscillator.posture_offsets(
                 action[..., oscillator.RHYTHM_SIZE :], self.config.posture_bound
@@ -309,9 +313,12 @@ class QuadrupedEnv(base.Env):
             return oscillator.start_ramp(time, self.config.start_ramp_s)
         return 1.0
 
-    def _swing(self, action: jax.Array, phase: jax.Array, time: jax.Array) -> jax.Array:
+    def _swing(
+        self, action: jax.Array, phase: jax.Array, time: jax.Array, drive: jax.Array | None
+    ) -> jax.Array:
         """(8,) Eq. 3's outputs for `action`, left and right hips apart with the
-        "hip_amplitude_difference" turn; no posture offsets, no ramp."""
+        "hip_amplitude_difference" turn and the feed-forward's `drive`; no posture offsets, no
+        ramp."""
         params = self.rhythm_parameters(action)
         phases = oscillator.trot_phases(params.phi1, params.phi3)
         if self.config.oscillator_form == "literal":
@@ -325,7 +332,22 @@ class QuadrupedEnv(base.Env):
         if self.config.turn_mode == "hip_amplitude_difference":
             turn = action[..., self._turn_index]
             targets = oscillator.hip_amplitude_difference(targets, turn, self.config.turn_bound)
+        if drive is not None:
+            targets = oscillator.side_scaled(targets, drive)
         return targets
+
+    def drive_for(self, velocity: jax.Array) -> jax.Array | None:
+        """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set
+        (`commands.drive_scales`), or None without the feed-forward."""
+        config = self.config.commands
+        if not (self.commanded and config.feed_forward):
+            return None
+        return commands.drive_scales(
+            velocity,
+            config.reference_speed,
+            config.half_track,
+            config.scale_max,
+        )
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -377,6 +399,7 @@ class QuadrupedEnv(base.Env):
             # into the substep loop, where each splat one is a broadcast kernel every substep;
             # behind a barrier they are built once a control step (docs/benchmarks.md).
             model = jax.lax.optimization_barrier(model)
+        drive = self.drive_for(info["velocity_command"].velocity) if self.commanded else None
 
         def substep(carry, index):
             data, phase, command = carry
@@ -385,7 +408,7 @@ class QuadrupedEnv(base.Env):
                 late = index < randomization.latency_steps(info["physics"])
                 target = jnp.where(late, info["action"], action)
             command = command + blend * (target - command)
-            targets = self.joint_targets(command, phase, data.time)
+            targets = self.joint_targets(command, phase, data.time, drive)
             data = data.replace(ctrl=self.layout.controls(targets, data))
             data = mjx.step(model, data)
             period = self._period(command)

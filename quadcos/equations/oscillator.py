@@ -226,6 +226,14 @@ def hip_amplitude_difference(rhythm: jnp.ndarray, turn: jnp.ndarray, bound: floa
     return rhythm * (1.0 + turn * (_RIGHT_HIPS - _LEFT_HIPS))
 
 
+def side_scaled(rhythm: jnp.ndarray, scales: jnp.ndarray) -> jnp.ndarray:
+    """Eq. 3's outputs (..., 8) with the left hips' swing (LF, LB) × scales[..., 0] and the right
+    hips' (RF, RB) × scales[..., 1], knees unchanged: the command's feed-forward
+    (`quadcos.env.commands.drive_scales`). Scales (1, 1) give Eq. 3 exactly."""
+    left, right = scales[..., 0:1], scales[..., 1:2]
+    return rhythm * (1.0 + (left - 1.0) * _LEFT_HIPS + (right - 1.0) * _RIGHT_HIPS)
+
+
 def abduction_stride(rhythm: jnp.ndarray, turn: jnp.ndarray, bound: float) -> jnp.ndarray:
     """(..., 4) abduction angles (rad, LF, RF, LB, RB; positive moves the foot to the left) that
     rotate each leg's stride for a turn action u (...,) in [−1, 1] (clipped): a leg's abduction

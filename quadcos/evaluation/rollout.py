@@ -93,6 +93,9 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
     qpos, time_now = data.qpos[index], data.time[index]
     body = slope.attitude(qpos[constants.QPOS_QUATERNION])
     command, phase = state.info["command"][index], state.info["phase"][index]
+    drive = None
+    if env.commanded:
+        drive = env.drive_for(state.info["velocity_command"].velocity[index])
     snapshot = {
         "time": time_now,
         "cog_x": qpos[0],
@@ -106,7 +109,7 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
         "forward_speed": state.metrics["forward_speed"][index],
         "reward": state.reward[index],
         "controller": (
-            env.rhythm(command, phase, time_now)
+            env.rhythm(command, phase, time_now, drive)
             if env.config.controller == "oscillator"
             else env.joint_targets(command, phase, time_now)
         ),

@@ -185,6 +185,7 @@ PRESETS["command"] = {
     **PRESETS["scratch"],
     "env.terrain": "flat",
     "env.commands.spec": "random",
+    "env.commands.feed_forward": True,
     "env.turn_mode": "hip_amplitude_difference",
     "env.observe_phase": True,
     "env.action_scale": 0.5,

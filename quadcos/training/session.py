@@ -134,6 +134,9 @@ def _resolve_centre(
         )
     search = find_gait(config)
     config.env.action_centre = search["action_centre"]
+    for key in ("reference_speed", "half_track"):  # the feed-forward measured on the gait found
+        if key in search.get("feed_forward", {}):
+            config.env.commands[key] = search["feed_forward"][key]
     if run_dir is not None:
         run_dir.mkdir(parents=True, exist_ok=True)
         files.atomic_write_text(run_dir / SEARCH_FILE, json.dumps(search, indent=2) + "\n")
