@@ -32,6 +32,7 @@ SETTLE_S = 2.0  # s walked before measuring
 MEASURE_S = 4.0  # s measured
 MIN_SPEED = 0.05  # m/s: slower, the gait cannot be scaled to a command
 MIN_YAW_RATE = 0.01  # rad/s: less (or the wrong way), the sides do not steer it
+PHYSICS = "training"  # the solver iterations the env trains with
 
 
 def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
@@ -103,7 +104,7 @@ def _walk(
 ) -> tuple[float, float]:
     """(speed along the heading, m/s; yaw rate, rad/s) of the zero action under `schedule`,
     over the last MEASURE_S s of each robot's walk, averaged over the robots (NaN for a fall)."""
-    robot = host_robot.HostRobot("flat", config, commands=schedule)
+    robot = host_robot.HostRobot("flat", config, commands=schedule, physics=PHYSICS)
     steps = round((SETTLE_S + MEASURE_S) / robot.dt)
     settle = round(SETTLE_S / robot.dt)
     action = np.zeros(robot.action_size)

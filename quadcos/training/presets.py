@@ -188,7 +188,7 @@ PRESETS["command"] = {
     "env.commands.feed_forward": True,
     "env.turn_mode": "hip_amplitude_difference",
     "env.observe_phase": True,
-    "env.action_scale": 0.5,
+    "env.action_scale": 0.2,
     "env.period_min": 0.15,
     "env.randomization.enabled": True,
     "env.randomization.obs_noise": 0.02,
