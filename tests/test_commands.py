@@ -375,7 +375,7 @@ def test_gait_metrics_on_a_synthetic_trace():
         }, reward_terms={},
     )
     gait = rollout._initial_gait_stats(env, first, base)
-    for step in range(1, 5):
+    for step in range(1, 11):  # two tracking windows of 5 steps
         counts = jnp.array([True, step == 1])
         new = state(step)
         stats = base.replace(
@@ -385,20 +385,22 @@ def test_gait_metrics_on_a_synthetic_trace():
         base = stats
     host = jax.device_get(gait)
     values = [metrics.gait_values(host, i) for i in range(n)]
-    # speed along the heading: 0.05 m per step at a yaw of 0.02·k rad: 0.5·cos(0.02 k) m/s
-    speeds = 0.5 * np.cos(0.02 * np.arange(1, 5))
+    # speed along the heading: 0.05 m per step at a yaw of 0.02·k rad: 0.5·cos(0.02 k) m/s,
+    # averaged over each window of 5 steps (0.5 s)
+    speeds = (0.5 * np.cos(0.02 * np.arange(1, 11))).reshape(2, 5).mean(-1)
     rms = np.sqrt(np.mean((speeds - 0.6) ** 2))
+    assert int(host.windows[0]) == 2 and int(host.windows[1]) == 0
     assert values[0]["speed_tracking_rms"] == pytest.approx(rms, rel=1e-4)
     assert values[0]["yaw_rate_tracking_rms"] == pytest.approx(0.2, rel=1e-3)
+    assert values[1]["speed_tracking_rms"] is None  # it fell before a window closed
     assert values[0]["foot_slip_m_per_s"] == pytest.approx(0.05, rel=1e-4)
-    # |τ·q̇| = 6 W for 0.4 s over 0.2 m: 2.4 J / (4 kg · 9.81 · 0.2 m)
-    assert values[0]["cost_of_transport"] == pytest.approx(2.4 / (4.0 * 9.81 * 0.2), rel=1e-4)
+    # |τ·q̇| = 6 W for 1 s over 0.5 m: 6 J / (4 kg · 9.81 · 0.5 m)
+    assert values[0]["cost_of_transport"] == pytest.approx(6.0 / (4.0 * 9.81 * 0.5), rel=1e-4)
     assert values[0]["peak_joint_torque_ratio"] == pytest.approx(0.2)
     assert int(host.steps[1]) == 1 and float(host.energy[1]) == pytest.approx(0.6)
     pooled = metrics.gait_aggregate(host)
-    errors = np.concatenate([(speeds - 0.6) ** 2, (speeds[:1] - 0.6) ** 2])
-    assert pooled["speed_tracking_rms"] == pytest.approx(np.sqrt(errors.mean()), rel=1e-4)
-    assert pooled["cost_of_transport"] == pytest.approx(3.0 / (4.0 * 9.81 * 0.25), rel=1e-4)
+    assert pooled["speed_tracking_rms"] == pytest.approx(rms, rel=1e-4)  # robot 0's windows
+    assert pooled["cost_of_transport"] == pytest.approx(6.6 / (4.0 * 9.81 * 0.55), rel=1e-4)
     assert pooled["peak_joint_torque_ratio"] == pytest.approx(0.2)
     uncommanded = metrics.gait_values(host.replace(commanded=False), 0)
     assert uncommanded["speed_tracking_rms"] is None

@@ -168,7 +168,9 @@ class _GaitSums:
         self.sums = dict.fromkeys(
             ("speed_sq_error", "yaw_rate_sq_error", "slip_sum", "energy", "path"), 0.0
         )
-        self.sums |= {"slip_steps": 0, "peak_torque_ratio": 0.0}
+        self.sums |= dict.fromkeys(("window_speed_error", "window_yaw_rate_error"), 0.0)
+        self.sums |= {"slip_steps": 0, "peak_torque_ratio": 0.0, "windows": 0}
+        self.steps, self.window = 0, rollout.tracking_window_steps(host.dt)
         self.sample = self._sample(host)
 
     @staticmethod
@@ -192,8 +194,14 @@ class _GaitSums:
         if command is not None:
             speed = (step_x * math.cos(yaw) + step_y * math.sin(yaw)) / dt
             yaw_rate = twins.wrap_angle(yaw - last["yaw"]) / dt
-            sums["speed_sq_error"] += (speed - command[0]) ** 2
-            sums["yaw_rate_sq_error"] += (yaw_rate - command[1]) ** 2
+            sums["window_speed_error"] += speed - command[0]
+            sums["window_yaw_rate_error"] += yaw_rate - command[1]
+        self.steps += 1
+        if command is not None and self.steps % self.window == 0:
+            for name in ("speed", "yaw_rate"):
+                sums[f"{name}_sq_error"] += (sums[f"window_{name}_error"] / self.window) ** 2
+                sums[f"window_{name}_error"] = 0.0
+            sums["windows"] += 1
         slipping = now["touching"] & last["touching"]
         foot_speed = np.linalg.norm(now["feet"] - last["feet"], axis=-1) / dt
         sums["slip_sum"] += float((foot_speed * slipping).sum() / max(slipping.sum(), 1))

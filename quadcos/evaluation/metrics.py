@@ -61,15 +61,16 @@ def _ratio(numerator: float, denominator: float) -> float | None:
 
 def gait_values(stats: GaitEpisodeStats, i: int) -> dict[str, Any]:
     """Episode i's gait quality: `speed_tracking_rms` (m/s) and `yaw_rate_tracking_rms` (rad/s)
-    over its steps (None without commands), `foot_slip_m_per_s` (the mean, over its steps with a
+    of the speed and yaw rate averaged over each of its closed tracking windows
+    (`rollout.TRACKING_WINDOW_S`; None without commands or a closed window), `foot_slip_m_per_s` (the mean, over its steps with a
     foot in contact at both ends, of the horizontal speed of the feet in contact),
     `cost_of_transport` (Σ|τ·q̇|·dt / (m g · horizontal distance travelled)) and
     `peak_joint_torque_ratio` (the largest |τ| / torque limit of any leg joint at any step; None
     where no joint has a finite limit). None where a value is undefined (no step, no distance)."""
-    steps = int(stats.steps[i])
+    steps, windows = int(stats.steps[i]), int(stats.windows[i])
     return {
-        "speed_tracking_rms": _rms(stats.speed_sq_error[i], steps) if stats.commanded else None,
-        "yaw_rate_tracking_rms": _rms(stats.yaw_rate_sq_error[i], steps)
+        "speed_tracking_rms": _rms(stats.speed_sq_error[i], windows) if stats.commanded else None,
+        "yaw_rate_tracking_rms": _rms(stats.yaw_rate_sq_error[i], windows)
         if stats.commanded
         else None,
         "foot_slip_m_per_s": _ratio(float(stats.slip_sum[i]), int(stats.slip_steps[i])),
@@ -86,7 +87,7 @@ def _rms(sum_of_squares: Any, count: int) -> float | None:
 
 def gait_aggregate(stats: GaitEpisodeStats) -> dict[str, Any]:
     """Gait quality over all episodes, every step of every episode pooled: the tracking RMS
-    (sqrt(Σ squared errors / Σ steps); None without commands), the foot slip (Σ / Σ steps with
+    (sqrt(Σ squared window errors / Σ windows); None without commands), the foot slip (Σ / Σ steps with
     contact), the cost of transport (Σ energy / (m g Σ distance)); `peak_joint_torque_ratio`: the
     mean of the episodes' peaks. Episodes with a non-finite value are left out of it."""
 
@@ -99,10 +100,10 @@ def gait_aggregate(stats: GaitEpisodeStats) -> dict[str, Any]:
     peaks = peaks[np.isfinite(peaks) & (np.asarray(stats.steps) > 0)]
     energy, distance = pooled(stats.energy, stats.path)
     return {
-        "speed_tracking_rms": _rms(*pooled(stats.speed_sq_error, stats.steps))
+        "speed_tracking_rms": _rms(*pooled(stats.speed_sq_error, stats.windows))
         if stats.commanded
         else None,
-        "yaw_rate_tracking_rms": _rms(*pooled(stats.yaw_rate_sq_error, stats.steps))
+        "yaw_rate_tracking_rms": _rms(*pooled(stats.yaw_rate_sq_error, stats.windows))
         if stats.commanded
         else None,
         "foot_slip_m_per_s": _ratio(*pooled(stats.slip_sum, stats.slip_steps)),

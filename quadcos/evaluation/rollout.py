@@ -48,6 +48,17 @@ class EpisodeStats:
     reward_terms: dict[str, jax.Array]  # Σ of each term
 
 
+# s: command tracking is measured on the speed and yaw rate averaged over windows this long — a
+# stride or more of the gaits the presets find (periods 0.15-0.4 s), so that the sway within a
+# stride (the yaw rate of a trot swings by about ±0.5 rad/s) is not counted as tracking error.
+TRACKING_WINDOW_S = 0.5
+
+
+def tracking_window_steps(dt: float) -> int:
+    """Control steps of `dt` s in a tracking window (at least 1)."""
+    return max(1, round(TRACKING_WINDOW_S / dt))
+
+
 @flax.struct.dataclass
 class GaitEpisodeStats(EpisodeStats):
     """EpisodeStats with running sums of gait quality, each (n,) unless said; what `rollout`
@@ -58,8 +69,14 @@ class GaitEpisodeStats(EpisodeStats):
     yaw: jax.Array  # rad, after the last step taken
     foot_xy: jax.Array  # (n, 4, 2) m: the feet after the last step taken
     foot_contact: jax.Array  # (n, 4) bool
-    speed_sq_error: jax.Array  # (m/s)²: Σ (v − v*)², v the speed along the robot's heading
-    yaw_rate_sq_error: jax.Array  # (rad/s)²: Σ (ω − ω*)²
+    # Tracking, over windows of TRACKING_WINDOW_S: Σ over the windows closed of the squared mean
+    # error in the window, (m/s)² and (rad/s)² (v the speed along the robot's heading, ω its yaw
+    # rate); the open window's sums of errors; the windows closed.
+    speed_sq_error: jax.Array
+    yaw_rate_sq_error: jax.Array
+    window_speed_error: jax.Array
+    window_yaw_rate_error: jax.Array
+    windows: jax.Array  # int32
     slip_sum: jax.Array  # m/s: Σ over steps of the mean horizontal speed of the feet in contact
     slip_steps: jax.Array  # int32: steps with a foot in contact at both ends
     energy: jax.Array  # J: Σ |τ·q̇| dt over the leg joints
@@ -176,6 +193,9 @@ def _initial_gait_stats(
         foot_contact=touching,
         speed_sq_error=zeros,
         yaw_rate_sq_error=zeros,
+        window_speed_error=zeros,
+        window_yaw_rate_error=zeros,
+        windows=jnp.zeros(num_envs, jnp.int32),
         slip_sum=zeros,
         slip_steps=jnp.zeros(num_envs, jnp.int32),
         energy=zeros,
@@ -213,14 +233,25 @@ def _update_gait_stats(
     def add(total, value):
         return jnp.where(counts, total + value, total)
 
+    window = tracking_window_steps(dt)
+    speed_error = add(gait.window_speed_error, speed - gait.command[:, 0])
+    yaw_rate_error = add(gait.window_yaw_rate_error, yaw_rate - gait.command[:, 1])
+    closed = counts & (stats.steps % window == 0)
+
+    def close(total, errors):
+        return jnp.where(closed, total + (errors / window) ** 2, total)
+
     return GaitEpisodeStats(
         **{field.name: getattr(stats, field.name) for field in dataclasses.fields(EpisodeStats)},
         command=state.info["velocity_command"].velocity if env.commanded else gait.command,
         yaw=yaw,
         foot_xy=feet,
         foot_contact=touching,
-        speed_sq_error=add(gait.speed_sq_error, (speed - gait.command[:, 0]) ** 2),
-        yaw_rate_sq_error=add(gait.yaw_rate_sq_error, (yaw_rate - gait.command[:, 1]) ** 2),
+        speed_sq_error=close(gait.speed_sq_error, speed_error),
+        yaw_rate_sq_error=close(gait.yaw_rate_sq_error, yaw_rate_error),
+        window_speed_error=jnp.where(closed, 0.0, speed_error),
+        window_yaw_rate_error=jnp.where(closed, 0.0, yaw_rate_error),
+        windows=gait.windows + closed.astype(jnp.int32),
         slip_sum=add(gait.slip_sum, slip),
         slip_steps=add(gait.slip_steps, slipping.any(-1).astype(jnp.int32)),
         energy=add(gait.energy, power * dt),
