@@ -173,10 +173,30 @@ def rebuild(record: dict, root: pathlib.Path) -> dict:
     return remade
 
 
+def record_text(record: dict) -> str:
+    """`record` as JSON, small but diffable: a line per field, per number and per source."""
+
+    def dump(value: Any) -> str:
+        return json.dumps(value, ensure_ascii=False)
+
+    lines = []
+    for key, value in record.items():
+        if key in ("numbers", "sources") and value:
+            items = value.items() if key == "numbers" else enumerate(value)
+            inner = ",\n".join(
+                (f"  {dump(k)}: {dump(v)}" if key == "numbers" else f"  {dump(v)}") for k, v in items
+            )
+            brackets = "{}" if key == "numbers" else "[]"
+            lines.append(f" {dump(key)}: {brackets[0]}\n{inner}\n {brackets[1]}")
+        else:
+            lines.append(f" {dump(key)}: {dump(value)}")
+    return "{\n" + ",\n".join(lines) + "\n}\n"
+
+
 def write_record(record: dict, root: pathlib.Path) -> pathlib.Path:
     path = root / RESULTS_DIR / f"{record['name']}.json"
     path.parent.mkdir(exist_ok=True)
-    path.write_text(json.dumps(record, indent=1, ensure_ascii=False) + "\n")
+    path.write_text(record_text(record))
     return path
 
 
