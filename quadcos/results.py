@@ -4,17 +4,23 @@
     python -m quadcos.results --check         # exit 1 naming each table that differs from its records
     python -m quadcos.results record --name flat --claim "..." --device "NVIDIA H200" \\
         --command "bash experiments/run_gpu.sh flat" eval_s0.json eval_s1.json eval_s2.json
+    python -m quadcos.results rebuild         # every record again from its sources, as recorded
 
 A record (`results/NAME.json`) backs one claim: its name, the claim in one line, the command that
 produced it, the commit, the device, the numbers and the evaluation or bench JSONs it summarises
 (`quadcos.evaluate --out`, `quadcos.bench --out`), stripped of per-episode data, so that a record
 stands on its own once the JSONs are gone. `numbers` is every number of those summaries, flat:
-`SOURCE.path.to.value` (`SOURCE` the file's stem, left out for a single source; list items by
-index).
+`SOURCE.path.to.value` (`SOURCE` the file's stem, or `FOLDER/STEM` for each source where two
+share a stem; left out for a single source; list items by index). `--keep GLOB ...` keeps only the values whose path (without `SOURCE.`) matches one of
+the globs, for a record of a few numbers out of large JSONs; the record lists them as `keep`.
+`rebuild` rewrites records from their sources with their recorded name, claim, command, commit,
+device and `keep`; `--check` also fails when a source still in the tree no longer gives its
+record's summary.
 
-A generated table or value in a page sits between `<!-- results:NAME -->` and
+A generated table, value or sentence in a page sits between `<!-- results:NAME -->` and
 `<!-- /results:NAME -->`; `results/tables.json` lays out NAME: `columns`, `align` (`l`/`r` per
-column), `rows` of cell templates, or `text` for a value inside a sentence. A template's fields
+column), `rows` of cell templates, or `text`: a value or a sentence of prose (its marker pair
+inside a paragraph, not at a line's start, so that Markdown renders the text between them). A template's fields
 are `{RECORD:KEY|FORMAT}` (`RECORD:` may be left out for the table's `record`), `{A / B|FORMAT}`
 (a ratio), `{min GLOB|FORMAT}`, `{max GLOB|FORMAT}` and `{count GLOB}` over a record's keys
 (`fnmatch`). FORMAT is Python's, and a trailing `k`, `M` or `%` scales the value by 1e-3, 1e-6
@@ -60,6 +66,22 @@ def strip_episodes(value: Any) -> Any:
     return value
 
 
+def keep_only(value: Any, patterns: Sequence[str], prefix: str = "") -> Any:
+    """`value` with only the leaves whose dotted path matches one of `patterns` (`fnmatch`), and
+    the dicts and lists that hold them; None when nothing matches."""
+    if isinstance(value, (dict, list)):
+        items = value.items() if isinstance(value, dict) else enumerate(value)
+        kept = {}
+        for key, item in items:
+            found = keep_only(item, patterns, f"{prefix}.{key}" if prefix else str(key))
+            if found is not None:
+                kept[key] = found
+        if not kept:
+            return None
+        return kept if isinstance(value, dict) else [kept.get(i) for i in range(max(kept) + 1)]
+    return value if any(fnmatch.fnmatchcase(prefix, pattern) for pattern in patterns) else None
+
+
 def flat_numbers(value: Any, prefix: str = "") -> dict[str, float]:
     """Every number in `value`, keyed by its dotted path (list items by index; booleans are not
     numbers)."""
@@ -77,44 +99,105 @@ def flat_numbers(value: Any, prefix: str = "") -> dict[str, float]:
     return found
 
 
-def numbers_of(sources: Sequence[dict]) -> dict[str, float]:
-    """A record's numbers from its sources: one source's paths as they are, several prefixed by
-    each file's stem."""
-    if len(sources) == 1:
-        return flat_numbers(sources[0]["summary"])
-    found = {}
-    for source in sources:
-        found.update(flat_numbers(source["summary"], pathlib.PurePath(source["path"]).stem))
+def labels(paths: Sequence[str | pathlib.PurePath]) -> list[str]:
+    """Each source's prefix in a record's numbers: its file's stem, or for every source
+    `FOLDER/STEM` where two sources share a stem."""
+    stems = [pathlib.PurePath(path).stem for path in paths]
+    if len(set(stems)) == len(stems):
+        return stems
+    found = [f"{pathlib.PurePath(path).parent.name}/{stem}" for path, stem in zip(paths, stems)]
+    if len(set(found)) < len(found):
+        raise ValueError(f"sources with the same folder and file name: {sorted(found)}")
     return found
 
 
+def numbers_of(sources: Sequence[dict]) -> dict[str, float]:
+    """A record's numbers from its sources: one source's paths as they are, several prefixed by
+    each source's label (`labels`)."""
+    if len(sources) == 1:
+        return flat_numbers(sources[0]["summary"])
+    found = {}
+    for source, label in zip(sources, labels([source["path"] for source in sources])):
+        found.update(flat_numbers(source["summary"], label))
+    return found
+
+
+def summarise(path: pathlib.Path, keep: Sequence[str] = ()) -> dict:
+    """The JSON at `path` without per-episode data (and with only the `keep` globs' values)."""
+    try:
+        summary = strip_episodes(json.loads(pathlib.Path(path).read_text()))
+    except (OSError, json.JSONDecodeError) as error:
+        raise ValueError(f"{path}: not a readable JSON file ({error})") from error
+    if keep:
+        summary = keep_only(summary, keep)
+        if summary is None:
+            raise ValueError(f"{path}: no value matches --keep {' '.join(keep)}")
+    return summary
+
+
 def make_record(
-    name: str, claim: str, command: str, commit: str, device: str, paths: Sequence[pathlib.Path]
+    name: str,
+    claim: str,
+    command: str,
+    commit: str,
+    device: str,
+    paths: Sequence[pathlib.Path],
+    keep: Sequence[str] = (),
 ) -> dict:
-    """The record of `claim`, from the evaluation or bench JSONs at `paths`."""
+    """The record of `claim`, from the evaluation or bench JSONs at `paths` (only the values the
+    `keep` globs match, if any)."""
     if not re.fullmatch(r"[\w.-]+", name):
         raise ValueError(f"record name {name!r}: letters, digits, '_', '.', '-' only")
-    stems = [pathlib.PurePath(path).stem for path in paths]
-    if len(set(stems)) < len(stems):
-        raise ValueError(f"sources with the same file name: {sorted(stems)}")
-    sources = []
-    for path in paths:
-        try:
-            summary = strip_episodes(json.loads(pathlib.Path(path).read_text()))
-        except (OSError, json.JSONDecodeError) as error:
-            raise ValueError(f"{path}: not a readable JSON file ({error})") from error
-        sources.append({"path": str(path), "summary": summary})
+    labels(paths)
+    sources = [{"path": str(path), "summary": summarise(path, keep)} for path in paths]
     if not sources:
         raise ValueError("a record needs at least one source JSON")
-    return {
-        "name": name,
-        "claim": claim,
-        "command": command,
-        "commit": commit,
-        "device": device,
-        "numbers": numbers_of(sources),
-        "sources": sources,
-    }
+    record = {"name": name, "claim": claim, "command": command, "commit": commit, "device": device}
+    if keep:
+        record["keep"] = list(keep)
+    return {**record, "numbers": numbers_of(sources), "sources": sources}
+
+
+def rebuild(record: dict, root: pathlib.Path) -> dict:
+    """`record` made again from its sources under `root`, with its recorded metadata."""
+    paths = [pathlib.PurePath(source["path"]) for source in record["sources"]]
+    for path in paths:
+        if not (root / path).is_file():
+            raise ValueError(f"{RESULTS_DIR}/{record['name']}.json: source {path} is not in the tree")
+    remade = make_record(
+        record["name"], record["claim"], record["command"], record["commit"], record["device"],
+        [root / path for path in paths], record.get("keep", ()),
+    )
+    for source, path in zip(remade["sources"], paths):
+        source["path"] = str(path)
+    return remade
+
+
+def record_text(record: dict) -> str:
+    """`record` as JSON, small but diffable: a line per field, per number and per source."""
+
+    def dump(value: Any) -> str:
+        return json.dumps(value, ensure_ascii=False)
+
+    lines = []
+    for key, value in record.items():
+        if key in ("numbers", "sources") and value:
+            items = value.items() if key == "numbers" else enumerate(value)
+            inner = ",\n".join(
+                (f"  {dump(k)}: {dump(v)}" if key == "numbers" else f"  {dump(v)}") for k, v in items
+            )
+            brackets = "{}" if key == "numbers" else "[]"
+            lines.append(f" {dump(key)}: {brackets[0]}\n{inner}\n {brackets[1]}")
+        else:
+            lines.append(f" {dump(key)}: {dump(value)}")
+    return "{\n" + ",\n".join(lines) + "\n}\n"
+
+
+def write_record(record: dict, root: pathlib.Path) -> pathlib.Path:
+    path = root / RESULTS_DIR / f"{record['name']}.json"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(record_text(record))
+    return path
 
 
 def last_commit(path: pathlib.Path, root: pathlib.Path) -> str:
@@ -226,6 +309,12 @@ def check(root: pathlib.Path) -> list[str]:
         for name, record in records.items()
         if record["numbers"] != numbers_of(record["sources"])
     ]
+    for name, record in records.items():
+        keep = record.get("keep", ())
+        for source in record["sources"]:
+            path = root / source["path"]
+            if path.is_file() and summarise(path, keep) != source["summary"]:
+                problems.append(f"{RESULTS_DIR}/{name}.json: {source['path']} has changed (rebuild it)")
     used = set()
     for page in pages(root):
         relative = page.relative_to(root)
@@ -235,6 +324,8 @@ def check(root: pathlib.Path) -> list[str]:
             if name not in layout:
                 problems.append(f"{relative}: results:{name} has no table in {RESULTS_DIR}/{LAYOUT_FILE}")
                 continue
+            if "text" in layout[name] and match.string[match.start() - 1 : match.start()] in ("", "\n"):
+                problems.append(f"{relative}: results:{name} starts a line (Markdown would not render its text)")
             try:
                 wanted = render(layout[name], records)
             except ValueError as error:
@@ -279,7 +370,11 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument("--command", required=True, dest="run_command", help="what produced the JSONs")
     record.add_argument("--device", required=True, help="e.g. 'NVIDIA H100 80GB HBM3', '2 CPU cores'")
     record.add_argument("--commit", help="default: the last commit that changed the first source")
+    record.add_argument("--keep", nargs="+", default=[], metavar="GLOB", help="only these values")
     record.add_argument("sources", nargs="+", type=pathlib.Path)
+    again = commands.add_parser("rebuild", help="every record (or NAME ...) again from its sources")
+    cli.raising(again)
+    again.add_argument("names", nargs="*", metavar="NAME")
     return parser
 
 
@@ -291,12 +386,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "record":
             commit = args.commit or last_commit(args.sources[0], root)
             record = make_record(
-                args.name, args.claim, args.run_command, commit, args.device, args.sources
+                args.name, args.claim, args.run_command, commit, args.device, args.sources, args.keep
             )
-            path = root / RESULTS_DIR / f"{args.name}.json"
-            path.parent.mkdir(exist_ok=True)
-            path.write_text(json.dumps(record, indent=1) + "\n")
+            path = write_record(record, root)
             print(f"{path}: {len(record['numbers'])} numbers from {len(record['sources'])} sources")
+            return cli.EXIT_OK
+        if args.command == "rebuild":
+            records = load_records(root)
+            unknown = sorted(set(args.names) - set(records))
+            if unknown:
+                raise ValueError(f"no record {unknown[0]!r}; known: {', '.join(sorted(records))}")
+            for name in args.names or sorted(records):
+                path = write_record(rebuild(records[name], root), root)
+                print(f"{path}: {len(records[name]['numbers'])} numbers")
             return cli.EXIT_OK
         if args.check:
             problems = check(root)

@@ -124,3 +124,51 @@ def test_a_template_naming_a_missing_number_is_an_error():
 
 def test_the_benchmarks_page_stays_short():
     assert len((ROOT / "docs" / "benchmarks.md").read_text().splitlines()) <= 250
+
+
+def test_a_changed_value_in_prose_and_a_marker_at_a_line_start_fail_the_check(tmp_path, capsys):
+    root = _copy(tmp_path)
+    page = root / "docs" / "env.md"
+    text = page.read_text()
+    start = text.index("<!-- results:env.randomised_rate -->")
+    end = text.index("<!-- /results:env.randomised_rate -->")
+    body = text[start:end]
+    changed = body.replace(" k against", "1 k against", 1)
+    assert changed != body
+    page.write_text(text[:start] + changed + text[end:])
+    assert results.main(["--root", str(root), "--check"]) == 1
+    assert "docs/env.md: results:env.randomised_rate differs" in capsys.readouterr().out
+    page.write_text(text.replace("H100 with MJX-Warp, <!-- results:env.randomised_rate -->",
+                                 "H100 with MJX-Warp,\n<!-- results:env.randomised_rate -->", 1))
+    assert results.main(["--root", str(root), "--check"]) == 1
+    assert "results:env.randomised_rate starts a line" in capsys.readouterr().out
+
+
+def test_kept_values_rebuild_and_a_changed_source_fails_the_check(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # sources named as in a checkout: relative to its root
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    for folder, rate in (("a", 0.5), ("b", 0.75)):
+        evaluation = {"success_rate": rate, "mean_forward_speed": 0.9, "setup": {"num_envs": 4}}
+        (tmp_path / folder / "eval.json").write_text(json.dumps(evaluation))
+    argv = ["--root", str(tmp_path), "record", "--name", "toy", "--claim", "c", "--command", "c"]
+    argv += ["--device", "CPU", "--commit", "0" * 40, "--keep", "success_rate", "--", "a/eval.json", "b/eval.json"]
+    assert results.main(argv) == 0
+    record = json.loads((tmp_path / "results" / "toy.json").read_text())
+    assert record["numbers"] == {"a/eval.success_rate": 0.5, "b/eval.success_rate": 0.75}
+    assert record["keep"] == ["success_rate"]
+    assert record["sources"][0] == {"path": "a/eval.json", "summary": {"success_rate": 0.5}}
+    (tmp_path / "results" / "tables.json").write_text("{}")
+    assert results.main(["--root", str(tmp_path), "--check"]) == 0
+    (tmp_path / "b" / "eval.json").write_text(json.dumps({"success_rate": 0.25}))
+    assert results.main(["--root", str(tmp_path), "--check"]) == 1
+    assert "results/toy.json: b/eval.json has changed" in capsys.readouterr().out
+    assert results.main(["--root", str(tmp_path), "rebuild", "toy"]) == 0
+    assert results.load_records(tmp_path)["toy"]["numbers"]["b/eval.success_rate"] == 0.25
+    assert results.main(["--root", str(tmp_path), "--check"]) == 0
+
+
+def test_every_record_rebuilds_from_its_sources_unchanged():
+    for name, record in results.load_records(ROOT).items():
+        if all((ROOT / source["path"]).is_file() for source in record["sources"]):
+            assert results.rebuild(record, ROOT) == record, name
