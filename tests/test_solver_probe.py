@@ -61,7 +61,8 @@ def test_candidates_divide_the_control_step_cheapest_first():
     steps = [option.physics_dt for option in options]
     assert steps == sorted(steps, reverse=True) and set(steps) == {0.01, 0.005, 0.0025}
     assert options[0] == solver_probe.SolverOptions(0.01, 4, 8, "pyramidal")
-    assert {option.physics_dt for option in solver_probe.candidates(0.015, reference)} == {0.005, 0.0025}
+    steps = {option.physics_dt for option in solver_probe.candidates(0.015, reference)}
+    assert steps == {0.005, 0.0025}
     slow = solver_probe.SolverOptions(0.005, 100, 50, "elliptic")
     assert {option.physics_dt for option in solver_probe.candidates(0.05, slow)} == {0.01}
 
@@ -78,7 +79,8 @@ def test_judge_rejects_what_strays_from_the_reference():
         ({"trot_forward": 0.2}, "trotted"),
         ({"max_penetration": 0.03}, "deep"),
     ):
-        assert reason in solver_probe.judge(reference, reference._replace(**change), 0.29, tolerances)
+        trial = reference._replace(**change)
+        assert reason in solver_probe.judge(reference, trial, 0.29, tolerances)
     broken = reference._replace(finite=False)
     assert "reference" in solver_probe.judge(broken, reference, 0.29, tolerances)
 

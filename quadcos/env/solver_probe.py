@@ -3,12 +3,13 @@ own do, measured (`probe`).
 
 A robot quadcos has no preset for (`quadcos.robot.presets`) keeps its MJCF's solver: a 2-ms step,
 its cone and up to 100 iterations, which trains several times slower than a preset's 5-ms step at
-4 / 8 iterations. The probe runs a few robots on flat ground with MJX-JAX (vmapped; the CPU too),
-half holding the home pose and half walking the fixed trot (the env's zero action,
-`QuadrupedEnv.zero_action_targets`), first at the options the env would otherwise run (the
-reference), then at each candidate from the cheapest on, and takes the first candidate whose
-robots stay finite, upright and close to the reference (`judge`). The presets were chosen the same
-way (experiments/robots/physics); MJX-JAX, as there, whatever the training physics.
+4 / 8 iterations. The probe runs a few robots on flat ground with MJX-JAX (vmapped; the CPU too):
+a third hold the home pose, a third walk the fixed trot (the env's zero action,
+`QuadrupedEnv.zero_action_targets`), a third a fast gait (`_FAST`). It runs them first at the
+options the env would otherwise run (the reference), then at each candidate from the cheapest on,
+and takes the first candidate whose robots stay finite, upright and close to the reference
+(`judge`). The presets were chosen the same way (experiments/robots/physics); MJX-JAX, as there,
+whatever the training physics.
 
 One compiled rollout serves every candidate of the same cone and iteration counts: the physics
 step and the number of steps are traced values.
@@ -33,7 +34,7 @@ from quadcos._util.quiet import warp_absence_unprinted
 from quadcos.env import config as config_lib
 from quadcos.env.layout import Layout
 from quadcos.env.quadruped import QuadrupedEnv
-from quadcos.equations import slope
+from quadcos.equations import oscillator, slope
 
 with warp_absence_unprinted():
     from mujoco import mjx
@@ -47,7 +48,7 @@ STEPS = (0.01, 0.005, 0.0025)  # s; only those dividing control_dt and longer th
 # (experiments/robots/physics), in a robot or two of 32, which a probe of 2 s cannot see.
 ITERATIONS = ((4, 8), (8, 16))
 CONES = ("pyramidal", "elliptic")
-PROBE_ROBOTS = 8  # half hold the home pose, half trot: a batch small enough for a CPU
+PROBE_ROBOTS = 9  # 3 hold the home pose, 3 trot, 3 walk the fast gait: small enough for a CPU
 PROBE_SECONDS = 2.0  # s: a few periods of the fixed trot
 
 
@@ -69,7 +70,8 @@ class SolverOptions:
 
 
 class Outcome(NamedTuple):
-    """What a rollout did (m, rad): `holding` the robots at the home pose, `trotting` the others."""
+    """What a rollout did (m, rad): a third of the robots hold the home pose, a third walk the fixed
+    trot, the rest a fast gait (`_FAST`: counted in `finite` only)."""
 
     finite: bool
     fell: int  # robots whose base went below the fall height or tilted beyond the fall limit
@@ -202,8 +204,8 @@ def probe(
     log: Callable[[str], None] | None = None,
 ) -> ProbeResult:
     """Measures the cheapest of `options` (default `candidates`) that simulates the robot of env
-    config `config` as the options it would otherwise run with do: `num_robots` robots (half
-    holding, half trotting; default `PROBE_ROBOTS`) for `seconds` s (`PROBE_SECONDS`) on flat
+    config `config` as the options it would otherwise run with do: `num_robots` robots (holding,
+    trotting and walking fast; default `PROBE_ROBOTS`) for `seconds` s (`PROBE_SECONDS`) on flat
     ground, each candidate until one passes; `log` hears a line per candidate.
 
     Raises:
@@ -271,9 +273,11 @@ class _Rollout:
         self.robot = robot = robot_lib.load(config.robot)
         plain = ml_collections.ConfigDict(config.to_dict())
         plain.impl, plain.randomization.enabled = "jax", False
-        env = QuadrupedEnv("flat", plain)  # for its zero action's joint targets
+        env = QuadrupedEnv("flat", plain)  # for its actions' joint targets
         self.layout = layout = env.layout
-        self.trot = np.arange(num_robots) >= num_robots // 2  # the first half holds the home pose
+        self.roles = np.arange(num_robots) % 3  # HOLD, TROT, FAST
+        fast = jnp.zeros(env.action_size).at[: len(_FAST)].set(jnp.array(_FAST))
+        fast_period = env.rhythm_parameters(fast).period if config.controller != "joint" else 1.0
         noise = config.reset_joint_noise
         shape = (num_robots, layout.home.shape[0])
         key = jax.random.PRNGKey(seed)
@@ -282,8 +286,13 @@ class _Rollout:
         fall_height = robot.fall_min_height
         fall_tilt = min(config.fall_max_roll, config.fall_max_pitch_error)
 
-        def step(model, trot, data, stats, late):
-            targets = jnp.where(trot, env.zero_action_targets(data.time), layout.home)
+        def step(model, role, data, stats, late):
+            fast_phase = oscillator.TWO_PI * data.time / fast_period
+            targets = jnp.select(
+                [role == _HOLD, role == _TROT],
+                [layout.home, env.zero_action_targets(data.time)],
+                env.joint_targets(fast, fast_phase, data.time),
+            )
             data = mjx.step(model, data.replace(ctrl=layout.controls(targets, data)))
             attitude = slope.attitude(layout.orientation(data))
             tilt = jnp.maximum(jnp.abs(attitude.roll), jnp.abs(attitude.pitch))
@@ -297,7 +306,7 @@ class _Rollout:
                 penetration=jnp.maximum(stats.penetration, -_contact_dist(data).min(initial=0.0)),
             )
 
-        def one(model, data, joints, trot, steps):
+        def one(model, data, joints, role, steps):
             qpos = data.qpos.at[layout.position].set(spawn)
             qpos = qpos.at[layout.quaternion].set(jnp.array([1.0, 0.0, 0.0, 0.0]))
             data = mjx.forward(model, data.replace(qpos=qpos.at[layout.joint_qpos].set(joints)))
@@ -305,7 +314,7 @@ class _Rollout:
             stats = _Stats(jnp.array(True), jnp.array(False), zero, zero, zero)
 
             def body(index, carry):
-                return step(model, trot, *carry, late=index >= steps // 2)
+                return step(model, role, *carry, late=index >= steps // 2)
 
             data, stats = jax.lax.fori_loop(0, steps, body, (data, stats))
             mean_height = stats.height_sum / (steps - steps // 2)
@@ -328,17 +337,18 @@ class _Rollout:
         model = mjx.put_model(mj_model, impl="jax")
         data = mjx.make_data(mj_model, impl="jax")
         steps = jnp.asarray(round(self.seconds / options.physics_dt), jnp.int32)
-        stats, forward = jax.device_get(self._run(model, data, self.joints, self.trot, steps))
-        finite = bool(stats.finite.all())
-        trot = self.trot
+        stats, forward = jax.device_get(self._run(model, data, self.joints, self.roles, steps))
+        finite = bool(stats.finite.all())  # the fast gait's robots too; they may fall
+        hold, trot = self.roles == _HOLD, self.roles == _TROT
+        judged = hold | trot
         self.outcomes[options] = outcome = Outcome(
             finite=finite,
-            fell=int(stats.fell.sum()) if finite else len(trot),
-            hold_height=float(stats.height_sum[~trot].mean()),
+            fell=int(stats.fell[judged].sum()) if finite else int(judged.sum()),
+            hold_height=float(stats.height_sum[hold].mean()),
             trot_height=float(stats.height_sum[trot].mean()),
-            max_tilt=float(stats.tilt.max()),
+            max_tilt=float(stats.tilt[judged].max()),
             trot_forward=float(forward[trot].mean()),
-            max_penetration=float(stats.penetration.max()),
+            max_penetration=float(stats.penetration[judged].max()),
             seconds=time.perf_counter() - started,
         )
         return outcome
@@ -349,6 +359,11 @@ def _contact_dist(data: mjx.Data) -> jax.Array:
     return data._impl.contact.dist  # noqa: SLF001
 
 
+_HOLD, _TROT = 0, 1  # the robots' roles; the others walk the fast gait
+# The fast gait: both amplitudes at their largest, the shortest period (the action's first three
+# values; the phases the trot's): a gait SAC's exploration reaches, to expose a solver that blows
+# up once the robot moves hard. Its robots only have to stay finite.
+_FAST = (1.0, 1.0, -1.0)
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground, as the env's reset
 
 
