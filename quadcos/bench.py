@@ -49,7 +49,7 @@ from typing import Any
 import jax
 
 from quadcos import training
-from quadcos._util import caches, cli, files
+from quadcos._util import caches, cli, files, quiet
 from quadcos.benchmarking import physics, trainers
 from quadcos.benchmarking import results as results_lib
 from quadcos.benchmarking.settings import (
@@ -151,6 +151,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--walk_eval_episodes", type=int, help="episodes per evaluation")
     parser.add_argument("--skip", default="", help=f"sections to leave out: {','.join(SECTIONS)}")
     parser.add_argument("--only", default="", help="the sections to run (the others are skipped)")
+    parser.add_argument(
+        "--verbose",
+        action="store_true",
+        help="let Warp print its line per kernel module loaded (silenced by default)",
+    )
     return parser
 
 
@@ -388,6 +393,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     cache_state = caches.enable()["state"]  # before anything compiles into it
     try:
         args = cli.raising(_parser()).parse_args(argv)
+        quiet.quiet_warp(args.verbose)  # before anything loads a Warp module
         if args.table:
             table = results_lib.markdown_table(json.loads(pathlib.Path(args.table).read_text()))
             print(table, end="")

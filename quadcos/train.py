@@ -24,7 +24,7 @@ from typing import Any
 from quadcos import env as env_lib
 from quadcos import terrain as terrain_lib
 from quadcos import training
-from quadcos._util import caches, cli, provenance
+from quadcos._util import caches, cli, provenance, quiet
 from quadcos._util.cli import UsageError
 from quadcos._util.overrides import parse_value
 from quadcos.deploy import calibration
@@ -141,6 +141,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--no_progress", action="store_true", help="plain log lines even on a terminal"
     )
+    parser.add_argument(
+        "--verbose",
+        action="store_true",
+        help="let Warp print its line per kernel module loaded (silenced by default)",
+    )
     return parser
 
 
@@ -180,6 +185,7 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
     cache_dirs = caches.enable()
     try:
         args, overrides = resolve(argv)
+        quiet.quiet_warp(args.verbose)  # before anything loads a Warp module
         run_dir = pathlib.Path(args.output_dir) if args.output_dir else None
         if args.resume:
             config = build_config(_saved_config(run_dir), overrides)

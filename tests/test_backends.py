@@ -1,9 +1,15 @@
 """Choosing the MJX implementation: JAX on the CPU, Warp only where it can run."""
 
+import sys
+import types
+
 import ml_collections
 import pytest
 
+from quadcos import bench
 from quadcos import env as env_lib
+from quadcos import train
+from quadcos._util import quiet
 from quadcos.env import backends, warp_arena
 from quadcos.robot import presets
 
@@ -23,6 +29,40 @@ def test_warp_without_warp_lang_says_how_to_install(monkeypatch):
     with pytest.raises(ValueError, match=r"pip install 'quadcos\[warp\]'"):
         backends.resolve_impl("warp")
     assert backends.resolve_impl("auto") == "jax"
+
+
+@pytest.fixture
+def fake_warp(monkeypatch):
+    """A stand-in `warp` module (warp-lang is absent on the CPU machines) that prints its
+    module-load lines, as Warp does by default; QUADCOS_VERBOSE empty."""
+    warp = types.ModuleType("warp")
+    warp.config = types.SimpleNamespace(quiet=False)
+    monkeypatch.setitem(sys.modules, "warp", warp)
+    monkeypatch.setattr(backends, "warp_installed", lambda: True)
+    monkeypatch.setenv(quiet.VERBOSE_ENV, "")  # restored after the test, whatever it sets
+    return warp
+
+
+def test_warp_is_quiet_by_default_and_verbose_keeps_its_lines(fake_warp, monkeypatch):
+    assert backends.resolve_impl("warp") == "warp" and fake_warp.config.quiet
+    quiet.quiet_warp(verbose=True)
+    assert not fake_warp.config.quiet
+    backends.resolve_impl("warp")  # the env's own call keeps the choice
+    assert not fake_warp.config.quiet
+
+
+@pytest.mark.parametrize("verbose", [False, True])
+def test_train_silences_warp_before_building_anything_unless_verbose(fake_warp, verbose, capsys):
+    flags = ["--print_config", *(["--verbose"] if verbose else [])]
+    assert train.main(flags) == 0  # returns before any env is built
+    capsys.readouterr()
+    assert fake_warp.config.quiet is not verbose
+
+
+def test_the_bench_takes_verbose():
+    assert bench._parser().parse_args(["--verbose"]).verbose  # noqa: SLF001
+    assert not bench._parser().parse_args([]).verbose  # noqa: SLF001
+    assert train.resolve(["--verbose"])[0].verbose and not train.resolve([])[0].verbose
 
 
 def test_warp_buffers_scale_with_the_batch_and_the_robots_contacts():

@@ -55,10 +55,13 @@ def _imports(path: pathlib.Path) -> set[str]:
 
 
 def _layer(name: str) -> int:
-    """0.. for the layers, len(LAYERS) for the command lines, one more for the package facade."""
+    """0.. for the layers, len(LAYERS) for the command lines (a package's `__main__` is one),
+    one more for the package facade."""
     parts = name.split(".")
     if len(parts) == 1:
         return len(LAYERS) + 1
+    if parts[-1] == "__main__":
+        return len(LAYERS)
     if parts[1] in LAYERS:
         return LAYERS.index(parts[1])
     if parts[1] in COMMANDS:
@@ -107,6 +110,7 @@ def test_the_checks_can_fail():
     """A command line importing another, and a lower layer importing a higher one, are caught."""
     assert _layer("quadcos.equations.slope") < _layer("quadcos.env.quadruped")
     assert _layer("quadcos.train") == _layer("quadcos.sim2sim")  # so neither may import the other
+    assert _layer("quadcos.robot.__main__") == _layer("quadcos.train")
     assert "quadcos.env.backends" in GRAPH["quadcos.env.quadruped"]
 
 

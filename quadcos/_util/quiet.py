@@ -1,4 +1,4 @@
-"""Quiet imports of third-party modules that print to stdout.
+"""Quiet imports of third-party modules that print to stdout, and Warp's module-load lines.
 
 mujoco-mjx prints "Failed to import warp: No module named 'warp'" (and the same for mujoco_warp)
 to stdout on import when the optional warp-lang is absent. quadcos runs MJX's JAX implementation,
@@ -8,6 +8,7 @@ so the notice says nothing; printed to stdout it corrupts what a command prints 
 
 import contextlib
 import io
+import os
 import re
 import sys
 from collections.abc import Iterator
@@ -27,3 +28,20 @@ def warp_absence_unprinted() -> Iterator[None]:
         for line in captured.getvalue().splitlines():
             if not _WARP_ABSENT.fullmatch(line.strip()):
                 print(line, file=sys.stderr)
+
+
+VERBOSE_ENV = "QUADCOS_VERBOSE"  # "1": Warp prints its module-load lines (the CLIs' --verbose)
+
+
+def quiet_warp(verbose: bool = False) -> None:
+    """Silences Warp's line per kernel module loaded ("Module ... load on device 'cuda:0' took
+    ... ms (cached)", ~36 a process) unless `verbose` or `QUADCOS_VERBOSE=1`. `verbose` sets
+    `QUADCOS_VERBOSE`, so that later calls (`quadcos.env.backends.resolve_impl`, before Warp
+    loads a module) and child processes keep it. Nothing without warp-lang."""
+    if verbose:
+        os.environ[VERBOSE_ENV] = "1"
+    try:
+        import warp  # noqa: PLC0415 — only where it is installed
+    except ImportError:
+        return
+    warp.config.quiet = os.environ.get(VERBOSE_ENV, "") != "1"

@@ -17,6 +17,7 @@ import jax
 import ml_collections
 import mujoco
 
+from quadcos._util import quiet
 from quadcos._util.quiet import warp_absence_unprinted
 from quadcos.env import warp_arena
 
@@ -54,9 +55,7 @@ def resolve_impl(impl: str, gpu_physics: str = "warp") -> str:
     if impl == "warp":
         if not warp_installed():
             raise ValueError(f"impl 'warp' needs warp-lang, which is not installed: {INSTALL_HINT}")
-        import warp  # noqa: PLC0415 — only where Warp runs
-
-        warp.config.quiet = True  # no line per kernel module loaded
+        quiet.quiet_warp()  # before Warp loads a module: no line per module (unless --verbose)
     return impl
 
 

@@ -39,6 +39,12 @@ def default_config() -> ml_collections.ConfigDict:
     config.substep_unroll = 1
     config.solver_iterations = 0  # 0 = the robot's preset's, else the MJCF's
     config.ls_iterations = 0  # 0 = the robot's preset's, else the MJCF's
+    # Friction cones, "pyramidal" or "elliptic"; "" = the robot preset's, else the MJCF's.
+    config.cone = ""
+    # A robot without a preset (quadcos.robot.presets): a training run measures the cheapest
+    # stable physics_dt, iterations and cone (quadcos.env.solver_probe) where all four above are
+    # left to the robot; False keeps its MJCF's.
+    config.solver_probe = True
     config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
     # "phase" integrates ψ += 2π dt/T every physics step (continuous when T changes); "literal"
     # evaluates Eq. 3 at 2πt/T. Equal while T is constant; see quadcos.oscillator.
@@ -128,6 +134,8 @@ def resolve(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
         resolved.solver_iterations = robot.preset.solver_iterations
     if not resolved.ls_iterations:
         resolved.ls_iterations = robot.preset.ls_iterations
+    if not resolved.cone:
+        resolved.cone = robot.preset.cone
     if not resolved.warp.hfield_contacts:
         resolved.warp.hfield_contacts = robot.preset.hfield_contacts
     if not resolved.commands.speed_max:
@@ -164,6 +172,10 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
     if config.impl not in backends.IMPLS:
         raise ValueError(f"unknown impl {config.impl!r}; known: {', '.join(backends.IMPLS)}")
     _validate_warp(config.warp)
+    if config.cone not in ("", *robot_lib.prepare.CONES):
+        raise ValueError(
+            f"unknown cone {config.cone!r}; known: {', '.join(robot_lib.prepare.CONES)}"
+        )
     if not (isinstance(config.substep_unroll, int) and config.substep_unroll >= 1):
         raise ValueError(
             f"substep_unroll must be a whole number >= 1; got {config.substep_unroll!r}"

@@ -81,6 +81,7 @@ class QuadrupedEnv(base.Env):
             timestep=config.physics_dt,
             solver_iterations=config.solver_iterations,
             ls_iterations=config.ls_iterations,
+            cone=config.cone,
         )
         self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)

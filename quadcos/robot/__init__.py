@@ -8,7 +8,7 @@ Modules, lowest first: `constants` (the paper's robot), `sources` (spec → MJCF
 from the compiled model), `loading` (`Robot`, `load`), `mjcf` (`build_model`).
 """
 
-from quadcos.robot import constants, presets, sources
+from quadcos.robot import constants, prepare, presets, sources
 from quadcos.robot.description import Leg, RobotDescription, describe
 from quadcos.robot.loading import Robot, load
 from quadcos.robot.mjcf import build_model
@@ -24,6 +24,7 @@ __all__ = [
     "constants",
     "describe",
     "load",
+    "prepare",
     "presets",
     "register",
     "sources",

@@ -37,7 +37,7 @@ class Robot:
             feet = [leg.foot_geom for leg in self.description.legs]
             prepare.apply_collision_profile(spec, feet, self.preset.collision)
         if self.preset.cone:
-            spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{self.preset.cone.upper()}")
+            prepare.set_cone(spec, self.preset.cone)
         if self.preset.joint_frictionloss is not None:
             for joint in spec.joints:
                 if joint.type == mujoco.mjtJoint.mjJNT_HINGE:

@@ -4,6 +4,7 @@ from typing import Protocol
 
 import mujoco
 
+from quadcos.robot import prepare
 from quadcos.robot.loading import Robot
 
 
@@ -22,6 +23,7 @@ def build_model(
     timestep: float,
     solver_iterations: int = 0,
     ls_iterations: int = 0,
+    cone: str = "",
 ) -> mujoco.MjModel:
     """Compile `robot` on `terrain` into an MjModel.
 
@@ -30,6 +32,8 @@ def build_model(
       robot: the robot (`quadcos.robot.load`).
       timestep: the physics step, s.
       solver_iterations, ls_iterations: constraint solver iterations (0 keeps the MJCF's).
+      cone: "pyramidal" or "elliptic" friction cones; "" keeps the robot preset's (else the
+        MJCF's).
 
     Raises:
       ValueError: the robot does not compile on the terrain, naming both.
@@ -41,6 +45,8 @@ def build_model(
         spec.option.iterations = solver_iterations
     if ls_iterations:
         spec.option.ls_iterations = ls_iterations
+    if cone:
+        prepare.set_cone(spec, cone)
     try:
         return spec.compile()
     except Exception as error:  # mujoco raises plain ValueError with the compiler's message

@@ -23,6 +23,7 @@ from collections.abc import Sequence
 import mujoco
 
 COLLISION_PROFILES = ("feet", "all")
+CONES = ("pyramidal", "elliptic")
 # The paper's feet (models/mjcf/quadruped.xml): contype 1 against the ground's conaffinity 1; the
 # ground has contype 0 (quadcos.terrain.ground), so feet never collide with each other.
 FOOT_CONTYPE = 1
@@ -115,6 +116,17 @@ def apply_collision_profile(
     for pair in list(spec.pairs):
         if {pair.geomname1, pair.geomname2} & silenced:
             spec.delete(pair)
+
+
+def set_cone(spec: mujoco.MjSpec, cone: str) -> None:
+    """Give `spec` friction cones of kind `cone` ("pyramidal" or "elliptic"), in place.
+
+    Raises:
+      ValueError: an unknown cone.
+    """
+    if cone not in CONES:
+        raise ValueError(f"unknown cone {cone!r}; known: {', '.join(CONES)}")
+    spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{cone.upper()}")
 
 
 def _is_visual(geom: mujoco.MjsGeom) -> bool:

@@ -27,6 +27,8 @@ LEGACY_VALUES: dict[str, Any] = {
     "env.spawn_x_max": 0.0,
     # The first runs that paid r_s only for movement judged each step's own speed.
     "env.survival_speed_tau": 0.0,
+    # Before the solver probe, a robot without a preset kept its MJCF's physics.
+    "env.solver_probe": False,
     # Before exploration could start from the action centre, SAC was Brax's.
     "sac.actor_warmup_steps": 0,
     "sac.init_alpha": 1.0,

@@ -8,6 +8,7 @@ run of the same programs.
 """
 
 import json
+import logging
 import os
 import pathlib
 from collections.abc import Callable
@@ -18,11 +19,13 @@ import ml_collections
 
 from quadcos import env as env_lib
 from quadcos._util import files
+from quadcos.env import solver_probe
 from quadcos.equations import oscillator
 from quadcos.training import host, loop, reuse
 from quadcos.training.checks import ConfigError
 
 SEARCH_FILE = "gait_search.json"
+logger = logging.getLogger(__name__)
 
 # config -> the search's result with "action_centre" (`quadcos.evaluation.gait_search.find_gait`:
 # the search evaluates fixed gaits, a layer above training, so the caller hands it in).
@@ -51,8 +54,11 @@ def run(
     """Trains the run `config` describes (`{"env", "sac"}`: `quadcos.training.presets.build_config`).
 
     Sets `config.env.warp.max_envs` to the largest batch of the run (training, evaluation, gait
-    search). With `env.action_centre="search"`, first runs `find_gait` on the run's terrain and
-    trains from the gait it found (in `config.env.action_centre`, and `run_dir`/gait_search.json).
+    search). For a robot without a preset whose physics the config leaves to it, measures the
+    cheapest stable physics (`quadcos.env.solver_probe`), logs it in one line and puts it in
+    `config.env` (so config.json holds it: a resumed or evaluated run probes nothing). With
+    `env.action_centre="search"`, first runs `find_gait` on the run's terrain and trains from
+    the gait it found (in `config.env.action_centre`, and `run_dir`/gait_search.json).
     Then builds the envs, or takes them and their compiled trainer from `trainers` when it holds
     a run of the same programs (`reuse.program_key`), trains with `loop.train` and keeps the envs
     and trainer in `trainers`.
@@ -65,9 +71,11 @@ def run(
       find_gait: the gait search (`quadcos.evaluation.gait_search.find_gait`); needed only with
         `env.action_centre="search"`.
       progress, progress_bar, started_at, startup: as for `loop.train`; `startup` is marked
-        after the gait search ("gait_search") and the envs ("envs_built").
+        after the solver probe ("solver_probe"), the gait search ("gait_search") and the envs
+        ("envs_built").
       extra_run_info: stored in config.json's `run_info` beside the env config, the physics
-        implementation, the robot's provenance and the gait search's wall time.
+        implementation, the robot's provenance, the gait search's wall time and the solver
+        probe's measurements.
 
     Returns:
       `loop.train`'s result.
@@ -84,6 +92,9 @@ def run(
         config.sac.num_eval_envs,
         search_envs(config),
     )
+    probed = _probe_physics(config.env)
+    if probed is not None:
+        startup.mark("solver_probe")
     search = _resolve_centre(config, run_dir, find_gait)
     if search is not None:
         startup.mark("gait_search")
@@ -107,6 +118,7 @@ def run(
             "impl": env.impl,
             "robot": env.robot.provenance(),
             **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
+            **({"solver_probe": probed} if probed else {}),
         },
         started_at=started_at,
         startup=startup,
@@ -115,6 +127,17 @@ def run(
     if trainers is not None:
         trainers.keep(key, env, eval_env, result.trainer)
     return result
+
+
+def _probe_physics(env_config: ml_collections.ConfigDict) -> dict[str, Any] | None:
+    """For an env config whose robot needs it (`solver_probe.needs_probe`): the probe's record,
+    its choice written into `env_config`. Otherwise nothing (None)."""
+    if not solver_probe.needs_probe(env_config):
+        return None
+    result = solver_probe.probe(env_config)
+    logger.info("%s", result.message)
+    solver_probe.apply(env_config, result)
+    return result.record()
 
 
 def _resolve_centre(
