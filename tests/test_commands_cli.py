@@ -280,3 +280,42 @@ def test_mjx_evaluation_records_policy_env_steps(commanded):
     result = evaluation.evaluate(str(commanded), num_envs=2, seconds=0.1, commands="0.5,0@5")
     assert result.summary["setup"]["policy_env_steps"] == 1234
     assert result.summary["speed_tracking_rms"] is not None
+
+
+# --- the feed-forward measured on a gait ----------------------------------------------------------
+
+
+def test_the_feed_forward_is_measured_on_the_gait_and_applied_to_the_run(monkeypatch, tmp_path):
+    from quadcos.deploy import calibration
+    from quadcos.training import presets, session
+
+    monkeypatch.setattr(calibration, "SETTLE_S", 0.5)
+    monkeypatch.setattr(calibration, "MEASURE_S", 1.0)
+    config = evaluation.env_config({"commands.spec": "random", "commands.feed_forward": True})
+    measured = calibration.measure(config, robots=1)
+    # the paper's robot trots forward at scale 1 and turns with its sides apart (the fixed trot
+    # turns right with the right side's longer strides: b < 0)
+    assert measured["speed"] > calibration.MIN_SPEED
+    assert measured["reference_speed"] == pytest.approx(measured["speed"], abs=1e-4)
+    assert abs(measured["yaw_rate"]) > calibration.MIN_YAW_RATE
+    expected = calibration.SIDE_DIFFERENCE * measured["speed"] / measured["yaw_rate"]
+    assert measured["half_track"] == pytest.approx(expected, rel=1e-3)
+    # a gait that does not walk keeps the config's values (v_ref = speed_max)
+    standing = evaluation.env_config(
+        {
+            "commands.spec": "random",
+            "commands.feed_forward": True,
+            "action_centre": "0.01,0.01,1,0,3.14",
+        }
+    )
+    kept = calibration.measure(standing, robots=1)
+    assert kept["reference_speed"] == host_robot.env_lib.resolve(standing).commands.speed_max
+    # training.run's search step puts what the search measured into the run's config
+    run = presets.build_config({"env.action_centre": "search"}, {})
+    found = {
+        "action_centre": "0.1,0.2,0.3,0,3.14",
+        "feed_forward": {"reference_speed": 0.7, "half_track": 0.4},
+    }
+    session._resolve_centre(run, tmp_path, lambda config: found)  # noqa: SLF001
+    assert run.env.action_centre == found["action_centre"]
+    assert (run.env.commands.reference_speed, run.env.commands.half_track) == (0.7, 0.4)

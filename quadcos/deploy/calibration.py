@@ -6,7 +6,8 @@ Neither v_ref nor the effective half track b is known before the gait is: a legg
 slip and its diagonal pairs couple the sides, so b is several times the hips' half track. Both are
 measured here on the found gait, walking in C MuJoCo (the converged reference solver) for a few
 seconds on flat ground without randomisation: straight with both sides at scale 1 (its speed is
-v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v_ref / ω). A fresh policy then
+v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v_ref / ω; negative where the
+gait's phases make the longer strides of the right side turn it right). A fresh policy then
 walks near v* and turns near ω*, and SAC learns what the drive misses.
 
 `find_gait` is `quadcos.evaluation.gait_search.find_gait` with this measurement added to its
@@ -31,7 +32,7 @@ SIDE_DIFFERENCE = 0.3  # δ: the sides' scales 1 ∓ δ of the turning measureme
 SETTLE_S = 2.0  # s walked before measuring
 MEASURE_S = 4.0  # s measured
 MIN_SPEED = 0.05  # m/s: slower, the gait cannot be scaled to a command
-MIN_YAW_RATE = 0.01  # rad/s: less (or the wrong way), the sides do not steer it
+MIN_YAW_RATE = 0.01  # rad/s: less, the sides do not steer it
 PHYSICS = "training"  # the solver iterations the env trains with
 
 
@@ -80,7 +81,7 @@ def measure(
         )
         return result
     result["reference_speed"] = round(speed, 4)
-    if yaw_rate >= MIN_YAW_RATE:
+    if abs(yaw_rate) >= MIN_YAW_RATE:  # b < 0 where the right side's longer strides turn right
         result["half_track"] = round(SIDE_DIFFERENCE * speed / yaw_rate, 4)
     else:
         logger.warning(

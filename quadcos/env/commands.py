@@ -56,7 +56,9 @@ def default_config() -> ml_collections.ConfigDict:
     # by its commanded speed, a differential drive (`drive_scales`), before the policy acts.
     config.feed_forward = False
     config.reference_speed = 0.0  # m/s: v_ref, the unscaled rhythm's speed; 0 = speed_max
-    config.half_track = 0.0  # m: b, half the track width; 0 = the robot's (mean |hip y|)
+    # m: b, the effective half track (negative: the gait turns away from its longer strides);
+    # 0 = the robot's (mean |hip y|)
+    config.half_track = 0.0
     config.scale_max = 1.5  # the largest |scale| of a side's hip swing
     return config
 
@@ -159,9 +161,11 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}"
         )
-    for key in ("reference_speed", "half_track", "scale_max"):
+    for key in ("reference_speed", "scale_max"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
+    if not math.isfinite(config.half_track):
+        raise ValueError(f"commands.half_track must be finite; got {config.half_track}")
     return parsed
 
 
