@@ -41,13 +41,6 @@ def main() -> None:
         plots.plot_attitude(trace, title=f"{course}: attitude", path=slope5 / f"{course}_attitude.png")
         plots.plot_controller(trace, title=f"{course}: controller outputs (Figs. {figs})",
                               path=slope5 / f"{course}_controller.png")
-    run = HERE / "any_slope" / "posture" / "posture_cap_s0"  # policies/any_slope
-    for course in ("slope5", "s4"):
-        trace = run / f"trace_posture_cap_s0_{course}.json"
-        label = f"any_slope on {course}"
-        plots.plot_cog(trace, title=f"{label}: CoG", path=run / f"{course}_cog.png")
-        plots.plot_attitude(trace, title=f"{label}: attitude", path=run / f"{course}_attitude.png")
-        plots.plot_controller(trace, title=f"{label}: controller outputs", path=run / f"{course}_controller.png")
     plots.plot_cog(fixed / "trace_slope5.json", title="best fixed parameters on slope5 (Fig. 15)",
                    path=fixed / "fig15_cog.png")
     plots.plot_attitude(fixed / "trace_slope5.json", title="best fixed parameters on slope5: attitude",

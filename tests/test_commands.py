@@ -332,6 +332,17 @@ class _Data:
     qvel: jax.Array
 
 
+@pytest.mark.parametrize("terrain", ["flat", "slope5"])
+def test_the_layouts_feet_are_the_foot_geoms_of_the_model_on_a_terrain(terrain):
+    env = quadcos.make_env(terrain)
+    model = env.mj_model
+    for geom, radius, leg in zip(
+        np.asarray(env.layout.foot_geoms), np.asarray(env.layout.foot_radius), "LF RF LB RB".split()
+    ):
+        assert model.geom(int(geom)).name == f"{leg}_foot"
+        assert model.geom_size[geom][0] == pytest.approx(radius)
+
+
 def test_gait_metrics_on_a_synthetic_trace():
     """Two robots, 0.1-s steps: robot 0 walks +x at 0.5 m/s (commanded 0.6) turning at 0.2 rad/s
     (commanded 0), one foot on the ground slipping 0.05 m/s; robot 1 falls at its first step."""

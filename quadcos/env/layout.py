@@ -13,6 +13,7 @@ import numpy as np
 from quadcos.equations import kinematics
 from quadcos.equations.kinematics import Chains
 from quadcos.robot.description import RobotDescription
+from quadcos.terrain.ground import FLOOR_GEOM
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,7 +89,9 @@ class Layout:
             standing_height=description.standing_height,
             torso_centre=array(description.torso_centre),
             torso_half_size=array(description.torso_half_size),
-            foot_geoms=array([leg.foot_geom for leg in description.legs], xp.int32),
+            foot_geoms=array(
+                [leg.foot_geom + _geoms_before_robot(model) for leg in description.legs], xp.int32
+            ),
             foot_radius=array([leg.foot_radius for leg in description.legs]),
             mass=description.mass,
         )
@@ -128,6 +131,13 @@ class Layout:
         if self.orientation_sensor is not None:
             return data.sensordata[self.orientation_sensor]
         return data.qpos[self.quaternion]
+
+
+def _geoms_before_robot(model: mujoco.MjModel) -> int:
+    """Geoms that `model` has before the robot's own that its description does not count: a
+    terrain's ground (a world geom, so numbered before every body's) where `model` has one. The
+    description's geom ids are those of the robot compiled alone."""
+    return int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, FLOOR_GEOM) >= 0)
 
 
 def _abduction_map(description: RobotDescription, model: mujoco.MjModel) -> np.ndarray:
