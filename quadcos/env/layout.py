@@ -155,3 +155,23 @@ def _abduction_map(description: RobotDescription, model: mujoco.MjModel) -> np.n
         sideways = np.cross(data.xaxis[joint], lever)[1]
         mapping[description.joint_names.index(leg.abduction), index] = np.sign(sideways)
     return mapping
+
+
+def fallen(
+    layout: Layout, terrain: Any, config: Any, data: Any, torso: int, body: Any, slope_truth: Any
+) -> Any:
+    """Whether a robot (MJX data, one robot) has fallen: its torso lower than `fall_min_height`
+    above `terrain`, its roll or pitch error (against the true slope, rad) beyond the config's
+    limits, or a corner of its torso box (body id `torso`) below the ground; `body` its attitude."""
+    position = data.qpos[layout.position]
+    clearance = position[2] - terrain.height_at(position[0], position[1])
+    signs = jnp.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    box = layout.torso_centre + signs * layout.torso_half_size
+    corners = data.xpos[torso] + box @ data.xmat[torso].T
+    corner_clearance = corners[:, 2] - terrain.height_at(corners[:, 0], corners[:, 1])
+    return (
+        (clearance < config.fall_min_height)
+        | (jnp.abs(body.roll) > config.fall_max_roll)
+        | (jnp.abs(body.pitch - slope_truth) > config.fall_max_pitch_error)
+        | (corner_clearance.min() < 0.0)
+    )

@@ -27,7 +27,7 @@ from quadcos.env.config import (  # noqa: F401 (the config's home; re-exported a
     resolve,
     validate_config,
 )
-from quadcos.env.layout import Layout
+from quadcos.env.layout import Layout, fallen
 from quadcos.equations import kinematics, oscillator, reward, slope
 
 # The first import of MJX in a quadcos process (brax imports it too).
@@ -504,21 +504,8 @@ class QuadrupedEnv(base.Env):
 
     def _fell(self, data: mjx.Data, body: slope.Attitude, slope_truth: jax.Array) -> jax.Array:
         """Torso too low, attitude beyond limits, or the torso box touching the ground."""
-        layout = self.layout
-        position = data.qpos[layout.position]
-        clearance = position[2] - self.terrain.height_at(position[0], position[1])
-        torso = self._torso_body
-        signs = jnp.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-        box = layout.torso_centre + signs * layout.torso_half_size
-        corners = data.xpos[torso] + box @ data.xmat[torso].T
-        corner_clearance = corners[:, 2] - self.terrain.height_at(corners[:, 0], corners[:, 1])
-        config = self.config
-        return (
-            (clearance < config.fall_min_height)
-            | (jnp.abs(body.roll) > config.fall_max_roll)
-            | (jnp.abs(body.pitch - slope_truth) > config.fall_max_pitch_error)
-            | (corner_clearance.min() < 0.0)
-        )
+        layout, torso = self.layout, self._torso_body
+        return fallen(layout, self.terrain, self.config, data, torso, body, slope_truth)
 
 
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
