@@ -1,11 +1,16 @@
 """The commanded-gait table of experiments/commands/README.md, from the evaluation and robustness
 JSONs beside this file (`run_gpu.sh evaluate` writes them; per-episode data removed) and the
-policies' configs:
+policies' configs, and its figure (commanded against achieved velocity of each shipped command
+policy on one schedule: 8 episodes, the first traced; runs on a CPU):
 
-    python experiments/commands/table.py     # the results table, then the levers' rows
+    python experiments/commands/table.py     # the results table, the engines', the levers' rows
+    MENAGERIE_ROOT=DIR python experiments/commands/table.py --figure   # docs/command_tracking.png
 """
 
 import json
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).parent
@@ -93,7 +98,53 @@ def levers() -> str:
     return "\n".join(rows)
 
 
+ENGINES = {  # row -> the evaluation JSON of the Go1 command policy on SCHEDULE, nominal physics
+    "MJX (JAX)": "unitree_go1_nominal_eval.json",
+    "C MuJoCo": "unitree_go1_mujoco_eval.json",
+    "C MuJoCo, ONNX policy": "unitree_go1_onnx_eval.json",
+}
+
+
+def engines() -> str:
+    """The rows of the sim-to-sim table: the Go1 command policy on SCHEDULE in each engine."""
+    rows = []
+    for label, name in ENGINES.items():
+        e = _load(name)
+        rows.append(
+            f"| {label} | {e['success_rate'] * e['num_episodes']:.0f} / {e['num_episodes']} |"
+            f" {e['speed_tracking_rms']:.3f} | {e['yaw_rate_tracking_rms']:.3f} |"
+            f" {e['mean_max_abs_pitch_error']:.3f} | {e['mean_max_abs_roll']:.3f} |"
+        )
+    return "\n".join(rows)
+
+
+SCHEDULE = "0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5"
+FIGURE_POLICIES = {"Go1": "unitree_go1_command", "Go2": "unitree_go2_command"}
+
+
+def figure() -> None:
+    from quadcos.viz import plots
+
+    traces = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        for label, name in FIGURE_POLICIES.items():
+            trace = Path(scratch) / f"{name}.json"
+            subprocess.run(
+                [sys.executable, "-m", "quadcos.evaluate", f"--policy={POLICIES / name}",
+                 f"--commands={SCHEDULE}", "--num_envs=8", "--seconds=20", "--no_progress",
+                 f"--out={Path(scratch) / 'eval.json'}", f"--trace={trace}"],
+                check=True,
+            )
+            traces[label] = plots.load_trace(trace)
+    plots.plot_command_tracking(traces, path=HERE.parent.parent / "docs" / "command_tracking.png")
+
+
 if __name__ == "__main__":
-    print(table())
-    print()
-    print(levers())
+    if sys.argv[1:] == ["--figure"]:
+        figure()
+    else:
+        print(table())
+        print()
+        print(engines())
+        print()
+        print(levers())
