@@ -215,7 +215,7 @@ def test_a_bad_commands_spec_is_one_line_and_writes_nothing(tmp_path, capsys, mo
 
 def test_sim2sim_follows_commands(commanded, tmp_path, capsys):
     out = tmp_path / "commanded.json"
-    argv = [f"--policy={commanded}", "--commands=0.4,0.2@5", "--episodes=1", "--seconds=0.3"]
+    argv = [f"--policy={commanded}", "--commands=0.4,0.2@5", "--episodes=1", "--seconds=0.6"]
     assert sim2sim.main([*argv, f"--out={out}", "--no_progress"]) == 0
     summary = json.loads(out.read_text())
     assert summary["setup"]["commands"] == "0.4,0.2@5"
@@ -277,7 +277,7 @@ def test_tracking_reward_twin_equals_the_envs():
 
 @pytest.mark.slow  # an MJX compile: ~45 s on the CPU
 def test_mjx_evaluation_records_policy_env_steps(commanded):
-    result = evaluation.evaluate(str(commanded), num_envs=2, seconds=0.1, commands="0.5,0@5")
+    result = evaluation.evaluate(str(commanded), num_envs=2, seconds=0.5, commands="0.5,0@5")
     assert result.summary["setup"]["policy_env_steps"] == 1234
     assert result.summary["speed_tracking_rms"] is not None
 
