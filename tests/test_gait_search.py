@@ -83,6 +83,9 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     # Velocity commands and turning, added since: off by default.
     assert (env.pop("commands")["spec"], env.pop("turn_mode")) == ("", "none")
     env.pop("turn_bound")
+    # The friction cone and the solver probe, added since: the robot preset's cone, and a probe
+    # that runs only for a robot without a preset (the paper's robot has one).
+    assert (env.pop("cone"), env.pop("solver_probe")) == ("", True)
     assert env == recorded["run_info"]["env"]
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 
