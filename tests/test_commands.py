@@ -238,7 +238,8 @@ def test_turn_extensions_against_numpy():
 
 def test_the_feed_forward_is_a_differential_drive():
     velocity = np.float32([[0.6, 0.0], [0.6, 0.4], [0.0, 0.4], [0.0, 0.0], [2.0, -3.0]])
-    scales = np.asarray(commands.drive_scales(velocity, 0.3, 0.5, 1.5))
+    linear = tuple(0.3 * scale for scale in commands.SPEED_MAP_SCALES)  # v_ref 0.3 m/s
+    scales = np.asarray(commands.drive_scales(velocity, linear, 0.5, 1.5))
     expected = [[2.0, 2.0], [1.33333, 2.66667], [-0.66667, 0.66667], [0.0, 0.0], [8.0, 1.67]]
     np.testing.assert_allclose(scales, np.clip(expected, -1.5, 1.5), rtol=1e-4)
     rhythm = _rhythm(seed=4)
@@ -254,10 +255,30 @@ def test_the_feed_forward_is_a_differential_drive():
             twins.side_scaled(rhythm[row], sides[row]), expected[row], rtol=1e-6, atol=1e-7
         )
         np.testing.assert_allclose(
-            twins.drive_scales(velocity[row], 0.3, 0.5, 1.5), scales[row], rtol=1e-5
+            twins.drive_scales(velocity[row], linear, 0.5, 1.5), scales[row], rtol=1e-5
         )
     with pytest.raises(ValueError, match="half_track"):
         quadcos.make_env("flat", **{"commands.half_track": float("inf")})
+
+
+def test_the_drive_inverts_a_measured_speed_map():
+    config = commands.default_config()
+    config.speed_map = (0.3, 0.6, 0.8, 0.9)  # m/s at the scales 0.25, 0.5, 0.75, 1
+    speeds = commands.speed_map(config)
+    walked = np.float32([0.15, 0.3, 0.7, 0.9, 1.1, -0.6])
+    velocity = np.stack([walked, np.zeros_like(walked)], axis=-1)
+    scales = np.asarray(commands.drive_scales(velocity, speeds, 0.5, 1.5))
+    # Between the knots linear, straight on past the last (0.1 m/s per 0.25 of scale), odd.
+    expected = [0.125, 0.25, 0.625, 1.0, 1.5, -0.5]
+    np.testing.assert_allclose(scales, np.stack([expected, expected], axis=-1), rtol=1e-5)
+    for row in range(len(walked)):
+        np.testing.assert_allclose(
+            twins.drive_scales(velocity[row], speeds, 0.5, 1.5), scales[row], rtol=1e-5
+        )
+    for bad in ((0.3, 0.6, 0.5, 0.9), (0.3, 0.6), ("fast",) * 4):
+        config.speed_map = bad
+        with pytest.raises(ValueError, match="speed_map"):
+            commands.speed_map(config)
     with pytest.raises(ValueError, match="feed_forward"):
         quadcos.make_env("flat", controller="joint", **{"commands.feed_forward": True})
 

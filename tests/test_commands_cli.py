@@ -298,7 +298,14 @@ def test_the_feed_forward_is_measured_on_the_gait_and_applied_to_the_run(monkeyp
     assert measured["speed"] > calibration.MIN_SPEED
     assert measured["reference_speed"] == pytest.approx(measured["speed"], abs=1e-4)
     assert abs(measured["yaw_rate"]) > calibration.MIN_YAW_RATE
-    expected = calibration.SIDE_DIFFERENCE * measured["speed"] / measured["yaw_rate"]
+    # its speed map: the straight speed at each scale (without randomisation, on the MJCF's
+    # ground), growing with the scale, scale 1's the reference walk's; b from its last segment
+    speeds = measured["speed_map"]
+    assert len(speeds) == len(host_robot.env_commands.SPEED_MAP_SCALES)
+    assert all(a < b for a, b in zip((0.0, *speeds), speeds, strict=False))
+    assert speeds[-1] == pytest.approx(measured["speed"], abs=1e-4)
+    slope = (speeds[-1] - speeds[-2]) / 0.25
+    expected = calibration.SIDE_DIFFERENCE * slope / measured["yaw_rate"]
     assert measured["half_track"] == pytest.approx(expected, rel=1e-3)
     # a gait that does not walk keeps the config's values (v_ref = speed_max)
     standing = evaluation.env_config(
@@ -314,8 +321,13 @@ def test_the_feed_forward_is_measured_on_the_gait_and_applied_to_the_run(monkeyp
     run = presets.build_config({"env.action_centre": "search"}, {})
     found = {
         "action_centre": "0.1,0.2,0.3,0,3.14",
-        "feed_forward": {"reference_speed": 0.7, "half_track": 0.4},
+        "feed_forward": {
+            "reference_speed": 0.7,
+            "half_track": 0.4,
+            "speed_map": (0.2, 0.4, 0.55, 0.7),
+        },
     }
     session._resolve_centre(run, tmp_path, lambda config: found)  # noqa: SLF001
     assert run.env.action_centre == found["action_centre"]
     assert (run.env.commands.reference_speed, run.env.commands.half_track) == (0.7, 0.4)
+    assert run.env.commands.speed_map == (0.2, 0.4, 0.55, 0.7)

@@ -4,17 +4,20 @@
 #   bash experiments/commands/run_gpu.sh train RUN...     # start runs in the background, return
 #   bash experiments/commands/run_gpu.sh wait  RUN...     # until they have ended (their policies)
 #   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
+#   bash experiments/commands/run_gpu.sh pack RUN...      # $OUT/NAME.tgz
 # RUN is NAME@ROBOT@SEED[@extra train flags, comma-separated], e.g.
 # go1_s0@menagerie:unitree_go1@0. The runs work from a copy of the tree under
 # /tmp/qc (the tree a later call brings may differ), their folders under /tmp/qc_runs/NAME; the
-# summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines, NAME_eval.json,
-# NAME_robustness.json, and the kept policy as NAME_policy.tar.
+# summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
+# NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json and the policies;
+# pack tars NAME/ with the run's logs as NAME.tgz.
 set -uo pipefail
 verb=${1:?usage: run_gpu.sh train|wait|evaluate RUN...}; shift
 export MENAGERIE_ROOT=${MENAGERIE_ROOT:-$PWD/.menagerie}
 OUT=${OUT:-/tmp/qc_out}; mkdir -p "$OUT"
 runs=/tmp/qc_runs; mkdir -p "$runs"
-gpus=$(nvidia-smi -L | wc -l)
+gpus=$(nvidia-smi -L 2>/dev/null | wc -l); [ "$gpus" -gt 0 ] || gpus=1
+envs=${EVAL_ENVS:-1024}  # episodes of each evaluation
 
 split_run() { IFS=@ read -r NAME ROBOT SEED EXTRA <<< "$1"; }
 
@@ -44,19 +47,35 @@ evaluate)
   for spec in "$@"; do
     split_run "$spec"
     kept=$runs/$NAME/policy_best; [ -d "$kept" ] || kept=$runs/$NAME/policy
+    mkdir -p "$OUT/$NAME"
+    for p in policy policy_best; do
+      [ -d "$runs/$NAME/$p" ] && cp -r "$runs/$NAME/$p" "$OUT/$NAME/"
+    done
     (
-      export CUDA_VISIBLE_DEVICES=$((i % gpus))
-      python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=1024 \
-        --seconds=20 --commands=random --out="$OUT/${NAME}_eval.json" > "$runs/${NAME}_eval.log" 2>&1
-      echo "$(date +%T) $NAME evaluated: exit $?"
-      python3 experiments/robustness/measure.py --policy="$kept" --num_envs=1024 --commands=random \
+      # The kept policy's random-command evaluation and its robustness conditions, and the last
+      # policy's evaluation, side by side on the run's GPU.
+      export CUDA_VISIBLE_DEVICES=$((i % gpus)) XLA_PYTHON_CLIENT_MEM_FRACTION=0.25
+      python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=$envs \
+        --seconds=20 --commands=random --out="$OUT/$NAME/eval.json" > "$runs/${NAME}_eval.log" 2>&1 &
+      python3 -m quadcos.evaluate --no_progress --policy="$runs/$NAME/policy" --terrain=flat \
+        --num_envs=$envs --seconds=20 --commands=random --out="$OUT/$NAME/last_eval.json" \
+        > "$runs/${NAME}_last_eval.log" 2>&1 &
+      python3 experiments/robustness/measure.py --policy="$kept" --num_envs=$envs --commands=random \
         --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" "friction 0.4" \
-        --out="$OUT/${NAME}_robustness.json" > "$runs/${NAME}_robustness.log" 2>&1
-      echo "$(date +%T) $NAME robustness: exit $?"
-      tar -C "$kept" -cf "$OUT/${NAME}_policy.tar" .
+        --out="$OUT/$NAME/robustness.json" > "$runs/${NAME}_robustness.log" 2>&1 &
+      wait
+      echo "$(date +%T) $NAME evaluated: $(ls "$OUT/$NAME" | tr '\n' ' ')"
     ) &
     i=$((i + 1))
   done
   wait ;;
+pack)  # each run's outputs, logs and policies as $OUT/NAME.tgz (a call brings back few files)
+  for spec in "$@"; do
+    split_run "$spec"
+    mkdir -p "$OUT/$NAME"
+    cp "$runs/$NAME"*.log "$OUT/$NAME/" 2>/dev/null
+    cp "$runs/$NAME/config.json" "$runs/$NAME/"*.jsonl "$OUT/$NAME/" 2>/dev/null
+    tar -C "$OUT" -czf "$OUT/$NAME.tgz" "$NAME" && rm -rf "$OUT/$NAME"
+  done ;;
 *) echo "unknown verb $verb" >&2; exit 2 ;;
 esac

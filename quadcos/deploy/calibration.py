@@ -4,11 +4,17 @@ The feed-forward scales each side's hip swing by its commanded speed over the un
 speed v_ref, the sides apart by ω*·b (`quadcos.env.commands.drive_scales`): a differential drive.
 Neither v_ref nor the effective half track b is known before the gait is: a legged robot's feet
 slip and its diagonal pairs couple the sides, so b is several times the hips' half track. Both are
-measured here on the found gait, walking in C MuJoCo (the converged reference solver) for a few
-seconds on flat ground without randomisation: straight with both sides at scale 1 (its speed is
-v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v_ref / ω; negative where the
-gait's phases make the longer strides of the right side turn it right). A fresh policy then
-walks near v* and turns near ω*, and SAC learns what the drive misses.
+measured here on the found gait, walking in C MuJoCo (with the training solver) for a few seconds
+on flat ground without randomisation: straight with both sides at scale 1 (its speed is v_ref),
+then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v'/ω for the speed v' a unit of scale
+adds about scale 1; negative where the gait's phases make the longer strides of the right side turn
+it right). Nor is a stride's speed proportional to its scale, and it depends on the ground (on
+Go1's searched gait at scale 1: 1.34 m/s at friction 0.4, 0.65 m/s at 1.5): the speed map
+(`commands.speed_map`) is the speed at each of `commands.SPEED_MAP_SCALES`, straight, averaged
+over the low end, the middle and the high end of the run's friction range; the drive inverts it,
+and v' is its last segment's slope (v_ref without a map). (ω averaged over the frictions too made
+b larger and the gait turn past its command: 0.153 rad/s tracking error on Go1 against 0.13.) A fresh policy then walks near v* and
+turns near ω*, and SAC learns what the drive misses.
 
 `find_gait` is `quadcos.evaluation.gait_search.find_gait` with this measurement added to its
 result ("feed_forward"), which `quadcos.training.run` applies to the run's config.
@@ -52,22 +58,28 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
 def measure(
     env_config: ml_collections.ConfigDict, seed: int = 0, robots: int = 2
 ) -> dict[str, float]:
-    """{"reference_speed" (m/s), "half_track" (m), "yaw_rate" (rad/s, of the turning walk)}
-    measured on the zero action of `env_config` (its action centre) with `robots` robots each
-    (reset seeds seed, seed + 1, ...). Where the gait is too slow or does not turn, the config's
-    resolved values are kept and a warning says why."""
+    """{"reference_speed" (m/s), "half_track" (m), "speed_map" (m/s at SPEED_MAP_SCALES, or ()),
+    "yaw_rate" (rad/s, of the turning walk)} measured on the zero action of `env_config` (its
+    action centre) with `robots` robots each (reset seeds seed, seed + 1, ...). Where the gait is
+    too slow, does not turn or its map does not grow with the scale, the config's resolved values
+    are kept and a warning says why."""
     config = ml_collections.ConfigDict(env_config.to_dict())
+    frictions = [None]  # the MJCF's
+    if config.randomization.enabled:
+        low, high = config.randomization.friction
+        frictions = [low, (low + high) / 2, high]
     config.randomization.enabled = False
     config.commands.reference_speed = 1.0  # the command (1, ω*) is then the scales themselves
     config.commands.half_track = 1.0
+    config.commands.speed_map = ()
     seconds = SETTLE_S + MEASURE_S
-    straight = _walk(config, f"1,0@{seconds}", seed, robots)
-    turning = _walk(config, f"1,{SIDE_DIFFERENCE}@{seconds}", seed, robots)
-    speed, yaw_rate = straight[0], turning[1]
+    speed = _walk(config, f"1,0@{seconds}", seed, robots)[0]
+    yaw_rate = _walk(config, f"1,{SIDE_DIFFERENCE}@{seconds}", seed, robots)[1]
     resolved = env_lib.resolve(env_config)
     result = {
         "reference_speed": resolved.commands.reference_speed,
         "half_track": resolved.commands.half_track,
+        "speed_map": resolved.commands.speed_map,
         "speed": speed,
         "yaw_rate": yaw_rate,
     }
@@ -81,8 +93,23 @@ def measure(
         )
         return result
     result["reference_speed"] = round(speed, 4)
+    speeds = [
+        np.mean([_walk(config, f"{scale},0@{seconds}", seed, robots, f)[0] for f in frictions])
+        for scale in env_commands.SPEED_MAP_SCALES
+    ]
+    slope = speed  # m/s per unit of scale about scale 1, where the turn was measured
+    if all(a < b for a, b in zip([0.0, *speeds], speeds, strict=False)):
+        result["speed_map"] = tuple(round(float(value), 4) for value in speeds)
+        scales = env_commands.SPEED_MAP_SCALES
+        slope = (speeds[-1] - speeds[-2]) / (scales[-1] - scales[-2])
+    else:
+        logger.warning(
+            "feed-forward: the speeds %s at the scales %s do not grow: keeping v_ref × scale",
+            np.round(speeds, 3),
+            env_commands.SPEED_MAP_SCALES,
+        )
     if abs(yaw_rate) >= MIN_YAW_RATE:  # b < 0 where the right side's longer strides turn right
-        result["half_track"] = round(SIDE_DIFFERENCE * speed / yaw_rate, 4)
+        result["half_track"] = round(float(SIDE_DIFFERENCE * slope / yaw_rate), 4)
     else:
         logger.warning(
             "feed-forward: sides at 1 -/+ %g turn the gait %.3f rad/s: keeping b %.3f m",
@@ -91,21 +118,31 @@ def measure(
             result["half_track"],
         )
     logger.info(
-        "feed-forward: v_ref %.2f m/s, b %.3f m (sides at 1 -/+ %g: %.2f rad/s)",
+        "feed-forward: v_ref %.2f m/s, b %.3f m (sides at 1 -/+ %g: %.2f rad/s), speed map %s"
+        " m/s at the scales %s",
         result["reference_speed"],
         result["half_track"],
         SIDE_DIFFERENCE,
         yaw_rate,
+        result["speed_map"] or "v_ref × scale",
+        env_commands.SPEED_MAP_SCALES,
     )
     return result
 
 
 def _walk(
-    config: ml_collections.ConfigDict, schedule: str, seed: int, robots: int
+    config: ml_collections.ConfigDict,
+    schedule: str,
+    seed: int,
+    robots: int,
+    friction: float | None = None,
 ) -> tuple[float, float]:
     """(speed along the heading, m/s; yaw rate, rad/s) of the zero action under `schedule`,
-    over the last MEASURE_S s of each robot's walk, averaged over the robots (NaN for a fall)."""
+    over the last MEASURE_S s of each robot's walk, averaged over the robots (NaN for a fall),
+    with every geom's sliding friction set to `friction` (None: the MJCF's)."""
     robot = host_robot.HostRobot("flat", config, commands=schedule, physics=PHYSICS)
+    if friction is not None:  # as the randomisation draws it: every geom's
+        robot.model.geom_friction[:, 0] = friction
     steps = round((SETTLE_S + MEASURE_S) / robot.dt)
     settle = round(SETTLE_S / robot.dt)
     action = np.zeros(robot.action_size)

@@ -282,7 +282,10 @@ class HostRobot:
         if self.commands is not None and config.commands.feed_forward:
             drive = config.commands
             scales = twins.drive_scales(
-                self.commands.velocity, drive.reference_speed, drive.half_track, drive.scale_max
+                self.commands.velocity,
+                env_commands.speed_map(drive),
+                drive.half_track,
+                drive.scale_max,
             )
             swing = twins.side_scaled(swing, scales)
         ramp = twins.start_ramp(self.data.time, config.start_ramp_s)

@@ -9,6 +9,7 @@ import functools
 
 import numpy as np
 
+from quadcos.env import commands
 from quadcos.equations import oscillator, reward, slope
 from quadcos.terrain import Terrain
 
@@ -65,11 +66,13 @@ def side_scaled(rhythm: np.ndarray, scales: np.ndarray) -> np.ndarray:
     return rhythm * (1.0 + (left - 1.0) * _LEFT_HIPS + (right - 1.0) * _RIGHT_HIPS)
 
 
-def drive_scales(velocity: np.ndarray, reference_speed: float, half_track: float, scale_max: float):
+def drive_scales(
+    velocity: np.ndarray, speeds: tuple[float, ...], half_track: float, scale_max: float
+):
     """`commands.drive_scales`: (2,) left and right hip-swing scales for a command (v*, ω*)."""
     speed, yaw_rate = velocity
     sides = np.array([speed - yaw_rate * half_track, speed + yaw_rate * half_track])
-    return np.clip(sides / reference_speed, -scale_max, scale_max)
+    return np.clip(commands.side_scale(sides, speeds, np), -scale_max, scale_max)
 
 
 def abduction_stride(rhythm: np.ndarray, turn: float, bound: float) -> np.ndarray:

@@ -21,6 +21,7 @@ parser; nothing here touches MuJoCo.
 
 import dataclasses
 import math
+from typing import Any
 
 import flax.struct
 import jax
@@ -38,6 +39,8 @@ DEFAULT_FROUDE = 0.25
 # m: the turning radius at full speed of a robot without a preset (ω*_max = v*_max / radius):
 # the issue's Go1 and ANYmal C ranges (1.0 m/s, 0.5 rad/s; 0.8 m/s, 0.4 rad/s) both turn 2 m.
 DEFAULT_TURN_RADIUS = 2.0
+# The hip-swing scales at which the feed-forward's speed map is measured (`speed_map`).
+SPEED_MAP_SCALES = (0.25, 0.5, 0.75, 1.0)
 
 
 def default_config() -> ml_collections.ConfigDict:
@@ -56,6 +59,9 @@ def default_config() -> ml_collections.ConfigDict:
     # by its commanded speed, a differential drive (`drive_scales`), before the policy acts.
     config.feed_forward = False
     config.reference_speed = 0.0  # m/s: v_ref, the unscaled rhythm's speed; 0 = speed_max
+    # m/s: the speeds measured at the hip-swing scales SPEED_MAP_SCALES, which the drive inverts
+    # (a stride's speed is not proportional to its scale); (): v_ref × each scale
+    config.speed_map = ()
     # m: b, the effective half track (negative: the gait turns away from its longer strides);
     # 0 = the robot's (mean |hip y|)
     config.half_track = 0.0
@@ -166,20 +172,53 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     if not math.isfinite(config.half_track):
         raise ValueError(f"commands.half_track must be finite; got {config.half_track}")
+    if config.speed_map:
+        speed_map(config)  # raises naming a bad map
     return parsed
 
 
+def speed_map(config: ml_collections.ConfigDict) -> tuple[float, ...]:
+    """The speeds (m/s) of the gait at the hip-swing scales SPEED_MAP_SCALES: `config.speed_map`
+    (an env `commands` config), or v_ref × each scale where it is empty."""
+    if not config.speed_map:
+        return tuple(config.reference_speed * scale for scale in SPEED_MAP_SCALES)
+    try:
+        speeds = tuple(float(value) for value in config.speed_map)
+    except (TypeError, ValueError):
+        speeds = ()
+    increasing = all(a < b for a, b in zip((0.0, *speeds), speeds, strict=False))
+    if len(speeds) != len(SPEED_MAP_SCALES) or not increasing or not math.isfinite(speeds[-1]):
+        raise ValueError(
+            f"commands.speed_map must be {len(SPEED_MAP_SCALES)} increasing speeds > 0 (m/s at"
+            f" the scales {SPEED_MAP_SCALES}); got {config.speed_map!r}"
+        )
+    return speeds
+
+
 def drive_scales(
-    velocity: jax.Array, reference_speed: float, half_track: float, scale_max: float
+    velocity: jax.Array, speeds: tuple[float, ...], half_track: float, scale_max: float
 ) -> jax.Array:
     """(2,) the feed-forward's scales of the left and right hips' swing for a command (v*, ω*)
-    (m/s, rad/s): each side's commanded speed, v* ∓ ω*·b for half track b (m), over the speed
-    v_ref (m/s) of the unscaled rhythm, clipped to ±`scale_max` — a differential drive: a side's
-    stride, and so its speed, grows with its hip amplitude. (0, 0) at v* = ω* = 0 (trotting in
-    place); opposite signs turn on the spot (a negative scale strides backwards)."""
+    (m/s, rad/s): each side's commanded speed, v* ∓ ω*·b for half track b (m), turned into the
+    scale that walks it by the speed map `speeds` (m/s at SPEED_MAP_SCALES, `speed_map`), clipped
+    to ±`scale_max` — a differential drive: a side's stride, and so its speed, grows with its hip
+    amplitude. (0, 0) at v* = ω* = 0 (trotting in place); opposite signs turn on the spot (a
+    negative scale strides backwards)."""
     speed, yaw_rate = velocity[..., 0], velocity[..., 1]
     sides = jnp.stack([speed - yaw_rate * half_track, speed + yaw_rate * half_track], axis=-1)
-    return jnp.clip(sides / reference_speed, -scale_max, scale_max)
+    return jnp.clip(side_scale(sides, speeds, jnp), -scale_max, scale_max)
+
+
+def side_scale(speed: Any, speeds: tuple[float, ...], xp: Any = jnp) -> Any:
+    """The hip-swing scale that walks a side at `speed` (m/s), with `xp` numpy or jax.numpy: the
+    speed map `speeds` (at SPEED_MAP_SCALES) inverted piecewise-linearly from (0, 0), straight on
+    past its last point, odd in the speed. A map v_ref × each scale gives speed / v_ref."""
+    knot_speeds, knot_scales = (0.0, *speeds), (0.0, *SPEED_MAP_SCALES)
+    slope = (knot_scales[-1] - knot_scales[-2]) / (knot_speeds[-1] - knot_speeds[-2])
+    magnitude = xp.abs(speed)
+    inside = xp.interp(magnitude, xp.asarray(knot_speeds), xp.asarray(knot_scales))
+    beyond = knot_scales[-1] + (magnitude - knot_speeds[-1]) * slope
+    return xp.sign(speed) * xp.where(magnitude > knot_speeds[-1], beyond, inside)
 
 
 @flax.struct.dataclass

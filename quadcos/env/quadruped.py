@@ -345,7 +345,7 @@ class QuadrupedEnv(base.Env):
             return None
         return commands.drive_scales(
             velocity,
-            config.reference_speed,
+            commands.speed_map(config),
             config.half_track,
             config.scale_max,
         )
