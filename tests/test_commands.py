@@ -268,8 +268,8 @@ def test_the_drive_inverts_a_measured_speed_map():
     walked = np.float32([0.15, 0.3, 0.7, 0.9, 1.1, -0.6])
     velocity = np.stack([walked, np.zeros_like(walked)], axis=-1)
     scales = np.asarray(commands.drive_scales(velocity, speeds, 0.5, 1.5))
-    # Between the knots linear, straight on past the last (0.1 m/s per 0.25 of scale), odd.
-    expected = [0.125, 0.25, 0.625, 1.0, 1.5, -0.5]
+    # Between the knots linear, past the last at the map's mean 0.9 m/s per unit scale, odd.
+    expected = [0.125, 0.25, 0.625, 1.0, 1.1 / 0.9, -0.5]
     np.testing.assert_allclose(scales, np.stack([expected, expected], axis=-1), rtol=1e-5)
     for row in range(len(walked)):
         np.testing.assert_allclose(

@@ -12,8 +12,7 @@ it right). Nor is a stride's speed proportional to its scale, and it depends on 
 Go1's searched gait at scale 1: 1.34 m/s at friction 0.4, 0.65 m/s at 1.5): the speed map
 (`commands.speed_map`) is the speed at each of `commands.SPEED_MAP_SCALES`, straight, averaged
 over the low end, the middle and the high end of the run's friction range; the drive inverts it,
-and v' is its last segment's slope (v_ref without a map). (ω averaged over the frictions too made
-b larger and the gait turn past its command: 0.153 rad/s tracking error on Go1 against 0.13.) A fresh policy then walks near v* and
+and v' is the map's mean speed per unit of scale, its speed at scale 1 (v_ref without a map). A fresh policy then walks near v* and
 turns near ω*, and SAC learns what the drive misses.
 
 `find_gait` is `quadcos.evaluation.gait_search.find_gait` with this measurement added to its
@@ -97,11 +96,10 @@ def measure(
         np.mean([_walk(config, f"{scale},0@{seconds}", seed, robots, f)[0] for f in frictions])
         for scale in env_commands.SPEED_MAP_SCALES
     ]
-    slope = speed  # m/s per unit of scale about scale 1, where the turn was measured
+    slope = speed  # v': m/s per unit of scale, as the drive turns side speeds into scales
     if all(a < b for a, b in zip([0.0, *speeds], speeds, strict=False)):
         result["speed_map"] = tuple(round(float(value), 4) for value in speeds)
-        scales = env_commands.SPEED_MAP_SCALES
-        slope = (speeds[-1] - speeds[-2]) / (scales[-1] - scales[-2])
+        slope = speeds[-1] / env_commands.SPEED_MAP_SCALES[-1]
     else:
         logger.warning(
             "feed-forward: the speeds %s at the scales %s do not grow: keeping v_ref × scale",

@@ -211,13 +211,13 @@ def drive_scales(
 
 def side_scale(speed: Any, speeds: tuple[float, ...], xp: Any = jnp) -> Any:
     """The hip-swing scale that walks a side at `speed` (m/s), with `xp` numpy or jax.numpy: the
-    speed map `speeds` (at SPEED_MAP_SCALES) inverted piecewise-linearly from (0, 0), straight on
-    past its last point, odd in the speed. A map v_ref × each scale gives speed / v_ref."""
+    speed map `speeds` (at SPEED_MAP_SCALES) inverted piecewise-linearly from (0, 0), past its last
+    point at the map's mean speed per scale (a map that levels off would otherwise ask for the
+    largest strides), odd in the speed. A map v_ref × each scale gives speed / v_ref."""
     knot_speeds, knot_scales = (0.0, *speeds), (0.0, *SPEED_MAP_SCALES)
-    slope = (knot_scales[-1] - knot_scales[-2]) / (knot_speeds[-1] - knot_speeds[-2])
     magnitude = xp.abs(speed)
     inside = xp.interp(magnitude, xp.asarray(knot_speeds), xp.asarray(knot_scales))
-    beyond = knot_scales[-1] + (magnitude - knot_speeds[-1]) * slope
+    beyond = magnitude * (knot_scales[-1] / knot_speeds[-1])
     return xp.sign(speed) * xp.where(magnitude > knot_speeds[-1], beyond, inside)
 
 
