@@ -1,9 +1,9 @@
 """The commanded-gait table of experiments/commands/README.md, from the evaluation and robustness
 JSONs beside this file (`run_gpu.sh evaluate` writes them; per-episode data removed) and the
-policies' configs, and its figure (commanded against achieved velocity of each shipped command
+policies' configs, the campaign's runs from campaign.json (`training_summary.py`), and its figure (commanded against achieved velocity of each shipped command
 policy on one schedule: 8 episodes, the first traced; runs on a CPU):
 
-    python experiments/commands/table.py     # the results table, the engines', the levers' rows
+    python experiments/commands/table.py     # the results table, the campaign's, engines', levers' rows
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --figure   # docs/command_tracking.png
 """
 
@@ -18,7 +18,6 @@ POLICIES = HERE.parent / "policies"
 # column -> the policy folder it evaluates (None: the policy is not kept)
 RUNS = {
     "unitree_go1": "unitree_go1_command",
-    "unitree_go1_s1": None,
     "unitree_go1_nofeed": None,
     "unitree_go2": "unitree_go2_command",
     "anybotics_anymal_c": None,
@@ -55,14 +54,16 @@ def table() -> str:
     lines = [
         "| | target | " + " | ".join(f"`{r}`" for r in RUNS) + " |",
         "|---" * (len(RUNS) + 2) + "|",
-        _row("feed-forward: v_ref m/s, b m", "", [
-            f"{c['reference_speed']:.2f}, {c['half_track']:.2f}" if c.get("feed_forward") else "off"
+        _row("feed-forward: v_ref m/s, b m (map: a speed map)", "", [
+            f"{c['reference_speed']:.2f}, {c['half_track']:.2f}{', map' * bool(c.get('speed_map'))}"
+            if c.get("feed_forward") else "off"
             for c in commands.values()
         ]),
         _row("`policy_env_steps`", "", [f"{e['setup']['policy_env_steps']:,}" for e in evals.values()]),
         _row("survival, 1024 episodes: " + " / ".join(CONDITIONS), TARGETS["survival"],
              [_survival(robust[r]) for r in RUNS]),
-        _row("survival, 64 episodes", "", [f"{e['success_rate']:.3f}" for e in evals.values()]),
+        _row("survival, random commands (episodes)", "",
+             [f"{e['success_rate']:.3f} ({e['num_episodes']})" for e in evals.values()]),
         _row("mean forward speed, m/s", "", [f"{e['mean_forward_speed']:.2f}" for e in evals.values()]),
     ]
     for key in ("speed_tracking_rms", "yaw_rate_tracking_rms", "mean_max_abs_pitch_error", "mean_max_abs_roll"):
@@ -94,6 +95,34 @@ def levers() -> str:
         rows.append(
             f"| `{name}` | {change} | {e['env_steps'] / 1e6:.1f} M | {e['eval_reward']:.0f} |"
             f" {e['speed']:.3f} | {e['fall_rate']:.3f} |"
+        )
+    return "\n".join(rows)
+
+
+CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
+    "go1_s0": "v_ref",
+    "go2_s0": "v_ref",
+    "go1_map_s0": "map, b from its last segment",
+    "go2_map_s0": "map, b from its last segment",
+    "go2_map2_s0": "map",
+    "go1_map2_s1": "map",
+}
+
+
+def campaign() -> str:
+    """The rows of the campaign table: each run's feed-forward, kept and last policy."""
+    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    rows = []
+    for name, drive in CAMPAIGN.items():
+        run, kept, last = runs[name], runs[name]["kept"], runs[name]["last"]
+        survival = " / ".join(f"{c['success_rate']:.3f}" for c in run["robustness"].values())
+        tracking = "{speed_tracking_rms:.3f}, {yaw_rate_tracking_rms:.3f}"
+        rows.append(
+            f"| `{name}` | {drive} | {kept['policy_env_steps'] / 1e6:.1f} M | {survival} |"
+            f" {tracking.format(**kept)} | {kept['mean_max_abs_pitch_error']:.3f},"
+            f" {kept['mean_max_abs_roll']:.3f} |"
+            + (f" {last['policy_env_steps'] / 1e6:.1f} M: {tracking.format(**last)} |" if last
+               else f" stopped: {run['stopped'].split(' in the chunk')[0]} |")
         )
     return "\n".join(rows)
 
@@ -144,6 +173,8 @@ if __name__ == "__main__":
         figure()
     else:
         print(table())
+        print()
+        print(campaign())
         print()
         print(engines())
         print()

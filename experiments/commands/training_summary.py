@@ -1,43 +1,95 @@
-"""The trainer's own last evaluation of each run, from the train logs' tails that
-`run_gpu.sh wait` writes ($OUT/NAME_train.log), into training_feed_forward.json:
+"""A campaign's runs in one small record, from the folders `run_gpu.sh evaluate` and `pack` leave
+(NAME.tgz, or NAME/ unpacked), into a JSON beside this file:
 
-    python experiments/commands/training_summary.py OUT_DIR... > experiments/commands/training_feed_forward.json
+    python experiments/commands/training_summary.py OUT_DIR... > experiments/commands/campaign.json
 
-Each run: its flags (from the run spec in the log's path name only: NAME), the last
-"step ... eval reward ... speed ... fall rate ..." line, and the best evaluation's reward
-("best evaluation so far (R)") where the tail holds one.
+Each run: the feed-forward measured on its gait (v_ref, b, speed map), every training-time
+evaluation of the trainer (env steps, eval reward, speed, fall rate), and the key numbers of the
+kept policy's random-command evaluation and robustness conditions and of the last policy's
+evaluation (1024 episodes of 20 s each; per-episode data left out).
 """
 
+import io
 import json
 import re
 import sys
+import tarfile
 from pathlib import Path
 
 STEP = re.compile(
     r"step ([\d,]+)/[\d,]+\s+([\d,]+) env steps/s\s+eval reward (\S+)\s+speed (\S+) m/s"
     r"\s+fall rate (\S+)"
 )
-BEST = re.compile(r"best evaluation so far \((\S+)\)")
+FEED_FORWARD = re.compile(r"feed-forward: v_ref (\S+) m/s, b (\S+) m(?: .*?speed map \(([^)]*)\))?")
+STOPPED = re.compile(r"error: (non-finite SAC loss[^;]*)")
+KEYS = (
+    "success_rate",
+    "speed_tracking_rms",
+    "yaw_rate_tracking_rms",
+    "mean_max_abs_pitch_error",
+    "mean_max_abs_roll",
+    "cost_of_transport",
+    "peak_joint_torque_ratio",
+)
 
 
-def summary(log: Path) -> dict:
-    text = log.read_text()
-    steps = STEP.findall(text)
-    best = BEST.findall(text)
-    env_steps, rate, reward, speed, falls = steps[-1]
+def _files(path: Path) -> dict[str, str]:
+    """The run's text files by name (the train log as "train.log")."""
+    if path.suffix == ".tgz":
+        with tarfile.open(path) as tar:
+            members = [m for m in tar.getmembers() if m.isfile() and "/policy" not in m.name]
+            texts = {Path(m.name).name: tar.extractfile(m).read().decode() for m in members}
+    else:
+        texts = {p.name: p.read_text() for p in path.iterdir() if p.is_file()}
+    name = path.name.removesuffix(".tgz")
+    texts["train.log"] = texts.get(f"{name}.log", "")
+    return texts
+
+
+def _evaluation(text: str | None) -> dict | None:
+    if text is None:
+        return None
+    summary = json.loads(io.StringIO(text).read())
+    return {"policy_env_steps": summary["setup"]["policy_env_steps"]} | {
+        key: summary[key] for key in KEYS
+    }
+
+
+def summary(path: Path) -> dict:
+    files = _files(path)
+    log = files["train.log"]
+    ff = FEED_FORWARD.search(log)
+    stopped = STOPPED.search(log)
+    robust = files.get("robustness.json")
     return {
-        "last_evaluation": {
-            "env_steps": int(env_steps.replace(",", "")),
-            "env_steps_per_s": int(rate.replace(",", "")),
-            "eval_reward": float(reward),
-            "speed": float(speed),
-            "fall_rate": float(falls),
+        "feed_forward": ff and {
+            "reference_speed": float(ff[1]),
+            "half_track": float(ff[2]),
+            "speed_map": [float(v) for v in ff[3].split(",")] if ff[3] else None,
         },
-        "best_eval_reward": float(best[-1]) if best else None,
+        "evaluations": [
+            {
+                "env_steps": int(steps.replace(",", "")),
+                "eval_reward": float(reward),
+                "speed": float(speed),
+                "fall_rate": float(falls),
+            }
+            for steps, _, reward, speed, falls in STEP.findall(log)
+        ],
+        "stopped": stopped[1] if stopped else None,
+        "kept": _evaluation(files.get("eval.json")),
+        "last": _evaluation(files.get("last_eval.json")),
+        "robustness": robust and {
+            name: {key: row[key] for key in KEYS[:5]}
+            for name, row in json.loads(robust)["conditions"].items()
+        },
     }
 
 
 if __name__ == "__main__":
-    logs = sorted(p for d in sys.argv[1:] for p in Path(d).glob("*_train.log"))
-    runs = {log.name.removesuffix("_train.log"): summary(log) for log in logs}
-    print(json.dumps({"command": "bash experiments/commands/run_gpu.sh train|wait RUN...", "runs": runs}, indent=1))
+    paths = sorted(
+        p for d in sys.argv[1:] for p in Path(d).iterdir() if p.suffix == ".tgz" or p.is_dir()
+    )
+    runs = {p.name.removesuffix(".tgz"): summary(p) for p in paths}
+    command = "bash experiments/commands/run_gpu.sh train|wait|evaluate|pack RUN..."
+    print(json.dumps({"command": command, "runs": runs}, indent=1))

@@ -177,8 +177,9 @@ PRESETS["robust"] = {
 # turns (the left/right hip-amplitude difference: it works on 8- and 12-joint robots alike). Every
 # domain randomisation is on, friction over its whole 0.4-1.5 range, 50-N pushes every 2 s on
 # average, latency up to 40 ms, observation noise 0.02, drawn at a growing level over each robot's
-# first 2 s. The command's feed-forward scales each side's stride by its commanded speed (a
-# differential drive, measured on the gait found: quadcos.deploy.calibration), so SAC only learns
+# first 2 s. The command's feed-forward sets each side's stride from its commanded speed (a
+# differential drive through a speed map measured on the gait found: quadcos.deploy.calibration;
+# the best evaluation so far the searched gait under it: experiments/commands), so SAC learns
 # what the drive misses, within 0.2 of each rhythm range around the searched gait (with 0.5 SAC
 # left the gait and stood: experiments/commands). The gait search scores candidates on the run's
 # commanded reward under the drive. About 8 minutes on one GPU (max_seconds), the best
