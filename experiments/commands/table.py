@@ -5,6 +5,7 @@ policy on one schedule: 8 episodes, the first traced; runs on a CPU):
 
     python experiments/commands/table.py     # the results table, the campaign's, engines', levers' rows
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --figure   # docs/command_tracking.png
+    MENAGERIE_ROOT=DIR python experiments/commands/table.py --engines [NAME...]   # NAME_engines.json
 """
 
 import json
@@ -127,24 +128,52 @@ def campaign() -> str:
     return "\n".join(rows)
 
 
-ENGINES = {  # row -> the evaluation JSON of the Go1 command policy on SCHEDULE, nominal physics
-    "MJX (JAX)": "unitree_go1_nominal_eval.json",
-    "C MuJoCo": "unitree_go1_mujoco_eval.json",
-    "C MuJoCo, ONNX policy": "unitree_go1_onnx_eval.json",
-}
+ENGINES = ("MJX (JAX)", "C MuJoCo", "C MuJoCo, ONNX policy")
+ENGINE_POLICIES = ("unitree_go1_command", "unitree_go2_command")  # NAME_engines.json each
 
 
 def engines() -> str:
-    """The rows of the sim-to-sim table: the Go1 command policy on SCHEDULE in each engine."""
+    """The rows of the sim-to-sim table: each command policy on SCHEDULE in each engine."""
     rows = []
-    for label, name in ENGINES.items():
-        e = _load(name)
-        rows.append(
-            f"| {label} | {e['success_rate'] * e['num_episodes']:.0f} / {e['num_episodes']} |"
-            f" {e['speed_tracking_rms']:.3f} | {e['yaw_rate_tracking_rms']:.3f} |"
-            f" {e['mean_max_abs_pitch_error']:.3f} | {e['mean_max_abs_roll']:.3f} |"
-        )
+    for name in ENGINE_POLICIES:
+        record = _load(f"{name}_engines.json")
+        for label in ENGINES:
+            e = record["engines"][label]
+            rows.append(
+                f"| `{name}` | {label} | {e['success_rate'] * e['num_episodes']:.0f} /"
+                f" {e['num_episodes']} | {e['speed_tracking_rms']:.3f} |"
+                f" {e['yaw_rate_tracking_rms']:.3f} | {e['mean_max_abs_pitch_error']:.3f} |"
+                f" {e['mean_max_abs_roll']:.3f} |"
+            )
     return "\n".join(rows)
+
+
+def measure_engines(name: str, episodes: int = 64) -> None:
+    """NAME_engines.json: the policy `../policies/NAME` on SCHEDULE, nominal physics, `episodes`
+    episodes of 20 s in MJX (quadcos.evaluate), C MuJoCo (quadcos.sim2sim) and C MuJoCo with its
+    ONNX export; each engine's evaluation summary without its per-episode data."""
+    policy = POLICIES / name
+    common = [f"--commands={SCHEDULE}", "--seconds=20", "--no_progress"]
+    summaries = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        onnx = Path(scratch) / f"{name}.onnx"
+        runs = {
+            "MJX (JAX)": ["quadcos.evaluate", f"--policy={policy}", "--terrain=flat",
+                          f"--num_envs={episodes}", "--env.randomization.enabled=false"],
+            "C MuJoCo": ["quadcos.sim2sim", f"--policy={policy}", f"--episodes={episodes}"],
+            "C MuJoCo, ONNX policy": ["quadcos.sim2sim", f"--policy={onnx}",
+                                      f"--episodes={episodes}"],
+        }
+        subprocess.run([sys.executable, "-m", "quadcos.export", f"--policy={policy}",
+                        f"--out={onnx}"], check=True)
+        for label, args in runs.items():
+            out = Path(scratch) / "eval.json"
+            subprocess.run([sys.executable, "-m", *args, *common, f"--out={out}"], check=True)
+            summary = json.loads(out.read_text())
+            summary.pop("episodes", None)
+            summaries[label] = summary
+    record = {"policy": f"experiments/policies/{name}", "commands": SCHEDULE, "engines": summaries}
+    (HERE / f"{name}_engines.json").write_text(json.dumps(record, indent=1) + "\n")
 
 
 SCHEDULE = "0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5"
@@ -171,6 +200,9 @@ def figure() -> None:
 if __name__ == "__main__":
     if sys.argv[1:] == ["--figure"]:
         figure()
+    elif sys.argv[1:2] == ["--engines"]:
+        for policy_name in sys.argv[2:] or ENGINE_POLICIES:
+            measure_engines(policy_name)
     else:
         print(table())
         print()
