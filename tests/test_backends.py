@@ -197,12 +197,11 @@ def test_unrolled_substeps_step_the_robots_as_the_loop_does():
     unrolled = env_lib.make_env("flat", impl="jax", control_dt=0.01, substep_unroll=2)
     state = jax.jit(looped.reset)(jax.random.PRNGKey(0))
     action = jnp.full(looped.action_size, 0.3)
-    one, other = jax.jit(looped.step)(state, action), jax.jit(unrolled.step)(state, action)
+    # Each step traced once: its text is read, then the same lowering compiled and run.
+    lowered = [jax.jit(env.step).lower(state, action) for env in (looped, unrolled)]
+    one, other = (steps.compile()(state, action) for steps in lowered)
     np.testing.assert_allclose(one.pipeline_state.qpos, other.pipeline_state.qpos, atol=1e-6)
     assert float(one.reward) == pytest.approx(float(other.reward), abs=1e-4)
     # the substep loop is the one while loop that unrolling removes (MJX's own loops remain)
-    loops = [
-        jax.jit(env.step).lower(state, action).as_text().count("stablehlo.while")
-        for env in (looped, unrolled)
-    ]
+    loops = [steps.as_text().count("stablehlo.while") for steps in lowered]
     assert loops[0] == loops[1] + 1
