@@ -6,6 +6,7 @@ estimate (Eq. 5) → reward (Eqs. 8–13) and fall check. `controller="joint"` r
 oscillator by joint targets straight from the (filtered) action (the "DRL-only" baseline of §5).
 """
 
+import functools
 import math
 from typing import Any, NamedTuple
 
@@ -100,7 +101,7 @@ class QuadrupedEnv(base.Env):
 
     # --- Brax Env API -------------------------------------------------------------------------
 
-    @property
+    @functools.cached_property
     def observation_size(self) -> int:
         state = jax.eval_shape(self.reset, jax.random.PRNGKey(0))
         return state.obs.shape[-1]
