@@ -178,25 +178,35 @@ def test_a_latency_beyond_the_control_step_is_refused_when_randomising():
         quadcos.env.validate_config(config)
 
 
-@pytest.mark.slow
-def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways():
+ROBOTS = 16
+
+
+@pytest.fixture(scope="module")
+def randomised():
+    """A randomised env without pushes (each test sets its own), with observation noise, and its
+    reset and step over `ROBOTS` robots: one pair of programs for the tests below."""
     overrides = {
         "randomization.enabled": True,
         "randomization.friction": (0.2, 1.5),
-        "randomization.push_interval_s": 0.0,  # no pushes here: set per robot below
+        "randomization.push_interval_s": 0.0,
+        "randomization.obs_noise": 0.05,
     }
     env = quadcos.make_env("flat", **overrides)
-    reset = jax.jit(jax.vmap(env.reset))
-    state = reset(jax.random.split(jax.random.PRNGKey(1), 4))
-    assert len(np.unique(state.info["physics"].friction)) == 4
-    # Four robots with the same draw; robot 0 is pushed along +y with 200 N, the others are not.
-    step = jax.jit(jax.vmap(env.step))
-    action = jnp.zeros((4, env.action_size))
+    return env, jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
+
+
+@pytest.mark.slow
+def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways(randomised):
+    env, reset, step = randomised
+    state = reset(jax.random.split(jax.random.PRNGKey(1), ROBOTS))
+    assert len(np.unique(state.info["physics"].friction)) == ROBOTS
+    # Robots with the same draw; robot 0 is pushed along +y with 200 N, the others are not.
+    action = jnp.zeros((ROBOTS, env.action_size))
     # (The first step after a reset draws afresh, as after Brax's auto-reset.)
-    state = step(reset(jnp.stack([jax.random.PRNGKey(2)] * 4)), action)
-    push = jnp.zeros((4, 3)).at[0, 1].set(200.0)
+    state = step(reset(jnp.stack([jax.random.PRNGKey(2)] * ROBOTS)), action)
+    push = jnp.zeros((ROBOTS, 3)).at[0, 1].set(200.0)
     # float32, not a weakly typed 0.05: the state keeps its types, and `step` is not traced again.
-    push_left_s = jnp.full(4, 0.05, jnp.float32)
+    push_left_s = jnp.full(ROBOTS, 0.05, jnp.float32)
     physics = state.info["physics"]._replace(push=push, push_left_s=push_left_s)
     state = state.replace(info={**state.info, "physics": physics})
     for _ in range(3):
@@ -208,24 +218,17 @@ def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways():
 
 
 @pytest.mark.slow
-def test_observation_noise_reaches_the_policy_not_the_robot():
-    fixed = {  # every draw fixed, so that the noise's random numbers change nothing else
-        "randomization.enabled": True,
-        "randomization.friction": (1.0, 1.0),
-        "randomization.com_offset_m": 0.0,
-        "randomization.push_interval_s": 0.0,
-        **{f"randomization.{name}": (1.0, 1.0) for name in ("torso_mass_scale", "kp_scale")},
-        **{f"randomization.{name}": (1.0, 1.0) for name in ("damping_scale", "strength_scale")},
-        "randomization.latency_s": (0.0, 0.0),
-    }
-    # The same 8 robots twice, their noise drawn from other keys (one program compiled, not two).
-    env = quadcos.make_env("flat", **fixed, **{"randomization.obs_noise": 0.05})
-    state = jax.jit(jax.vmap(env.reset))(
-        jnp.tile(jax.random.split(jax.random.PRNGKey(4), 8), (2, 1))
-    )
-    state.info["rng"] = jax.random.split(jax.random.PRNGKey(5), 16)
-    state = jax.jit(jax.vmap(env.step))(state, jnp.zeros((16, env.action_size)))
-    one, other = jax.tree.map(lambda x: x[:8], state), jax.tree.map(lambda x: x[8:], state)
+def test_observation_noise_reaches_the_policy_not_the_robot(randomised):
+    env, reset, step = randomised
+    # The same 8 robots twice: their first step draws their physics from the same keys; then
+    # the two halves' noise is drawn from other keys.
+    half = ROBOTS // 2
+    state = reset(jnp.tile(jax.random.split(jax.random.PRNGKey(4), half), (2, 1)))
+    action = jnp.zeros((ROBOTS, env.action_size))
+    state = step(state, action)
+    state.info["rng"] = jax.random.split(jax.random.PRNGKey(5), ROBOTS)
+    state = step(state, action)
+    one, other = jax.tree.map(lambda x: x[:half], state), jax.tree.map(lambda x: x[half:], state)
     np.testing.assert_allclose(
         one.pipeline_state.qpos, other.pipeline_state.qpos, atol=1e-6
     )  # the robot moves whatever its noise
