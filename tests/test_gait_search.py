@@ -10,7 +10,7 @@ import quadcos
 from quadcos import train, training
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from quadcos.equations import oscillator
-from tests.cli_runs import ROOT, run_cli
+from tests.cli_runs import ROOT, run_in_process
 
 
 def test_a_numeric_action_centre_is_the_gait_its_zero_action_commands():
@@ -154,9 +154,10 @@ def test_a_library_run_with_a_search_centre_needs_the_search(tmp_path):
 @pytest.mark.slow
 def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path):
     # On the test robot quad12 (12 joints): one end-to-end run for both paths, the
-    # search and a robot other than the paper's (each alone compiles a trainer of its own).
+    # search and a robot other than the paper's (each alone compiles a trainer of its own). In
+    # this process: a subprocess would import and trace everything again.
     run_dir = tmp_path / "scratch"
-    result = run_cli(
+    result = run_in_process(
         "--preset=smoke",
         "--robot=quad12",
         "--config.env.action_centre=search",
