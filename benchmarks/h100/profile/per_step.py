@@ -1,6 +1,11 @@
-"""The per-env-step table of docs/benchmarks.md ("Where the time goes") from this folder's files.
+"""The per-env-step numbers of docs/benchmarks.md ("Where the time goes") from this folder's files,
+as the JSON its results record (`results/profile_h100.json`) summarises:
 
-    python benchmarks/h100/profile/per_step.py benchmarks/h100/profile > per_step.md
+    python benchmarks/h100/profile/per_step.py benchmarks/h100/profile > benchmarks/h100/profile/per_step.json
+    python -m quadcos.results record --name=profile_h100 --device="NVIDIA H100 80GB HBM3" \
+        --claim="Where a training step's time goes on one H100" \
+        --command="python benchmarks/h100/profile/per_step.py benchmarks/h100/profile" \
+        benchmarks/h100/profile/per_step.json
 
 Reads `bench_warp_{flat,slope5}_profiled.json` (rates) and `profile_{terrain}_{row}.md` (the
 output of `python -m quadcos.benchmarking.profile`: the trace's span, the GPU stream's busy time by
@@ -18,7 +23,7 @@ import sys
 
 from quadcos.benchmarking import settings
 
-KINDS = ("warp (physics)", "fusion", "matmul", "copy")
+KINDS = {"warp (physics)": "warp", "fusion": "fusion", "matmul": "matmul", "copy": "copy"}
 TRACED_CHUNKS = 2  # quadcos.benchmarking.trainers.measure_trainer
 
 
@@ -33,12 +38,10 @@ def gpu_stream(text: str) -> dict[str, float]:
     return {"span": span, "busy": busy, **kinds}
 
 
-def main(folder: pathlib.Path) -> None:
-    print(
-        "| row (MJX-Warp, 4096 envs, batch 8192) | env-steps/s | / raw physics | wall ms"
-        " | Warp physics kernels | XLA fusions | matmuls | copies | GPU idle |"
-    )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+def rows(folder: pathlib.Path) -> list[dict]:
+    """One row per training row profiled: its rate, its ratio to the raw physics, and its time per
+    env step in ms (wall; by kind of GPU work; idle)."""
+    found = []
     for terrain in ("flat", "slope5"):
         bench = json.loads((folder / f"bench_warp_{terrain}_profiled.json").read_text())
         for row in bench["train"]:
@@ -50,13 +53,19 @@ def main(folder: pathlib.Path) -> None:
             steps = TRACED_CHUNKS * settings.trainer_config(preset).steps_per_chunk
             per_step = {key: 1e3 * value / steps for key, value in stream.items()}
             wall = 1e3 * envs / rate
-            cells = [f"{per_step.get(kind, 0.0):.2f}" for kind in KINDS]
-            print(
-                f"| {terrain}, {updates} update{'s' * (updates > 1)} | {rate / 1e3:.0f} k"
-                f" | {rate / row['physics_env_steps_per_s']:.2f} | {wall:.2f} | {' | '.join(cells)}"
-                f" | {wall - per_step['busy']:.2f} |"
+            found.append(
+                {
+                    "terrain": terrain,
+                    "updates_per_step": updates,
+                    "env_steps_per_s": rate,
+                    "to_raw_physics": rate / row["physics_env_steps_per_s"],
+                    "wall_ms": wall,
+                    **{f"{name}_ms": per_step.get(kind, 0.0) for kind, name in KINDS.items()},
+                    "idle_ms": wall - per_step["busy"],
+                }
             )
+    return found
 
 
 if __name__ == "__main__":
-    main(pathlib.Path(sys.argv[1]))
+    print(json.dumps({"rows": rows(pathlib.Path(sys.argv[1]))}, indent=1))
