@@ -1,6 +1,7 @@
 """`quadcos.benchmarking.profile`: a jax.profiler trace summed per timeline, name and kind."""
 
 import gzip
+import json
 import pathlib
 import subprocess
 import sys
@@ -61,19 +62,24 @@ def test_a_folder_without_a_trace_is_refused_in_one_line(tmp_path, capsys):
     assert len(err) == 1 and "not a readable trace" in err[0]
 
 
-def test_the_committed_per_step_table_is_what_the_gpu_profiles_say():
+def test_the_committed_per_step_record_is_what_the_gpu_profiles_say():
     root = pathlib.Path(__file__).resolve().parents[1]
     folder = root / "benchmarks" / "h100" / "profile"
     script = [sys.executable, str(folder / "per_step.py"), str(folder)]
-    table = subprocess.run(script, capture_output=True, text=True, check=True).stdout
-    assert table == (folder / "per_step.md").read_text()
-    assert table.strip() in (root / "docs" / "benchmarks.md").read_text()
-    rows = [line.split(" | ") for line in table.splitlines()[2:]]
-    assert len(rows) == 4
-    for cells in rows:  # idle is what the GPU's busy time leaves of a step; the kinds cover it
-        wall, physics, fusions, matmuls, copies, idle = (float(c.strip(" |")) for c in cells[3:])
-        assert 0 < idle < wall
-        assert physics + fusions + matmuls + copies >= 0.99 * (wall - idle)
+    output = subprocess.run(script, capture_output=True, text=True, check=True).stdout
+    assert output == (folder / "per_step.json").read_text()
+    rows = json.loads(output)["rows"]
+    assert [(row["terrain"], row["updates_per_step"]) for row in rows] == [
+        ("flat", 1), ("flat", 8), ("slope5", 1), ("slope5", 8)
+    ]
+    for row in rows:  # idle is what the GPU's busy time leaves of a step; the kinds cover it
+        assert 0 < row["idle_ms"] < row["wall_ms"]
+        kinds = row["warp_ms"] + row["fusion_ms"] + row["matmul_ms"] + row["copy_ms"]
+        assert kinds >= 0.99 * (row["wall_ms"] - row["idle_ms"])
+    # docs/benchmarks.md shows it through its results record (checked by quadcos.results --check)
+    record = json.loads((root / "results" / "profile_h100.json").read_text())
+    assert record["sources"][0]["path"] == "benchmarks/h100/profile/per_step.json"
+    assert record["numbers"]["rows.0.wall_ms"] == pytest.approx(rows[0]["wall_ms"])
 
 
 def test_idle_gaps_are_classed_by_length_and_blamed_on_the_host_event_in_them():
