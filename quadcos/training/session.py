@@ -157,7 +157,8 @@ def _resolve_centre(
         )
     search = find_gait(config)
     config.env.action_centre = search["action_centre"]
-    for key in ("reference_speed", "half_track", "speed_map"):  # the feed-forward measured on the gait found
+    # the feed-forward measured on the gait found
+    for key in ("reference_speed", "half_track", "speed_map"):
         if key in search.get("feed_forward", {}):
             config.env.commands[key] = search["feed_forward"][key]
     if run_dir is not None:
