@@ -141,6 +141,19 @@ def test_heading_integrates_the_yaw_rate_on_a_leash():
     np.testing.assert_array_equal(zero, 0.0)
 
 
+def test_yaw_rate_tracking_reads_the_steps_own_turn():
+    plan = commands.Plan(commands.CommandSpec("random"), _config(tracking="yaw_rate"))
+    command = plan.start(jax.random.PRNGKey(0)).replace(velocity=jnp.asarray([0.5, 0.4]))
+    tracking, after = plan.step(command, jnp.float32(3.13), jnp.float32(-3.13), 0.05, 0.0, 0.05)
+    turned = 6.26 - 2 * np.pi  # across ±π: a turn of −0.023 rad, not +6.26
+    assert float(tracking["yaw_rate_error"]) == pytest.approx(turned / 0.05 - 0.4, abs=1e-3)
+    assert float(tracking["heading"]) == pytest.approx(-3.13)  # the heading at the step's start
+    assert float(tracking["commanded_progress"]) == pytest.approx(0.025)
+    assert float(after.heading) == 0.0  # no ψ* to integrate
+    with pytest.raises(ValueError, match="commands.tracking must be one of heading, yaw_rate"):
+        commands.validate(_config(spec="random", tracking="heading_rate"))
+
+
 # --- the reward -------------------------------------------------------------------------------
 
 
@@ -195,6 +208,14 @@ def test_forward_tracking_against_numpy():
         assert float(terms["lateral"]) == pytest.approx(-100.0 * abs(lateral), abs=2e-4)
         yaw_error = (yaw - heading + np.pi) % (2 * np.pi) - np.pi
         assert float(terms["orientation"]) == pytest.approx(-40.0 * abs(yaw_error), abs=2e-4)
+        rate_error = rng.uniform(-1, 1)
+        by_rate = reward.reward_terms(
+            x_now=dx, x_last=0.0, y_now=dy, y_last=0.0, pitch=0.0, yaw=reward.wrap_angle(yaw),
+            roll=0.0, slope=0.0, fell=False, heading=heading, commanded_progress=commanded,
+            yaw_rate_error=rate_error,
+        )
+        assert float(by_rate["orientation"]) == pytest.approx(-40.0 * abs(rate_error), abs=2e-4)
+        assert float(by_rate["forward"]) == float(terms["forward"])
 
 
 # --- the turn extensions of Eq. 3 -------------------------------------------------------------

@@ -7,6 +7,7 @@ import math
 import pathlib
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -75,9 +76,9 @@ def test_random_commands_are_drawn_in_range_and_resampled():
     follower.start(3)
     first = follower.velocity.copy()
     assert 0.2 <= first[0] <= 0.8 and abs(first[1]) <= 0.4
-    follower.track(0.0, 0.0, 0.5, 0.5)
+    follower.track(0.0, 0.0, 0.0, 0.5, 0.5)
     np.testing.assert_array_equal(follower.velocity, first)  # within the period: held
-    follower.track(0.0, 0.5, 1.0, 0.5)
+    follower.track(0.0, 0.0, 0.5, 1.0, 0.5)
     assert not np.array_equal(follower.velocity, first)  # crossed 1 s: drawn anew
     follower.start(3)
     np.testing.assert_array_equal(follower.velocity, first)  # the reset seed decides
@@ -95,6 +96,25 @@ def test_turn_twins_equal_the_oscillators(mode):
     rhythm, turn = np.random.default_rng(1).normal(size=8), 0.7
     host = getattr(twins, mode)(rhythm, turn, 0.3)
     np.testing.assert_allclose(host, getattr(oscillator, mode)(rhythm, turn, 0.3), atol=1e-6)
+
+
+@pytest.mark.parametrize("tracking", ["heading", "yaw_rate"])
+def test_host_tracking_equals_the_envs(tracking):
+    config = env_commands.default_config()
+    config.update(spec="0.6,0.3@5", speed_max=1.0, yaw_rate_max=0.5, tracking=tracking)
+    plan = env_commands.Plan(env_commands.validate(config), config)
+    command = plan.start(jax.random.PRNGKey(0))
+    follower = host_commands.HostCommands(config)
+    follower.start(0)
+    yaws = [0.0, 0.02, 0.05, 0.04, 0.3, 0.35]
+    for step, (before, yaw) in enumerate(zip(yaws[:-1], yaws[1:])):
+        times = (0.05 * step, 0.05 * (step + 1))
+        yaw_now, yaw_before = jnp.float32(yaw), jnp.float32(before)
+        env_tracking, command = plan.step(command, yaw_now, yaw_before, 0.05, *times)
+        host_tracking = follower.track(yaw, before, *times, 0.05)
+        assert set(host_tracking) == set(env_tracking)
+        for key, value in host_tracking.items():
+            assert value == pytest.approx(float(env_tracking[key]), abs=1e-5), (step, key)
 
 
 def test_advance_heading_twin_equals_the_envs():
@@ -265,6 +285,8 @@ def test_tracking_reward_twin_equals_the_envs():
         body = slope.Attitude(roll=angles[0] * 0.1, pitch=angles[1] * 0.1, yaw=angles[2])
         common = dict(x_now=x[0], x_last=x[1], y_now=y[0], y_last=y[1], fell=False, moving=True)
         tracking = dict(heading=angles[3], commanded_progress=abs(angles[4]) * 0.05)
+        if rng.uniform() < 0.5:
+            tracking["yaw_rate_error"] = angles[4]
         weights, shared = reward.RewardWeights(), {**common, **tracking, "max_progress": 0.03}
         host = twins.reward_terms(
             **shared, body=body, slope_estimate=0.0, weights=weights, variant="full"

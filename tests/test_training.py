@@ -532,3 +532,18 @@ def test_the_untrained_policy_is_evaluated_after_the_first_chunk_from_a_copy():
     )
     assert events[-1] == ("chunk", int(later.env_steps)) and int(later.env_steps) > final_steps
     assert trainer.chunk_traces == 1
+
+
+def test_a_delayed_actor_learns_every_second_update_beside_layer_norm_critics():
+    config = toy_config(actor_warmup_steps=0, policy_delay=2, critic_layer_norm=True)
+    trainer = training.SACTrainer(PointEnv(), config)
+    state = trainer.prefill(trainer.init())
+    assert all("LayerNorm_0" in critic for critic in state.q_params["params"].values())
+    batch = trainer.replay.sample(state.replay, jax.random.PRNGKey(0), config.batch_size)
+    moved = []
+    for step in range(3):
+        before = jax.tree.map(jnp.copy, (state.policy_params, state.q_params))
+        state, _ = trainer._sgd_step(state, (batch, jax.random.PRNGKey(step)))
+        assert not _trees_equal(before[1], state.q_params)  # the critics learn every update
+        moved.append(not _trees_equal(before[0], state.policy_params))
+    assert moved == [True, False, True]

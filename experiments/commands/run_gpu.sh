@@ -5,8 +5,10 @@
 #   bash experiments/commands/run_gpu.sh wait  RUN...     # until they have ended (their policies)
 #   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
 #   bash experiments/commands/run_gpu.sh pack RUN...      # $OUT/NAME.tgz
-# RUN is NAME@ROBOT@SEED[@extra train flags, comma-separated], e.g.
-# go1_s0@menagerie:unitree_go1@0. The runs work from a copy of the tree under
+#   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
+# RUN is NAME@ROBOT@SEED[@extra train flags, space-separated], e.g.
+# go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
+# the GPU's memory. The runs work from a copy of the tree under
 # /tmp/qc (the tree a later call brings may differ), their folders under /tmp/qc_runs/NAME; the
 # summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
 # NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json and the policies;
@@ -18,6 +20,7 @@ OUT=${OUT:-/tmp/qc_out}; mkdir -p "$OUT"
 runs=/tmp/qc_runs; mkdir -p "$runs"
 gpus=$(nvidia-smi -L 2>/dev/null | wc -l); [ "$gpus" -gt 0 ] || gpus=1
 envs=${EVAL_ENVS:-1024}  # episodes of each evaluation
+share=$(( ($# + gpus - 1) / gpus ))  # runs on one GPU
 
 split_run() { IFS=@ read -r NAME ROBOT SEED EXTRA <<< "$1"; }
 
@@ -27,9 +30,11 @@ train)
   i=0
   for spec in "$@"; do
     split_run "$spec"
-    extra=(); [ -n "${EXTRA:-}" ] && IFS=, read -r -a extra <<< "$EXTRA"
+    extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
     rm -rf "$runs/$NAME"
-    (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$((i % gpus)) setsid nohup python3 -m quadcos.train \
+    (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$((i % gpus)) \
+      XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9 / $share, 2))") \
+      setsid nohup python3 -m quadcos.train \
       --preset=command --robot="$ROBOT" --seed="$SEED" --output_dir="$runs/$NAME" --no_progress \
       "${extra[@]}" > "$runs/$NAME.log" 2>&1 < /dev/null &)
     echo "$(date +%T) $NAME on GPU $((i % gpus)): $ROBOT seed $SEED ${extra[*]}"
@@ -38,7 +43,10 @@ train)
 wait)
   for spec in "$@"; do
     split_run "$spec"
-    while pgrep -f "output_dir=$runs/$NAME " > /dev/null; do sleep 5; done
+    # (a run launched a moment ago may not show in pgrep yet: its log is still empty)
+    while [ ! -s "$runs/$NAME.log" ] || pgrep -f "output_dir=$runs/$NAME " > /dev/null; do
+      sleep 5
+    done
     tail -n 5 "$runs/$NAME.log" > "$OUT/${NAME}_train.log"
     echo "$(date +%T) $NAME ended: $(tail -n 1 "$runs/$NAME.log")"
   done ;;
@@ -54,7 +62,8 @@ evaluate)
     (
       # The kept policy's random-command evaluation and its robustness conditions, and the last
       # policy's evaluation, side by side on the run's GPU.
-      export CUDA_VISIBLE_DEVICES=$((i % gpus)) XLA_PYTHON_CLIENT_MEM_FRACTION=0.25
+      export CUDA_VISIBLE_DEVICES=$((i % gpus))
+      export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.27 / $share, 2))")
       python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=$envs \
         --seconds=20 --commands=random --out="$OUT/$NAME/eval.json" > "$runs/${NAME}_eval.log" 2>&1 &
       python3 -m quadcos.evaluate --no_progress --policy="$runs/$NAME/policy" --terrain=flat \
@@ -77,5 +86,36 @@ pack)  # each run's outputs, logs and policies as $OUT/NAME.tgz (a call brings b
     cp "$runs/$NAME/config.json" "$runs/$NAME/"*.jsonl "$OUT/$NAME/" 2>/dev/null
     tar -C "$OUT" -czf "$OUT/$NAME.tgz" "$NAME" && rm -rf "$OUT/$NAME"
   done ;;
+levers)  # SAC's levers (issue 58, item 4) on one fixed start: Go2 seed 0 from the searched gait
+  # of the run go2_map2_s0 (its centre, speed map and drive given, so no search or calibration runs
+  # and every run starts from the same policy), the command preset with max_seconds 270 otherwise
+  # and the lever's flags; runs share the GPUs. $OUT/go2_LEVER.tgz each (training_summary.py).
+  gait="--config.env.action_centre=0.231045,0.298314,0.177211,-5.65389,-2.5123"
+  gait+=" --config.env.commands.reference_speed=1.3913 --config.env.commands.half_track=0.5838"
+  gait+=" --config.env.commands.speed_map=0.2614,0.5511,0.8493,1.1565"
+  gait+=" --config.sac.max_seconds=270"
+  rate="--config.env.commands.tracking=yaw_rate" ln="--config.sac.critic_layer_norm=True"
+  fw3="--config.env.reward.forward=450" heading="--config.env.commands.tracking=heading"
+  declare -A lever=(  # against the preset before these levers: heading tracking, Brax's SAC
+    [base]="$heading --config.env.reward.forward=150 --config.sac.critic_layer_norm=False
+      --config.sac.policy_delay=1"
+    [ln]="$heading --config.env.reward.forward=150 $ln --config.sac.policy_delay=1"
+    [rate]="$rate --config.env.reward.forward=150 --config.sac.critic_layer_norm=False
+      --config.sac.policy_delay=1"
+    [rate_ln]="$rate --config.env.reward.forward=150 $ln --config.sac.policy_delay=1"
+    [rate_fw3]="$rate $fw3 --config.sac.critic_layer_norm=False --config.sac.policy_delay=1"
+    [rate_fw6]="$rate --config.env.reward.forward=900 --config.sac.critic_layer_norm=False
+      --config.sac.policy_delay=1"
+    [rate_ln_fw3]="$rate $fw3 $ln --config.sac.policy_delay=1"
+    [rate_ln_fw3_d2]="$rate $fw3 $ln --config.sac.policy_delay=2"
+  )
+  specs=()
+  for name in "$@"; do
+    [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
+    specs+=("go2_${name}@menagerie:unitree_go2@0@$gait $(echo ${lever[$name]})")
+  done
+  bash "$0" train "${specs[@]}" && bash "$0" wait "${specs[@]}"
+  timeout -k 3 $((${DEADLINE:-570} - SECONDS)) bash "$0" evaluate "${specs[@]}"
+  bash "$0" pack "${specs[@]}" ;;
 *) echo "unknown verb $verb" >&2; exit 2 ;;
 esac

@@ -3,7 +3,7 @@ JSONs beside this file (`run_gpu.sh evaluate` writes them; per-episode data remo
 policies' configs, the campaign's runs from campaign.json (`training_summary.py`), and its figure (commanded against achieved velocity of each shipped command
 policy on one schedule: 8 episodes, the first traced; runs on a CPU):
 
-    python experiments/commands/table.py     # the results table, the campaign's, engines', levers' rows
+    python experiments/commands/table.py     # the results table; campaign, SAC levers, engines, levers rows
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --figure   # docs/command_tracking.png
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --engines [NAME...]   # NAME_engines.json
 """
@@ -107,7 +107,40 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go2_map_s0": "map, b from its last segment",
     "go2_map2_s0": "map",
     "go1_map2_s1": "map",
+    "go2_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
+    "go1_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
 }
+SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
+    "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
+    "go2_ln": "LayerNorm critics",
+    "go2_rate": "yaw rate tracked",
+    "go2_rate_ln": "yaw rate, LayerNorm",
+    "go2_rate_fw3": "yaw rate, w1 450",
+    "go2_rate_fw6": "yaw rate, w1 900",
+    "go2_rate_ln_fw3": "yaw rate, w1 450, LayerNorm",
+    "go2_rate_ln_fw3_d2": "yaw rate, w1 450, LayerNorm, actor every 2nd update",
+}
+
+
+def sac_levers() -> str:
+    """The rows of SAC's levers table: the trainer's reward from the start to its last evaluation,
+    the kept policy, and its survival and tracking (speed, yaw rate) in each condition."""
+    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    rows = []
+    for name, change in SAC_LEVERS.items():
+        run = runs[name]
+        first, last = run["evaluations"][0], run["evaluations"][-1]
+        conditions = run["robustness"].values()
+        rows.append(
+            f"| `{name}` | {change} | {first['eval_reward']:.0f} → {last['eval_reward']:.0f}"
+            f" ({last['env_steps'] / 1e6:.1f} M) | {run['kept']['policy_env_steps'] / 1e6:.1f} M | "
+            + " / ".join(f"{c['success_rate']:.3f}" for c in conditions) + " | "
+            + " | ".join(
+                f"{c['speed_tracking_rms']:.3f}, {c['yaw_rate_tracking_rms']:.3f}"
+                for c in conditions
+            ) + " |"
+        )
+    return "\n".join(rows)
 
 
 def campaign() -> str:
@@ -207,6 +240,8 @@ if __name__ == "__main__":
         print(table())
         print()
         print(campaign())
+        print()
+        print(sac_levers())
         print()
         print(engines())
         print()

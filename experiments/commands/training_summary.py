@@ -1,9 +1,11 @@
 """A campaign's runs in one small record, from the folders `run_gpu.sh evaluate` and `pack` leave
 (NAME.tgz, or NAME/ unpacked), into a JSON beside this file:
 
-    python experiments/commands/training_summary.py OUT_DIR... > experiments/commands/campaign.json
+    python experiments/commands/training_summary.py [--into RECORD] OUT_DIR... > NEW_RECORD
 
-Each run: the feed-forward measured on its gait (v_ref, b, speed map), every training-time
+`--into` keeps the runs of an earlier record (e.g. experiments/commands/campaign.json) and adds or
+replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
+--no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b, speed map), every training-time
 evaluation of the trainer (env steps, eval reward, speed, fall rate), and the key numbers of the
 kept policy's random-command evaluation and robustness conditions and of the last policy's
 evaluation (1024 episodes of 20 s each; per-episode data left out).
@@ -21,6 +23,7 @@ STEP = re.compile(
     r"\s+fall rate (\S+)"
 )
 FEED_FORWARD = re.compile(r"feed-forward: v_ref (\S+) m/s, b (\S+) m(?: .*?speed map \(([^)]*)\))?")
+DROPPED = ("--output_dir", "--no_progress")  # argv flags that say nothing of the run
 STOPPED = re.compile(r"error: (non-finite SAC loss[^;]*)")
 KEYS = (
     "success_rate",
@@ -61,7 +64,11 @@ def summary(path: Path) -> dict:
     ff = FEED_FORWARD.search(log)
     stopped = STOPPED.search(log)
     robust = files.get("robustness.json")
+    config = json.loads(files.get("config.json", "{}"))
+    argv = config.get("run_info", {}).get("argv")
     return {
+        **({"argv": [a for a in argv if a.startswith("--") and not a.startswith(DROPPED)]}
+           if argv else {}),
         "feed_forward": ff and {
             "reference_speed": float(ff[1]),
             "half_track": float(ff[2]),
@@ -87,9 +94,14 @@ def summary(path: Path) -> dict:
 
 
 if __name__ == "__main__":
+    args = sys.argv[1:]
+    runs = {}
+    if args[:1] == ["--into"]:
+        runs = json.loads(Path(args[1]).read_text())["runs"]
+        args = args[2:]
     paths = sorted(
-        p for d in sys.argv[1:] for p in Path(d).iterdir() if p.suffix == ".tgz" or p.is_dir()
+        p for d in args for p in Path(d).iterdir() if p.suffix == ".tgz" or p.is_dir()
     )
-    runs = {p.name.removesuffix(".tgz"): summary(p) for p in paths}
+    runs |= {p.name.removesuffix(".tgz"): summary(p) for p in paths}
     command = "bash experiments/commands/run_gpu.sh train|wait|evaluate|pack RUN..."
     print(json.dumps({"command": command, "runs": runs}, indent=1))

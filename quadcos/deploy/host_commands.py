@@ -62,13 +62,20 @@ class HostCommands:
         """Follow (v*, ω*) `velocity` from now until the next `start`."""
         self.velocity, self.held = np.asarray(velocity, np.float64), True
 
-    def track(self, yaw: float, time_before: float, time_now: float, dt: float) -> dict[str, float]:
+    def track(
+        self, yaw: float, yaw_before: float, time_before: float, time_now: float, dt: float
+    ) -> dict[str, float]:
         """The reward's command arguments for a control step of `dt` s from `time_before` to
-        `time_now` (s) that ended at yaw `yaw` (rad): ψ* advanced and v*·dt (the env's `_track`);
-        then the command moves on to the next step's."""
-        leash = self.config.heading_leash
-        self.heading = twins.advance_heading(self.heading, self.velocity[1], yaw, dt, leash)
-        tracking = {"heading": self.heading, "commanded_progress": self.velocity[0] * dt}
+        `time_now` (s) in which the yaw went from `yaw_before` to `yaw` (rad), as the env's
+        `commands.Plan.step`; then the command moves on to the next step's."""
+        tracking = {"heading": yaw_before, "commanded_progress": self.velocity[0] * dt}
+        if self.config.tracking == "yaw_rate":
+            turned = twins.wrap_angle(yaw - yaw_before)
+            tracking["yaw_rate_error"] = turned / dt - self.velocity[1]
+        else:
+            leash = self.config.heading_leash
+            self.heading = twins.advance_heading(self.heading, self.velocity[1], yaw, dt, leash)
+            tracking["heading"] = self.heading
         if self.held:
             return tracking
         if self.spec.mode != env_commands.RANDOM:

@@ -217,6 +217,7 @@ class HostRobot:
         fall."""
         x_last, y_last, _ = self.data.qpos[self.layout.position]
         time_before = self.data.time
+        yaw_before = twins.attitude(self.layout.orientation(self.data)).yaw
         actions = [*self._pending, np.clip(np.asarray(action, np.float64), -1.0, 1.0)]
         period = oscillator.FIXED_TROT.period
         for index in range(self.substeps):
@@ -233,7 +234,7 @@ class HostRobot:
         tracking = {}
         if self.commands is not None:  # the env's _track: before the observation that shows it
             yaw = twins.attitude(self.layout.orientation(self.data)).yaw
-            tracking = self.commands.track(yaw, time_before, self.data.time, self.dt)
+            tracking = self.commands.track(yaw, yaw_before, time_before, self.data.time, self.dt)
         obs, body, slope_estimate = self._observe()
         x, y, _ = self.data.qpos[self.layout.position]
         slope_truth = float(twins.slope_at(self.terrain, x, y))

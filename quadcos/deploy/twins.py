@@ -185,9 +185,11 @@ def reward_terms(
     max_progress: float = np.inf,
     heading: float | None = None,
     commanded_progress: float | None = None,
+    yaw_rate_error: float | None = None,
 ) -> dict[str, float]:
     """`reward.reward_terms` (Eqs. 8–13), each term weighted by α (fell) or β (alive); with a
-    commanded `heading` ψ* (rad) and `commanded_progress` v*·dt (m), the tracking terms."""
+    commanded `heading` ψ* (rad), `commanded_progress` v*·dt (m) and `yaw_rate_error` (rad/s),
+    the tracking terms."""
     alpha = float(fell)
     beta = 1.0 - alpha
     walking = beta if variant == "full" else 0.0
@@ -196,6 +198,8 @@ def reward_terms(
         cos, sin = np.cos(heading), np.sin(heading)
         progress, sideways = progress * cos + sideways * sin, sideways * cos - progress * sin
         yaw = wrap_angle(yaw - heading)
+    if yaw_rate_error is not None:
+        yaw = yaw_rate_error
     progress = min(progress, max_progress)
     if commanded_progress is not None:
         progress = commanded_progress - abs(progress - commanded_progress)

@@ -15,6 +15,11 @@ that turns too slowly is not charged for ever more accumulated lag. The reward's
 terms track v* along ψ* and ψ* itself (`quadcos.equations.reward`); with ω* = 0 and a robot within
 the leash, ψ* stays exactly 0 and the yaw term is Eq. 12's −w4 |yaw|.
 
+`tracking="yaw_rate"` tracks what the policy can see instead: the step's progress along the
+robot's own heading at the step's start, and the yaw term is −w4 |ω − ω*| for the step's yaw rate ω
+(rad/s). ψ* is a state the policy does not observe; a reward that depends on it leaves the critic
+guessing (experiments/commands).
+
 Pure functions of arrays (jit / vmap-able, one robot; batch with `jax.vmap`) and the host-side
 parser; nothing here touches MuJoCo.
 """
@@ -31,6 +36,7 @@ import ml_collections
 from quadcos.equations.reward import wrap_angle
 
 RANDOM = "random"
+TRACKING = ("heading", "yaw_rate")  # what the reward's yaw term tracks (module docstring)
 GRAVITY = 9.81  # m/s²
 # The Froude number v² / (g h) of the fastest commanded walk of a robot without a preset, h its hip
 # height: 0.25 sits below the walk–trot transition of animals (~0.5, Alexander 1984) and gives
@@ -55,6 +61,7 @@ def default_config() -> ml_collections.ConfigDict:
     config.zero_yaw_rate_probability = 0.1  # share of draws with ω* = 0 (walking straight)
     config.resample_seconds = 5.0  # s: a random command is drawn anew this often in an episode
     config.heading_leash = 0.5  # rad: the most the commanded heading ψ* may lead or trail the yaw
+    config.tracking = "heading"  # or "yaw_rate" (TRACKING; the module docstring)
     # The command's feed-forward (beyond the paper), off by default: each side's hip swing scaled
     # by its commanded speed, a differential drive (`drive_scales`), before the policy acts.
     config.feed_forward = False
@@ -167,6 +174,10 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}"
         )
+    if config.tracking not in TRACKING:
+        raise ValueError(
+            f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
+        )
     for key in ("reference_speed", "scale_max"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
@@ -272,16 +283,24 @@ class Plan:
         self,
         command: Command,
         yaw: jax.Array,
+        yaw_before: jax.Array,
         dt: float,
         time_before: jax.Array,
         time_now: jax.Array,
     ) -> tuple[dict[str, jax.Array], Command]:
         """The reward's command arguments for a control step of `dt` s from `time_before` to
-        `time_now` (the heading ψ* advanced on its leash around the robot's `yaw`, rad, and the
-        commanded progress v*·dt, m) and the command after the step (`advance`)."""
-        yaw_rate, leash = command.velocity[1], self.config.heading_leash
-        heading = advance_heading(command.heading, yaw_rate, yaw, dt, leash)
-        tracking = {"heading": heading, "commanded_progress": command.velocity[0] * dt}
+        `time_now` in which the robot's yaw went from `yaw_before` to `yaw` (rad): the commanded
+        progress v*·dt (m) and the heading ψ* advanced on its leash, or with `tracking="yaw_rate"`
+        the heading at the step's start and the yaw-rate error ω − ω* (rad/s); and the command
+        after the step (`advance`)."""
+        yaw_rate, progress = command.velocity[1], command.velocity[0] * dt
+        if self.config.tracking == "yaw_rate":
+            error = wrap_angle(yaw - yaw_before) / dt - yaw_rate
+            tracking = {"heading": yaw_before, "commanded_progress": progress}
+            tracking["yaw_rate_error"] = error
+            return tracking, self.advance(command, time_before, time_now)
+        heading = advance_heading(command.heading, yaw_rate, yaw, dt, self.config.heading_leash)
+        tracking = {"heading": heading, "commanded_progress": progress}
         return tracking, self.advance(command.replace(heading=heading), time_before, time_now)
 
     def advance(self, command: Command, time_before: jax.Array, time_now: jax.Array) -> Command:

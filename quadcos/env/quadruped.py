@@ -211,7 +211,7 @@ class QuadrupedEnv(base.Env):
         last = before.qpos[self.layout.position]
         forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
-        tracking, info = self._track(info, observed.attitude.yaw, before.time, data.time)
+        tracking, info = self._track(info, observed.attitude.yaw, before, data.time)
         terms = reward.reward_terms(
             x_now=position[0],
             x_last=last[0],
@@ -449,13 +449,15 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
-    def _track(self, info: dict[str, Any], yaw: jax.Array, before: jax.Array, now: jax.Array):
-        """The reward's command arguments for a step from time `before` to `now` (s; none
-        without commands: Eqs. 8–13) and `info` with the command advanced (`commands.Plan`)."""
+    def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, now: jax.Array):
+        """The reward's command arguments for a step from state `before` to time `now` (s), at
+        whose end the yaw is `yaw` (rad; none without commands: Eqs. 8–13), and `info` with the
+        command advanced (`commands.Plan`)."""
         if not self.commanded:
             return {}, info
+        yaw_before = slope.attitude(self.layout.orientation(before)).yaw
         tracking, following = self.commands.step(
-            info["velocity_command"], yaw, self.dt, before, now
+            info["velocity_command"], yaw, yaw_before, self.dt, before.time, now
         )
         return tracking, {**info, "velocity_command": following}
 

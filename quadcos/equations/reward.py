@@ -12,7 +12,8 @@ Velocity commands (issue 58, beyond the paper; `quadcos.env.commands`) generalis
 step's displacement is measured along the commanded heading ψ* (forward) and across it (lateral)
 instead of along x and y; the forward term pays progress up to the commanded distance v*·dt and
 takes back what exceeds it (`forward_tracking`); the yaw term penalises the yaw relative to ψ*
-(`orientation`). With ψ* = 0 (ω* = 0 throughout) and no v*, every term is Eqs. 8–13 exactly.
+(`orientation`), or where a yaw-rate error ω − ω* is given, that error (rad/s). With ψ* = 0 (ω* = 0
+throughout) and no v*, every term is Eqs. 8–13 exactly.
 """
 
 from typing import NamedTuple
@@ -91,7 +92,7 @@ def orientation(
 ) -> jnp.ndarray:
     """Eq. 12: r_o = −w3 |pitch − θ| − w4 |yaw| − w5 |roll|; θ is the Eq. 5 slope estimate (rad).
     With velocity commands `yaw` is the yaw relative to the commanded heading ψ* (wrapped to
-    [−π, π]; `yaw_error`)."""
+    [−π, π]; `yaw_error`), or the yaw-rate error ω − ω* (rad/s)."""
     return (
         -weights.pitch * jnp.abs(pitch - slope)
         - weights.yaw * jnp.abs(yaw)
@@ -128,13 +129,15 @@ def reward_terms(
     max_progress: float = jnp.inf,
     heading: jnp.ndarray | None = None,
     commanded_progress: jnp.ndarray | None = None,
+    yaw_rate_error: jnp.ndarray | None = None,
 ) -> dict[str, jnp.ndarray]:
     """Eq. 13's terms, each weighted by α or β; their sum is the step reward. `moving`: whether
     this step earns Eq. 9's r_s (see `survival`); `max_progress`: see `forward_progress`.
 
     Velocity commands: `heading` ψ* (rad) turns the forward, lateral and yaw terms to the
     commanded heading; `commanded_progress` v*·dt (m), where given, makes the forward term
-    `forward_tracking`. Without them (as with ψ* = 0, bit for bit) the terms are Eqs. 8–13.
+    `forward_tracking`; `yaw_rate_error` ω − ω* (rad/s), where given, replaces the yaw relative to
+    ψ* in the yaw term. Without them (as with ψ* = 0, bit for bit) the terms are Eqs. 8–13.
 
     variant "full" is Eq. 13. variant "xy" is Fig. 9's r_xy: only r_y + r_x while walking (no r_s,
     no r_o); a fall still gives r_p and ends the episode, as in the full reward.
@@ -151,6 +154,8 @@ def reward_terms(
     if heading is not None:
         progress, sideways = along_heading(progress, sideways, heading)
         yaw = yaw_error(yaw, heading)
+    if yaw_rate_error is not None:
+        yaw = yaw_rate_error
     if commanded_progress is None:
         forward = forward_progress(progress, 0.0, weights, max_progress)
     else:

@@ -158,6 +158,7 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
         "episode_length",
         "batch_size",
         "updates_per_step",
+        "policy_delay",
         "replay_size",
         "steps_per_chunk",
         "eval_interval",

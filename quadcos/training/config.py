@@ -60,6 +60,12 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     # Gradient updates (after the prefill) in which only the critics learn; the actor and the
     # temperature start afterwards.
     config.actor_warmup_steps = 0
+    # The actor and the temperature learn in one gradient update of every `policy_delay` (TD3's
+    # delayed policy update); the critics in every one.
+    config.policy_delay = 1
+    # LayerNorm after each hidden layer of the critics (FastTD3, SimBa): a Q that cannot grow
+    # without bound under many updates per env step.
+    config.critic_layer_norm = False
     # Gradient updates per vectorised env step, i.e. per `num_envs` new
     # transitions (replay ratio = updates_per_step * batch_size / num_envs).
     config.updates_per_step = 1

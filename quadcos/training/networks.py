@@ -18,8 +18,10 @@ def make_networks(
     policy_hidden_sizes: Sequence[int],
     q_hidden_sizes: Sequence[int],
     normalize_observations: bool,
+    critic_layer_norm: bool = False,
 ) -> sac_networks.SACNetworks:
-    """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths."""
+    """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths; with
+    `critic_layer_norm` the critics normalise each hidden layer (Brax's `layer_norm`)."""
     preprocess = (
         running_statistics.normalize
         if normalize_observations
@@ -36,6 +38,7 @@ def make_networks(
         action_size,
         preprocess_observations_fn=preprocess,
         hidden_layer_sizes=tuple(q_hidden_sizes),
+        q_network_layer_norm=critic_layer_norm,
     )
     return sac_networks.SACNetworks(
         policy_network=policy_side.policy_network,

@@ -181,14 +181,19 @@ PRESETS["robust"] = {
 # differential drive through a speed map measured on the gait found: quadcos.deploy.calibration;
 # the best evaluation so far the searched gait under it: experiments/commands), so SAC learns
 # what the drive misses, within 0.2 of each rhythm range around the searched gait (with 0.5 SAC
-# left the gait and stood: experiments/commands). The gait search scores candidates on the run's
-# commanded reward under the drive. About 8 minutes on one GPU (max_seconds), the best
+# left the gait and stood: experiments/commands). The reward tracks the yaw rate rather than a
+# heading the policy cannot see, its forward term ×3, and the critics carry LayerNorm with the actor
+# updated every second step: with the heading, unnormalised critics or w1 = 150 SAC lost to the
+# searched gait (experiments/commands, "SAC's levers"). The gait search scores candidates on the
+# run's commanded reward under the drive. About 8 minutes on one GPU (max_seconds), the best
 # evaluation's policy kept.
 PRESETS["command"] = {
     **PRESETS["scratch"],
     "env.terrain": "flat",
     "env.commands.spec": "random",
     "env.commands.feed_forward": True,
+    "env.commands.tracking": "yaw_rate",
+    "env.reward.forward": 450.0,
     "env.turn_mode": "hip_amplitude_difference",
     "env.observe_phase": True,
     "env.action_scale": 0.2,
@@ -204,6 +209,8 @@ PRESETS["command"] = {
     "sac.gait_search.num_candidates": 1_024,
     "sac.gait_search.robots_per_candidate": 4,
     "sac.gait_search.seconds": 10.0,
+    "sac.critic_layer_norm": True,
+    "sac.policy_delay": 2,
     "sac.max_seconds": 480.0,
 }
 

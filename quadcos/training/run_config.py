@@ -36,6 +36,9 @@ LEGACY_VALUES: dict[str, Any] = {
     "sac.policy_output_scale": 1.0,
     "sac.prefill_actions": "uniform",
     "sac.target_entropy": None,
+    # Before the delayed actor and LayerNorm critics, SAC was Brax's.
+    "sac.policy_delay": 1,
+    "sac.critic_layer_norm": False,
 }
 
 

@@ -105,6 +105,7 @@ class SACTrainer:
             config.hidden_sizes.policy,
             config.hidden_sizes.q,
             config.normalize_observations,
+            config.critic_layer_norm,
         )
         self._make_policy = sac_networks.make_inference_fn(self.networks)
         self._sgd_step = self._sac_update(config)
@@ -138,6 +139,7 @@ class SACTrainer:
             policy_optimizer=self._policy_optimizer,
             tau=config.tau,
             actor_warmup_steps=config.actor_warmup_steps,
+            policy_delay=config.policy_delay,
         )
 
     def _replay(self, config: ml_collections.ConfigDict, shards: int) -> Any:

@@ -26,6 +26,8 @@ class SACUpdate:
       alpha_optimizer, q_optimizer, policy_optimizer: their optax optimisers.
       tau: Polyak rate of the target critics.
       actor_warmup_steps: updates during which only the critics learn.
+      policy_delay: after the warm-up, the actor and the temperature learn in one update of
+        every `policy_delay` (TD3's delayed policy update), the critics in every one.
     """
 
     alpha_loss: Callable[..., jax.Array]
@@ -36,6 +38,7 @@ class SACUpdate:
     policy_optimizer: optax.GradientTransformation
     tau: float
     actor_warmup_steps: int
+    policy_delay: int = 1
 
     def __call__(self, state: Any, batch: tuple[types.Transition, jax.Array]) -> tuple[Any, Metrics]:
         transitions, key = batch
@@ -75,6 +78,7 @@ class SACUpdate:
         warm = (state.gradient_steps.hi > 0) | (
             state.gradient_steps.lo >= self.actor_warmup_steps
         )
+        warm &= state.gradient_steps.lo % self.policy_delay == 0
         (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state) = jax.tree.map(
             lambda new, old: jnp.where(warm, new, old),
             (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state),
