@@ -28,6 +28,16 @@ def test_the_pages_agree_with_their_records(capsys):
     assert results.main(["--root", str(ROOT), "--check"]) == 0, capsys.readouterr().out
 
 
+def test_the_commanded_gait_page_agrees_with_its_records():
+    """experiments/commands/README.md's tables are table.py's rows of the JSONs beside it."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("table", ROOT / "experiments/commands/table.py")
+    table = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(table)
+    assert table.check() == []
+
+
 def test_every_table_marker_in_the_pages_has_a_record():
     layout = results.load_layout(ROOT)
     names = {

@@ -4,6 +4,7 @@ policies' configs, the campaign's runs from campaign.json (`training_summary.py`
 policy on one schedule: 8 episodes, the first traced; runs on a CPU):
 
     python experiments/commands/table.py     # the results table; campaign, SAC levers, engines, levers rows
+    python experiments/commands/table.py --check   # exit 1 where README.md's tables differ
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --figure   # docs/command_tracking.png
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --engines [NAME...]   # NAME_engines.json
 """
@@ -230,7 +231,18 @@ def figure() -> None:
     plots.plot_command_tracking(traces, path=HERE.parent.parent / "docs" / "command_tracking.png")
 
 
+def check() -> list[str]:
+    """The generated table rows that README.md lacks (none: its tables are the records')."""
+    readme = set((HERE / "README.md").read_text().splitlines())
+    blocks = (table(), campaign(), sac_levers(), engines(), levers())
+    return [line for block in blocks for line in block.splitlines() if line not in readme]
+
+
 if __name__ == "__main__":
+    if sys.argv[1:] == ["--check"]:
+        stale = check()
+        print("\n".join(f"README.md lacks: {line}" for line in stale) or "README.md: tables current")
+        sys.exit(1 if stale else 0)
     if sys.argv[1:] == ["--figure"]:
         figure()
     elif sys.argv[1:2] == ["--engines"]:
