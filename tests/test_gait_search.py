@@ -74,6 +74,8 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     config = json.loads(json.dumps(train.build_config(train.PRESETS["robust"], {}).to_dict()))
     # Trainer options added since, at the defaults that train as the runs did.
     assert config["sac"].pop("overlap_updates") is False
+    # ... and the delayed actor and LayerNorm critics, off: Brax's SAC.
+    assert (config["sac"].pop("policy_delay"), config["sac"].pop("critic_layer_norm")) == (1, False)
     assert config["sac"] == recorded["config"]
     env = config["env"]
     assert env.pop("action_centre") == "search"
