@@ -1,10 +1,11 @@
-"""The commanded-gait table of experiments/commands/README.md, from the evaluation and robustness
-JSONs beside this file (`run_gpu.sh evaluate` writes them; per-episode data removed) and the
-policies' configs, the campaign's runs from campaign.json (`training_summary.py`), and its figure (commanded against achieved velocity of each shipped command
-policy on one schedule: 8 episodes, the first traced; runs on a CPU):
+"""The commanded-gait tables of experiments/commands/README.md, from the evaluation and
+robustness JSONs beside this file (`run_gpu.sh evaluate` writes them; per-episode data removed),
+the policies' configs and the campaign's runs in campaign.json (`training_summary.py`); and its
+figure (commanded against achieved velocity of each shipped command policy on one schedule: 8
+episodes, the first traced; runs on a CPU):
 
-    python experiments/commands/table.py     # the results table; campaign, SAC levers, engines, levers rows
-    python experiments/commands/table.py --check   # exit 1 where README.md's tables differ
+    python experiments/commands/table.py            # the rows of every table
+    python experiments/commands/table.py --check    # exit 1 where README.md's tables differ
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --figure   # docs/command_tracking.png
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --engines [NAME...]   # NAME_engines.json
 """
@@ -241,7 +242,8 @@ def check() -> list[str]:
 if __name__ == "__main__":
     if sys.argv[1:] == ["--check"]:
         stale = check()
-        print("\n".join(f"README.md lacks: {line}" for line in stale) or "README.md: tables current")
+        lacks = "\n".join(f"README.md lacks: {line}" for line in stale)
+        print(lacks or "README.md: tables current")
         sys.exit(1 if stale else 0)
     if sys.argv[1:] == ["--figure"]:
         figure()

@@ -5,10 +5,10 @@
 
 `--into` keeps the runs of an earlier record (e.g. experiments/commands/campaign.json) and adds or
 replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
---no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b, speed map), every training-time
-evaluation of the trainer (env steps, eval reward, speed, fall rate), and the key numbers of the
-kept policy's random-command evaluation and robustness conditions and of the last policy's
-evaluation (1024 episodes of 20 s each; per-episode data left out).
+--no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
+speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
+rate), and the key numbers of the kept policy's random-command evaluation and robustness
+conditions and of the last policy's evaluation (per-episode data left out).
 """
 
 import io

@@ -6,6 +6,10 @@ robot's physics drawn per episode), `config` (the env's options, defaults and ch
 controls), `quadruped` (the env itself).
 """
 
+from typing import Any
+
+from quadcos import terrain as terrain_lib
+from quadcos._util.overrides import apply_overrides
 from quadcos.env import backends, config, episodes, layout, quadruped, randomization
 from quadcos.env.config import (
     CONTROLLERS,
@@ -16,12 +20,7 @@ from quadcos.env.config import (
     resolve,
     validate_config,
 )
-from quadcos.env.quadruped import (
-    _SPAWN_CLEARANCE,
-    JOINT_TARGET_BOUND,
-    QuadrupedEnv,
-    make_env,
-)
+from quadcos.env.quadruped import _SPAWN_CLEARANCE, JOINT_TARGET_BOUND, QuadrupedEnv
 
 __all__ = [
     "CONTROLLERS",
@@ -35,3 +34,13 @@ __all__ = [
     "resolve",
     "validate_config",
 ]
+
+
+def make_env(terrain: terrain_lib.Terrain | str | None = None, **overrides: Any) -> QuadrupedEnv:
+    """Build the env: `make_env("slope5", controller="joint", **{"reward.yaw": 0.0})`.
+
+    Overrides are env config keys (dotted for nested ones); an unknown key is a ValueError.
+    `terrain` defaults to the config's "terrain" (flat).
+    """
+    env_config = apply_overrides(default_config(), overrides)
+    return QuadrupedEnv(terrain if terrain is not None else env_config.terrain, env_config)

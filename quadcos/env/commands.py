@@ -206,6 +206,14 @@ def speed_map(config: ml_collections.ConfigDict) -> tuple[float, ...]:
     return speeds
 
 
+def drive(config: ml_collections.ConfigDict, velocity: jax.Array) -> jax.Array | None:
+    """(..., 2) `drive_scales` for velocity commands (..., 2) under a `commands` config: its speed
+    map, half track and clip; None with its feed-forward off."""
+    if not config.feed_forward:
+        return None
+    return drive_scales(velocity, speed_map(config), config.half_track, config.scale_max)
+
+
 def drive_scales(
     velocity: jax.Array, speeds: tuple[float, ...], half_track: float, scale_max: float
 ) -> jax.Array:

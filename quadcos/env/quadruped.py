@@ -16,7 +16,6 @@ import ml_collections
 
 from quadcos import robot
 from quadcos import terrain as terrain_lib
-from quadcos._util.overrides import apply_overrides
 from quadcos._util.quiet import warp_absence_unprinted
 from quadcos.env import backends, commands, randomization
 from quadcos.env.config import (  # noqa: F401 (the config's home; re-exported as quadcos.env's)
@@ -340,16 +339,8 @@ class QuadrupedEnv(base.Env):
 
     def drive_for(self, velocity: jax.Array) -> jax.Array | None:
         """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set
-        (`commands.drive_scales`), or None without the feed-forward."""
-        config = self.config.commands
-        if not (self.commanded and config.feed_forward):
-            return None
-        return commands.drive_scales(
-            velocity,
-            commands.speed_map(config),
-            config.half_track,
-            config.scale_max,
-        )
+        (`commands.drive`), or None without commands or the feed-forward."""
+        return commands.drive(self.config.commands, velocity) if self.commanded else None
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -515,12 +506,3 @@ _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
 
-
-def make_env(terrain: terrain_lib.Terrain | str | None = None, **overrides: Any) -> QuadrupedEnv:
-    """Build the env: `make_env("slope5", controller="joint", **{"reward.yaw": 0.0})`.
-
-    Overrides are env config keys (dotted for nested ones); an unknown key is a ValueError.
-    `terrain` defaults to the config's "terrain" (flat).
-    """
-    config = apply_overrides(default_config(), overrides)
-    return QuadrupedEnv(terrain if terrain is not None else config.terrain, config)
