@@ -68,14 +68,15 @@ class HostCommands:
         """The reward's command arguments for a control step of `dt` s from `time_before` to
         `time_now` (s) in which the yaw went from `yaw_before` to `yaw` (rad), as the env's
         `commands.Plan.step`; then the command moves on to the next step's."""
-        tracking = {"heading": yaw_before, "commanded_progress": self.velocity[0] * dt}
+        progress, yaw_rate = self.velocity[0] * dt, self.velocity[1]
         if self.config.tracking == "yaw_rate":
-            turned = twins.wrap_angle(yaw - yaw_before)
-            tracking["yaw_rate_error"] = turned / dt - self.velocity[1]
+            error = twins.wrap_angle(yaw - yaw_before) / dt - yaw_rate
+            tracking = {"heading": yaw_before, "commanded_progress": progress}
+            tracking["yaw_rate_error"] = error
         else:
             leash = self.config.heading_leash
-            self.heading = twins.advance_heading(self.heading, self.velocity[1], yaw, dt, leash)
-            tracking["heading"] = self.heading
+            self.heading = twins.advance_heading(self.heading, yaw_rate, yaw, dt, leash)
+            tracking = {"heading": self.heading, "commanded_progress": progress}
         if self.held:
             return tracking
         if self.spec.mode != env_commands.RANDOM:

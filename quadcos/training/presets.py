@@ -178,15 +178,14 @@ PRESETS["robust"] = {
 # domain randomisation is on, friction over its whole 0.4-1.5 range, 50-N pushes every 2 s on
 # average, latency up to 40 ms, observation noise 0.02, drawn at a growing level over each robot's
 # first 2 s. The command's feed-forward sets each side's stride from its commanded speed (a
-# differential drive through a speed map measured on the gait found: quadcos.deploy.calibration;
-# the best evaluation so far the searched gait under it: experiments/commands), so SAC learns
-# what the drive misses, within 0.2 of each rhythm range around the searched gait (with 0.5 SAC
-# left the gait and stood: experiments/commands). The reward tracks the yaw rate rather than a
-# heading the policy cannot see, its forward term ×3, and the critics carry LayerNorm with the actor
-# updated every second step: with the heading, unnormalised critics or w1 = 150 SAC lost to the
-# searched gait (experiments/commands, "SAC's levers"). The gait search scores candidates on the
-# run's commanded reward under the drive. About 8 minutes on one GPU (max_seconds), the best
-# evaluation's policy kept.
+# differential drive through a speed map measured on the gait found: quadcos.deploy.calibration),
+# so SAC learns what the drive misses, within 0.2 of each rhythm range around the searched gait
+# (with 0.5 SAC left the gait and stood: experiments/commands). The reward tracks the yaw rate
+# rather than a heading the policy cannot see, its forward term ×3, and the critics carry
+# LayerNorm with the actor updated every second step: with the heading, unnormalised critics or
+# w1 = 150 SAC lost to the searched gait (experiments/commands, "SAC's levers"). The gait search
+# scores candidates on the run's commanded reward under the drive. About 8 minutes on one GPU
+# (max_seconds), the best evaluation's policy kept.
 PRESETS["command"] = {
     **PRESETS["scratch"],
     "env.terrain": "flat",
