@@ -86,13 +86,11 @@ def rollout_evaluator(
     )
 
     def evaluate(state: training.TrainingState) -> dict[str, float]:
+        # On the host: as the rollout's own state, placed by JAX; parameters committed to a
+        # device make the first chunk's outputs committed, and the next chunk compile anew.
+        params = jax.device_get((state.normalizer_params, state.policy_params))
         stats = rollout_lib.rollout(
-            env,
-            source,
-            num_envs=num_episodes,
-            num_steps=goal.num_steps,
-            seed=1,
-            act_params=(state.normalizer_params, state.policy_params),
+            env, source, num_envs=num_episodes, num_steps=goal.num_steps, seed=1, act_params=params
         ).stats
         seconds = np.maximum(np.asarray(stats.steps), 1) * env.dt
         return {
