@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from mujoco import mjx
 
+from quadcos import robot as robot_lib
 from quadcos import terrain
 from quadcos.robot import constants, prepare, sources
 from tests import robot_variants
@@ -569,3 +570,9 @@ def test_a_presets_joint_frictionloss_replaces_the_mjcfs(monkeypatch):
         assert robot.summary()["physics"]["joint_frictionloss"] == 0.2
     finally:
         loading.load.cache_clear()
+
+
+def test_a_scene_with_its_own_floor_is_refused_naming_the_file():
+    scene = robot_lib.load(str(GO1.parent / "scene.xml"))
+    with pytest.raises(ValueError, match=r"scene\.xml\).* cannot take terrain 'flat'.*own MJCF"):
+        robot_lib.build_model(terrain.get("flat"), scene, timestep=0.005)

@@ -12,6 +12,7 @@ from quadcos._util.overrides import apply_overrides
 from quadcos.env import solver_probe
 from quadcos.robot.__main__ import main as robot_main
 from quadcos.training import run_config, session
+from quadcos.training.presets import PRESETS, build_config
 
 MENAGERIE = pathlib.Path(__file__).resolve().parents[2] / "shared" / "menagerie"
 GO1 = MENAGERIE / "unitree_go1" / "go1.xml"
@@ -140,3 +141,15 @@ def test_describe_probe_prints_the_chosen_physics(go1_probe, small_probe, capsys
     )
     assert physics["probe"]["reference"]["physics_dt"] == 0.002
     assert "solver probe: physics_dt 5 ms" in captured.err
+
+
+def test_a_run_still_to_search_its_gait_probes_its_physics_on_the_default_trot():
+    # A run probes its physics before its gait search: `--preset=command --robot=go1.xml`.
+    config = build_config(PRESETS["command"], {"env.robot": str(GO1)}).env
+    assert config.action_centre == "search" and solver_probe.needs_probe(config)
+    probed = solver_probe._probed_config(config)  # noqa: SLF001 — what `probe` runs
+    assert probed.action_centre == env_lib.default_config().action_centre
+    assert config.action_centre == "search"  # the run's config untouched
+    resolved = env_lib.config.resolve(probed).to_json(sort_keys=True)
+    rollout = solver_probe._rollout(resolved, ROBOTS, SECONDS, 0)  # noqa: SLF001 — built, not run
+    assert 0.25 < rollout.layout.standing_height < 0.32  # Go1's home pose

@@ -84,9 +84,8 @@ def measure(
     }
     if not speed >= MIN_SPEED:
         logger.warning(
-            "feed-forward: the gait walks %.2f m/s (< %g): keeping v_ref %.2f m/s, b %.3f m",
-            speed,
-            MIN_SPEED,
+            "feed-forward: the gait %s: keeping v_ref %.2f m/s, b %.3f m",
+            "falls" if math.isnan(speed) else f"walks {speed:.2f} m/s (< {MIN_SPEED:g})",
             result["reference_speed"],
             result["half_track"],
         )

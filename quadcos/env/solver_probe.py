@@ -212,7 +212,7 @@ def probe(
       ValueError: a config the env cannot run (`validate_config`).
     """
     config_lib.validate_config(config)
-    reference_config = config_lib.resolve(config)
+    reference_config = config_lib.resolve(_probed_config(config))
     reference = SolverOptions(*(reference_config[key] for key in PHYSICS_KEYS))
     mj_model = robot_lib.build_model(
         _flat(), robot_lib.load(config.robot), timestep=reference.physics_dt
@@ -242,6 +242,16 @@ def probe(
         if not why:
             return ProbeResult(option, reference, True, tuple(trials), reference_outcome)
     return ProbeResult(reference, reference, False, tuple(trials), reference_outcome)
+
+
+def _probed_config(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
+    """`config` as the probe runs it: a gait still to be searched for (a run probes its physics
+    before its gait search) replaced by the default trot, which the probe's trotting robots walk."""
+    if config.action_centre != oscillator.SEARCH_CENTRE:
+        return config
+    probed = ml_collections.ConfigDict(config.to_dict())
+    probed.action_centre = config_lib.default_config().action_centre
+    return probed
 
 
 def apply(config: ml_collections.ConfigDict, result: ProbeResult) -> None:

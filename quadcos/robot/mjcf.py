@@ -36,10 +36,18 @@ def build_model(
         MJCF's).
 
     Raises:
-      ValueError: the robot does not compile on the terrain, naming both.
+      ValueError: the robot does not compile on the terrain, or has a ground of its own, naming
+        both.
     """
     spec = robot.spec()
-    terrain.attach(spec)
+    try:
+        terrain.attach(spec)
+    except ValueError as error:  # the MJCF has a ground of its own
+        raise ValueError(
+            f"robot {robot.source.spec} ({robot.source.path}) cannot take terrain"
+            f" {terrain.name!r}: {error}. quadcos adds the ground: name the robot's own MJCF, not a"
+            " scene that includes it (a Menagerie scene.xml includes the robot's file)"
+        ) from None
     spec.option.timestep = timestep
     if solver_iterations:
         spec.option.iterations = solver_iterations
