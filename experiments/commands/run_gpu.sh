@@ -6,7 +6,7 @@
 #   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
 #   bash experiments/commands/run_gpu.sh pack RUN...      # $OUT/NAME.tgz
 #   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
-# RUN is NAME@ROBOT@SEED[@extra train flags, space-separated], e.g.
+# RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
 # go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
 # the GPU's memory. The runs work from a copy of the tree under
 # /tmp/qc (the tree a later call brings may differ), their folders under /tmp/qc_runs/NAME; the

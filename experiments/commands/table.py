@@ -111,7 +111,32 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1_map2_s1": "map",
     "go2_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
     "go1_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
+    "go1_rate_s1": "the preset (seed 1)",
+    "go1_rate_s2": "the preset (seed 2)",
+    "anymal_rate_s0": "the preset (ANYmal C): its gait stands, v_ref 0.80 kept",
+    "anymal_ms_s0": "the preset, gait search `min_speed` 0.15 (ANYmal C): its gait falls, v_ref"
+    " 0.80 kept",
 }
+SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
+
+
+def seeds() -> str:
+    """The rows of the Go1 seeds table: each seed's kept policy under random commands with the
+    training randomisation and in the four robustness conditions (nominal: none drawn)."""
+    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    rows = []
+    for name in SEEDS:
+        run, kept = runs[name], runs[name]["kept"]
+        conditions = run["robustness"]
+        nominal = conditions["nominal"]
+        rows.append(
+            f"| {run['argv'][2].split('=')[1]} | {kept['policy_env_steps'] / 1e6:.1f} M | "
+            + " / ".join(f"{c['success_rate']:.3f}" for c in conditions.values())
+            + f" | {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f} |"
+            f" {nominal['speed_tracking_rms']:.3f}, {nominal['yaw_rate_tracking_rms']:.3f} |"
+            f" {kept['mean_max_abs_pitch_error']:.3f}, {kept['mean_max_abs_roll']:.3f} |"
+        )
+    return "\n".join(rows)
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
     "go2_ln": "LayerNorm critics",
@@ -235,7 +260,7 @@ def figure() -> None:
 def check() -> list[str]:
     """The generated table rows that README.md lacks (none: its tables are the records')."""
     readme = set((HERE / "README.md").read_text().splitlines())
-    blocks = (table(), campaign(), sac_levers(), engines(), levers())
+    blocks = (table(), seeds(), campaign(), sac_levers(), engines(), levers())
     return [line for block in blocks for line in block.splitlines() if line not in readme]
 
 
@@ -252,6 +277,8 @@ if __name__ == "__main__":
             measure_engines(policy_name)
     else:
         print(table())
+        print()
+        print(seeds())
         print()
         print(campaign())
         print()
