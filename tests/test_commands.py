@@ -455,6 +455,11 @@ def test_gait_metrics_on_a_synthetic_trace():
     assert pooled["speed_tracking_rms"] == pytest.approx(rms, rel=1e-4)  # robot 0's windows
     assert pooled["cost_of_transport"] == pytest.approx(6.6 / (4.0 * 9.81 * 0.55), rel=1e-4)
     assert pooled["peak_joint_torque_ratio"] == pytest.approx(0.2)
+    # A fall's energy is left out of the pooled cost of transport (robot 1 fell, blown up).
+    blown_up = host.replace(fell=np.array([False, True]), energy=np.array([host.energy[0], 1e9]))
+    assert metrics.gait_aggregate(blown_up)["cost_of_transport"] == pytest.approx(
+        values[0]["cost_of_transport"], rel=1e-4
+    )
     uncommanded = metrics.gait_values(host.replace(commanded=False), 0)
     assert uncommanded["speed_tracking_rms"] is None
 

@@ -572,6 +572,7 @@ def test_a_presets_joint_frictionloss_replaces_the_mjcfs(monkeypatch):
         loading.load.cache_clear()
 
 
+@needs_menagerie
 def test_a_scene_with_its_own_floor_is_refused_naming_the_file():
     scene = robot_lib.load(str(GO1.parent / "scene.xml"))
     with pytest.raises(ValueError, match=r"scene\.xml\).* cannot take terrain 'flat'.*own MJCF"):

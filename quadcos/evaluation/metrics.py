@@ -88,17 +88,19 @@ def _rms(sum_of_squares: Any, count: int) -> float | None:
 def gait_aggregate(stats: GaitEpisodeStats) -> dict[str, Any]:
     """Gait quality over all episodes, every step of every episode pooled: the tracking RMS
     (sqrt(Σ squared window errors / Σ windows); None without commands), the foot slip (Σ / Σ steps with
-    contact), the cost of transport (Σ energy / (m g Σ distance)); `peak_joint_torque_ratio`: the
-    mean of the episodes' peaks. Episodes with a non-finite value are left out of it."""
+    contact), the cost of transport (Σ energy / (m g Σ distance) over the episodes that did not
+    fall: a fall moves nothing, and one whose physics blew up before it ended outweighs a thousand
+    walks); `peak_joint_torque_ratio`: the mean of the episodes' peaks. Episodes with a non-finite
+    value are left out of it."""
 
-    def pooled(values: Any, counts: Any) -> tuple[float, float]:
+    def pooled(values: Any, counts: Any, keep: Any = True) -> tuple[float, float]:
         values, counts = np.asarray(values, dtype=float), np.asarray(counts, dtype=float)
-        finite = np.isfinite(values)
-        return float(values[finite].sum()), float(counts[finite].sum())
+        kept = np.isfinite(values) & keep
+        return float(values[kept].sum()), float(counts[kept].sum())
 
     peaks = np.asarray(stats.peak_torque_ratio, dtype=float)
     peaks = peaks[np.isfinite(peaks) & (np.asarray(stats.steps) > 0)]
-    energy, distance = pooled(stats.energy, stats.path)
+    energy, distance = pooled(stats.energy, stats.path, ~np.asarray(stats.fell, dtype=bool))
     return {
         "speed_tracking_rms": _rms(*pooled(stats.speed_sq_error, stats.windows))
         if stats.commanded
