@@ -22,7 +22,12 @@ gpus=$(nvidia-smi -L 2>/dev/null | wc -l); [ "$gpus" -gt 0 ] || gpus=1
 envs=${EVAL_ENVS:-1024}  # episodes of each evaluation
 share=$(( ($# + gpus - 1) / gpus ))  # runs on one GPU
 
-split_run() { IFS=@ read -r NAME ROBOT SEED EXTRA <<< "$1"; }
+split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops the script
+  IFS=@ read -r NAME ROBOT SEED EXTRA <<< "$1"
+  [[ $NAME =~ ^[A-Za-z0-9_.-]+$ && -n $ROBOT && $SEED =~ ^[0-9]+$ ]] || {
+    echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
+}
+[ "$verb" = levers ] || for spec in "$@"; do split_run "$spec"; done  # every RUN before any starts
 
 case $verb in
 train)
