@@ -104,7 +104,7 @@ def test_readme_evaluation_example_runs(monkeypatch):
     result = namespace["result"]
     assert result.success == 1.0 and result.falls == 0.0  # the pretrained policy, 2 s on flat
     assert 0.2 < result.speed < 1.5
-    assert namespace["summary"]["num_episodes"] == 8
+    assert namespace["summary"]["num_episodes"] == 4
 
 
 def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypatch):
