@@ -120,6 +120,11 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 
 
+def _flag(argv: list[str], name: str) -> str:
+    """The value of `name`=VALUE in a run's recorded train flags."""
+    return next(arg.split("=", 1)[1] for arg in argv if arg.startswith(f"{name}="))
+
+
 def seeds() -> str:
     """The rows of the Go1 seeds table: each seed's kept policy under random commands with the
     training randomisation and in the four robustness conditions (nominal: none drawn)."""
@@ -130,7 +135,7 @@ def seeds() -> str:
         conditions = run["robustness"]
         nominal = conditions["nominal"]
         rows.append(
-            f"| {run['argv'][2].split('=')[1]} | {kept['policy_env_steps'] / 1e6:.1f} M | "
+            f"| {_flag(run['argv'], '--seed')} | {kept['policy_env_steps'] / 1e6:.1f} M | "
             + " / ".join(f"{c['success_rate']:.3f}" for c in conditions.values())
             + f" | {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f} |"
             f" {nominal['speed_tracking_rms']:.3f}, {nominal['yaw_rate_tracking_rms']:.3f} |"

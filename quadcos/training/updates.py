@@ -74,13 +74,14 @@ class SACUpdate:
             self.policy_optimizer, policy_grad, state.policy_params, state.policy_optimizer_state
         )
         # During the warm-up only the critics learn: an actor that climbs an untrained Q
-        # walks away from the action centre's gait before the critic can value it.
+        # walks away from the action centre's gait before the critic can value it. After it, the
+        # actor and the temperature learn in one update of every `policy_delay`.
         warm = (state.gradient_steps.hi > 0) | (
             state.gradient_steps.lo >= self.actor_warmup_steps
         )
-        warm &= state.gradient_steps.lo % self.policy_delay == 0
+        actor_learns = warm & (state.gradient_steps.lo % self.policy_delay == 0)
         (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state) = jax.tree.map(
-            lambda new, old: jnp.where(warm, new, old),
+            lambda new, old: jnp.where(actor_learns, new, old),
             (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state),
             (
                 state.log_alpha,
