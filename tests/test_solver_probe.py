@@ -60,12 +60,12 @@ def test_candidates_divide_the_control_step_cheapest_first():
     reference = solver_probe.SolverOptions(0.002, 100, 50, "elliptic")
     options = solver_probe.candidates(0.05, reference)
     steps = [option.physics_dt for option in options]
-    assert steps == sorted(steps, reverse=True) and set(steps) == {0.01, 0.005, 0.0025}
-    assert options[0] == solver_probe.SolverOptions(0.01, 4, 8, "pyramidal")
+    assert steps == sorted(steps, reverse=True) and set(steps) == {0.005, 0.0025}
+    assert options[0] == solver_probe.SolverOptions(0.005, 4, 8, "pyramidal")
     steps = {option.physics_dt for option in solver_probe.candidates(0.015, reference)}
     assert steps == {0.005, 0.0025}
-    slow = solver_probe.SolverOptions(0.005, 100, 50, "elliptic")
-    assert {option.physics_dt for option in solver_probe.candidates(0.05, slow)} == {0.01}
+    slow = solver_probe.SolverOptions(0.0025, 100, 50, "elliptic")
+    assert {option.physics_dt for option in solver_probe.candidates(0.05, slow)} == {0.005}
 
 
 def test_judge_rejects_what_strays_from_the_reference():

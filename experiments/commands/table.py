@@ -116,6 +116,10 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "anymal_rate_s0": "the preset (ANYmal C): its gait stands, v_ref 0.80 kept",
     "anymal_ms_s0": "the preset, gait search `min_speed` 0.15 (ANYmal C): its gait falls, v_ref"
     " 0.80 kept",
+    "go1path_s0": "Go1's MJCF by its path (no preset): the probe chose a 10-ms step; its gait falls"
+    " in C MuJoCo, v_ref 1.00 kept",
+    "go1path5_s0": "Go1's MJCF by its path, the probe's 5 ms (the preset's physics), 225 s: v_ref"
+    " 0.68, no map (its gait falls in C MuJoCo at one of three frictions)",
 }
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 
@@ -181,7 +185,9 @@ def campaign() -> str:
     rows = []
     for name, drive in CAMPAIGN.items():
         run, kept, last = runs[name], runs[name]["kept"], runs[name]["last"]
-        survival = " / ".join(f"{c['success_rate']:.3f}" for c in run["robustness"].values())
+        survival = " / ".join(
+            f"{c['success_rate']:.3f}" for c in (run["robustness"] or {}).values()
+        ) or "not measured"
         tracking = "{speed_tracking_rms:.3f}, {yaw_rate_tracking_rms:.3f}"
         rows.append(
             f"| `{name}` | {drive} | {kept['policy_env_steps'] / 1e6:.1f} M | {survival} |"

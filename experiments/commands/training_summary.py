@@ -7,7 +7,8 @@
 replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
 --no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
-rate), and the key numbers of the kept policy's random-command evaluation and robustness
+rate), the training rate at the last evaluation, the solver probe's physics (a robot without a
+preset), and the key numbers of the kept policy's random-command evaluation and robustness
 conditions and of the last policy's evaluation (per-episode data left out).
 """
 
@@ -25,6 +26,7 @@ STEP = re.compile(
 FEED_FORWARD = re.compile(r"feed-forward: v_ref (\S+) m/s, b (\S+) m(?: .*?speed map \(([^)]*)\))?")
 DROPPED = ("--output_dir", "--no_progress")  # argv flags that say nothing of the run
 STOPPED = re.compile(r"error: (non-finite SAC loss[^;]*)")
+PROBE = re.compile(r"solver probe: ([^(\n]*?) \(")  # a robot without a preset: the physics chosen
 KEYS = (
     "success_rate",
     "speed_tracking_rms",
@@ -63,6 +65,8 @@ def summary(path: Path) -> dict:
     log = files["train.log"]
     ff = FEED_FORWARD.search(log)
     stopped = STOPPED.search(log)
+    probe = PROBE.search(log)
+    steps = STEP.findall(log)
     robust = files.get("robustness.json")
     config = json.loads(files.get("config.json", "{}"))
     argv = config.get("run_info", {}).get("argv")
@@ -81,8 +85,11 @@ def summary(path: Path) -> dict:
                 "speed": float(speed),
                 "fall_rate": float(falls),
             }
-            for steps, _, reward, speed, falls in STEP.findall(log)
+            for steps, _, reward, speed, falls in steps
         ],
+        # the trainer's env steps per second at its last evaluation (runs that logged it)
+        **({"env_steps_per_s": int(steps[-1][1].replace(",", ""))} if len(steps) > 1 else {}),
+        **({"solver_probe": probe[1]} if probe else {}),
         "stopped": stopped[1] if stopped else None,
         "kept": _evaluation(files.get("eval.json")),
         "last": _evaluation(files.get("last_eval.json")),
