@@ -414,7 +414,7 @@ def test_gait_metrics_on_a_synthetic_trace():
             qvel=jnp.array([[1.0, 1.0]] * n),
         )
         info = {"velocity_command": types.SimpleNamespace(velocity=command)}
-        return types.SimpleNamespace(pipeline_state=data, info=info)
+        return types.SimpleNamespace(pipeline_state=data, info=info, reward=jnp.ones(n))
 
     first = state(0)
     base = rollout.EpisodeStats(

@@ -401,6 +401,29 @@ def test_learning_curve_band_is_the_t_interval_across_seeds():
         plots.learning_curve(runs, "other")
 
 
+def test_a_step_that_blew_up_leaves_its_episode_diverged():
+    # The env marks a blown-up step with a NaN reward (env.quadruped.MAX_SPEED), its position
+    # still finite: the episode's position turns NaN, so that it counts in `diverged_rate`.
+    from quadcos.evaluation import metrics, rollout
+
+    stats = rollout._initial_stats(
+        types.SimpleNamespace(pipeline_state=types.SimpleNamespace(qpos=jnp.zeros((2, 19)))),
+        jnp.zeros(2, jnp.int32),
+    )
+    qpos = jnp.zeros((2, 19)).at[:, 0].set(jnp.array([0.5, 5e4])).at[:, 3].set(1.0)
+    state = types.SimpleNamespace(
+        pipeline_state=types.SimpleNamespace(qpos=qpos),
+        reward=jnp.array([1.0, jnp.nan]),
+        done=jnp.array([0.0, 1.0]),
+        metrics={"slope_estimate": jnp.zeros(2), "slope_truth": jnp.zeros(2)}
+        | {f"reward/{term}": jnp.zeros(2) for term in stats.reward_terms},
+    )
+    stats = rollout._update_stats(stats, state, jnp.ones(2, bool), jnp.full(1, jnp.inf))
+    episodes = metrics.episode_values(stats, dt=1.0, num_steps=1)
+    assert [e["fell"] for e in episodes] == [False, True]
+    assert episodes[0]["distance"] == pytest.approx(0.5) and math.isnan(episodes[1]["distance"])
+
+
 def test_a_diverged_episode_is_counted_and_left_out_of_the_means():
     from quadcos.evaluation import metrics
     from quadcos.evaluation.rollout import EpisodeStats

@@ -238,8 +238,9 @@ class HostRobot:
         obs, body, slope_estimate = self._observe()
         x, y, _ = self.data.qpos[self.layout.position]
         slope_truth = float(twins.slope_at(self.terrain, x, y))
-        finite = np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all()
-        fell = not finite or self._fell(body, slope_truth)
+        qpos, qvel = self.data.qpos, self.data.qvel
+        sane = np.isfinite(qpos).all() and (np.abs(qvel) < env_lib.MAX_SPEED).all()
+        fell = not sane or self._fell(body, slope_truth)
         forward_speed = (x - x_last) / self.dt
         self.mean_speed += self._speed_blend * (forward_speed - self.mean_speed)
         terms = twins.reward_terms(

@@ -20,11 +20,12 @@ from quadcos.env.config import (
     resolve,
     validate_config,
 )
-from quadcos.env.quadruped import _SPAWN_CLEARANCE, JOINT_TARGET_BOUND, QuadrupedEnv
+from quadcos.env.quadruped import _SPAWN_CLEARANCE, JOINT_TARGET_BOUND, MAX_SPEED, QuadrupedEnv
 
 __all__ = [
     "CONTROLLERS",
     "JOINT_TARGET_BOUND",
+    "MAX_SPEED",
     "OSCILLATOR_FORMS",
     "QuadrupedEnv",
     "action_size",

@@ -36,6 +36,11 @@ with warp_absence_unprinted():
     from mujoco import mjx
 
 JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
+# m/s and rad/s: faster, the physics blew up though it stayed finite (MJX's finite blow-ups reach
+# 1e4-1e6 m/s; no robot's joint turns at 1000 rad/s). Such a step is a fall with a NaN reward, as
+# a non-finite one is: training resets the env and stores nothing of it, evaluations count it
+# as diverged.
+MAX_SPEED = 1_000.0
 
 
 class _Observed(NamedTuple):
@@ -205,8 +210,8 @@ class QuadrupedEnv(base.Env):
         observed = self._observe(data, phase, command)
         position = data.qpos[self.layout.position]
         slope_truth = self.terrain.slope_at(position[0], position[1])
-        finite = jnp.isfinite(data.qpos).all() & jnp.isfinite(data.qvel).all()
-        fell = self._fell(data, observed.attitude, slope_truth) | ~finite
+        sane = jnp.isfinite(data.qpos).all() & (jnp.abs(data.qvel) < MAX_SPEED).all()
+        fell = self._fell(data, observed.attitude, slope_truth) | ~sane
         last = before.qpos[self.layout.position]
         forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
@@ -238,7 +243,7 @@ class QuadrupedEnv(base.Env):
         return state.replace(
             pipeline_state=data,
             obs=obs,
-            reward=sum(terms.values()),
+            reward=jnp.where(sane, sum(terms.values()), jnp.nan),
             done=fell.astype(jnp.float32),
             metrics=metrics,
             info={**info, "phase": phase, "command": command, "mean_speed": mean_speed},

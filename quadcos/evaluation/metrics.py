@@ -117,9 +117,9 @@ def gait_aggregate(stats: GaitEpisodeStats) -> dict[str, Any]:
 def aggregate(episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats) -> dict[str, Any]:
     """Aggregates over episodes (means of per-episode values unless said otherwise).
 
-    An episode whose physics diverged (a non-finite position: the env ended it as a fall) is
-    counted in `diverged_rate` and in the rates, and left out of the means of values it made
-    non-finite, so that one blown-up robot does not turn a thousand episodes' speed into NaN.
+    An episode whose physics diverged (a non-finite position: the env ended it as a fall; the
+    rollout makes a blow-up that stayed finite NaN) is counted in `diverged_rate` and in the
+    rates, and left out of the means of values it made non-finite, so that one blown-up robot does not turn a thousand episodes' speed into NaN.
     `slope_error_rms` pools every step of every episode with a finite error: sqrt(Σ squared errors
     / Σ steps). A mean over no finite value is NaN (null in JSON).
     """

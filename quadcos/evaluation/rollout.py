@@ -216,17 +216,21 @@ def _update_gait_stats(
     """`stats` (the step's EpisodeStats update) with the gait sums of `gait` advanced by one step
     for the episodes that were running before it (`counts`)."""
     data, dt, layout = state.pipeline_state, env.dt, env.layout
+
+    def unless_blown_up(value):  # a step whose physics blew up leaves the episode's sums NaN
+        return jnp.where(jnp.isfinite(state.reward), value, jnp.nan)
+
     yaw = slope.attitude(data.qpos[:, constants.QPOS_QUATERNION]).yaw
     step_x, step_y = data.qpos[:, 0] - gait.x, data.qpos[:, 1] - gait.y
-    speed = (step_x * jnp.cos(yaw) + step_y * jnp.sin(yaw)) / dt
-    yaw_rate = reward.wrap_angle(yaw - gait.yaw) / dt
+    speed = unless_blown_up((step_x * jnp.cos(yaw) + step_y * jnp.sin(yaw)) / dt)
+    yaw_rate = unless_blown_up(reward.wrap_angle(yaw - gait.yaw) / dt)
     feet, touching = _feet(env, data)
     slipping = touching & gait.foot_contact
     foot_speed = jnp.linalg.norm(feet - gait.foot_xy, axis=-1) / dt
-    slip = (foot_speed * slipping).sum(-1) / jnp.maximum(slipping.sum(-1), 1)
+    slip = unless_blown_up((foot_speed * slipping).sum(-1) / jnp.maximum(slipping.sum(-1), 1))
     torque = data.qfrc_actuator[:, layout.joint_qvel]  # N m
-    power = jnp.abs(torque * data.qvel[:, layout.joint_qvel]).sum(-1)
-    ratio = (jnp.abs(torque) / layout.torque_limit).max(-1)
+    power = unless_blown_up(jnp.abs(torque * data.qvel[:, layout.joint_qvel]).sum(-1))
+    ratio = unless_blown_up((jnp.abs(torque) / layout.torque_limit).max(-1))
     if not np.isfinite(np.asarray(layout.torque_limit)).any():
         ratio = jnp.full_like(ratio, jnp.nan)  # no limit to compare with
 
@@ -255,7 +259,7 @@ def _update_gait_stats(
         slip_sum=add(gait.slip_sum, slip),
         slip_steps=add(gait.slip_steps, slipping.any(-1).astype(jnp.int32)),
         energy=add(gait.energy, power * dt),
-        path=add(gait.path, jnp.hypot(step_x, step_y)),
+        path=add(gait.path, unless_blown_up(jnp.hypot(step_x, step_y))),
         peak_torque_ratio=jnp.where(
             counts, jnp.maximum(gait.peak_torque_ratio, ratio), gait.peak_torque_ratio
         ),
@@ -271,7 +275,11 @@ def _update_stats(
     (lanes,) where each lane's course ends (inf: no course)."""
     qpos = state.pipeline_state.qpos
     body = slope.attitude(qpos[:, constants.QPOS_QUATERNION])
-    x, y = qpos[:, 0], qpos[:, 1]
+    # A step whose physics blew up (the env's NaN reward: non-finite or beyond
+    # `env.quadruped.MAX_SPEED`) leaves the position NaN, so that the episode counts as diverged.
+    blown_up = ~jnp.isfinite(state.reward)
+    x = jnp.where(blown_up, jnp.nan, qpos[:, 0])
+    y = jnp.where(blown_up, jnp.nan, qpos[:, 1])
     metrics = state.metrics
 
     def accumulate(old, new):
