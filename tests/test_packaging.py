@@ -44,6 +44,8 @@ def test_the_wheel_builds_the_env_from_another_directory(tmp_path):
         "print(constants.MJCF_PATH)\n"
         "env = quadcos.make_env('flat')\n"
         "print(env.observation_size, env.action_size)\n"
+        "import sys, quadcos.train\n"
+        "print('orbax' in sys.modules)\n"  # imported at a run's first checkpoint, not at start
     )
     environment = {**os.environ, "PYTHONPATH": str(site), "JAX_PLATFORMS": "cpu"}
     result = subprocess.run(
@@ -55,7 +57,8 @@ def test_the_wheel_builds_the_env_from_another_directory(tmp_path):
         timeout=300,
     )
     assert result.returncode == 0, result.stderr[-2000:]
-    package, mjcf, sizes = result.stdout.split("\n")[:3]
+    package, mjcf, sizes, orbax_imported = result.stdout.split("\n")[:4]
+    assert orbax_imported == "False"
     assert pathlib.Path(package) == site / "quadcos"
     assert pathlib.Path(mjcf) == site / "quadcos" / "models" / "mjcf" / "quadruped.xml"
     observation_size, action_size = map(int, sizes.split())
