@@ -12,8 +12,11 @@
 # second run finds it. Runs are any_slope_MODE_sSEED, 300 s from process start each
 # (`--max_seconds`), on GPUs FIRST_GPU, FIRST_GPU + 1, ... They work from a copy of the tree under
 # /tmp/qa (a later device call may bring another tree); their folders and evaluations under
-# /tmp/qa_out, the layout seeds.py reads; summary copies what to commit to $OUT.
+# /tmp/qa_out, the layout seeds.py reads; summary copies what to commit to $OUT. ANY_FLAGS: train
+# flags on top; EVAL_ENVS, EVAL_SECONDS: every evaluation's episodes and length instead of the
+# table's (a dry run on a CPU: tiny sizes in ANY_FLAGS, EVAL_ENVS=4 EVAL_SECONDS=1).
 set -uo pipefail
+# shellcheck disable=SC2086  # ANY_FLAGS: several flags
 verb=${1:?usage: run_gpu.sh train|wait|evaluate|summary cold|warm SEED...}
 mode=${2:?MODE: cold or warm}; shift 2
 [[ $mode =~ ^(cold|warm)$ ]] || { echo "MODE is cold or warm, not '$mode'" >&2; exit 2; }
@@ -35,7 +38,8 @@ train)
     rm -rf "${dir:?}/runs/$name"
     (cd /tmp/qa && CUDA_VISIBLE_DEVICES=$(gpu $i) QUADCOS_CACHE_DIR=$cache \
       setsid nohup python3 -m quadcos.train --preset=any_slope --seed="$seed" --max_seconds=300 \
-      --output_dir="$dir/runs/$name" --no_progress > "$dir/$name.log" 2>&1 < /dev/null &)
+      --output_dir="$dir/runs/$name" --no_progress ${ANY_FLAGS:-} > "$dir/$name.log" 2>&1 \
+      < /dev/null &)
     echo "$(date +%T) $name on GPU $(gpu $i), caches $cache"
     i=$((i + 1))
   done ;;
@@ -60,7 +64,8 @@ evaluate)
         read -r key terrain n secs <<< "$course"
         [ -s "$dir/eval_${name}_$key.json" ] && continue  # done by an earlier call
         python3 -m quadcos.evaluate --no_progress --policy="$best" --terrain="$terrain" \
-          --num_envs="$n" --seconds="$secs" --out="$dir/eval_${name}_$key.json" \
+          --num_envs="${EVAL_ENVS:-$n}" --seconds="${EVAL_SECONDS:-$secs}" \
+          --out="$dir/eval_${name}_$key.json" \
           > "$dir/eval_${name}_$key.log" 2>&1
         echo "$(date +%T) $name $key: exit $? $(tail -n 1 "$dir/eval_${name}_$key.log")"
       done
