@@ -159,10 +159,8 @@ def test_a_finite_blow_up_is_a_fall_with_a_nan_reward(flat_reset, flat_step):
     # MJX can blow up without a NaN (a Go1 evaluation: 1e5 m/s): beyond MAX_SPEED it is a fall
     # whose reward is NaN, as a non-finite one's, which training's NaN guard and the evaluations
     # count as diverged.
-    from quadcos.env import quadruped
-
     state = flat_reset(jax.random.split(jax.random.PRNGKey(3), FLAT_ROBOTS))
-    qvel = state.pipeline_state.qvel.at[1, 0].set(50 * quadruped.MAX_SPEED)
+    qvel = state.pipeline_state.qvel.at[1, 0].set(50 * quadcos.env.MAX_SPEED)
     state = state.replace(pipeline_state=state.pipeline_state.replace(qvel=qvel))
     state = flat_step(state, jnp.zeros((FLAT_ROBOTS, 5)))
     np.testing.assert_array_equal(np.asarray(state.done), [0.0, 1.0, 0.0, 0.0])

@@ -402,7 +402,7 @@ def test_learning_curve_band_is_the_t_interval_across_seeds():
 
 
 def test_a_step_that_blew_up_leaves_its_episode_diverged():
-    # The env marks a blown-up step with a NaN reward (env.quadruped.MAX_SPEED), its position
+    # The env marks a blown-up step with a NaN reward (env.layout.MAX_SPEED), its position
     # still finite: the episode's position turns NaN, so that it counts in `diverged_rate`.
     from quadcos.evaluation import metrics, rollout
 

@@ -44,7 +44,7 @@ from quadcos.deploy import export, host_commands, solver, twins
 from quadcos.deploy.numpy_policy import NumpyPolicy
 from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.env import commands as env_commands
-from quadcos.env.layout import Layout
+from quadcos.env.layout import Layout, blown_up
 from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import sources
 
@@ -238,9 +238,7 @@ class HostRobot:
         obs, body, slope_estimate = self._observe()
         x, y, _ = self.data.qpos[self.layout.position]
         slope_truth = float(twins.slope_at(self.terrain, x, y))
-        qpos, qvel = self.data.qpos, self.data.qvel
-        sane = np.isfinite(qpos).all() and (np.abs(qvel) < env_lib.MAX_SPEED).all()
-        fell = not sane or self._fell(body, slope_truth)
+        fell = bool(blown_up(self.data.qpos, self.data.qvel, np)) or self._fell(body, slope_truth)
         forward_speed = (x - x_last) / self.dt
         self.mean_speed += self._speed_blend * (forward_speed - self.mean_speed)
         terms = twins.reward_terms(
@@ -320,8 +318,8 @@ class HostRobot:
         return np.concatenate(parts), body, slope_estimate
 
     def _fell(self, body: slope.Attitude, slope_truth: float) -> bool:
-        """`QuadrupedEnv._fell`: torso too low, attitude beyond limits, or a torso corner below
-        the ground."""
+        """`env.layout.fallen`'s twin: torso too low, attitude beyond limits, or a torso corner
+        below the ground."""
         layout = self.layout
         x, y, z = self.data.qpos[layout.position]
         config = self.config

@@ -20,7 +20,8 @@ from quadcos.env.config import (
     resolve,
     validate_config,
 )
-from quadcos.env.quadruped import _SPAWN_CLEARANCE, JOINT_TARGET_BOUND, MAX_SPEED, QuadrupedEnv
+from quadcos.env.layout import MAX_SPEED
+from quadcos.env.quadruped import _SPAWN_CLEARANCE, JOINT_TARGET_BOUND, QuadrupedEnv
 
 __all__ = [
     "CONTROLLERS",

@@ -157,6 +157,17 @@ def _abduction_map(description: RobotDescription, model: mujoco.MjModel) -> np.n
     return mapping
 
 
+# m/s and rad/s: faster, the physics blew up though it stayed finite (MJX's finite blow-ups reach
+# 1e4-1e6 m/s; no robot's joint turns at 1000 rad/s).
+MAX_SPEED = 1_000.0
+
+
+def blown_up(qpos: Any, qvel: Any, xp: ModuleType = jnp) -> Any:
+    """Whether a robot's physics blew up: a non-finite position or a speed beyond `MAX_SPEED`
+    (MJX can blow up and stay finite). `xp`: jax.numpy (MJX) or numpy (C MuJoCo)."""
+    return ~(xp.isfinite(qpos).all() & (xp.abs(qvel) < MAX_SPEED).all())
+
+
 def fallen(
     layout: Layout, terrain: Any, config: Any, data: Any, torso: int, body: Any, slope_truth: Any
 ) -> Any:

@@ -27,7 +27,7 @@ from quadcos.env.config import (  # noqa: F401 (the config's home; re-exported a
     resolve,
     validate_config,
 )
-from quadcos.env.layout import Layout, fallen
+from quadcos.env.layout import Layout, blown_up, fallen
 from quadcos.equations import kinematics, oscillator, reward, slope
 
 # The first import of MJX in a quadcos process (brax imports it too).
@@ -36,11 +36,6 @@ with warp_absence_unprinted():
     from mujoco import mjx
 
 JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
-# m/s and rad/s: faster, the physics blew up though it stayed finite (MJX's finite blow-ups reach
-# 1e4-1e6 m/s; no robot's joint turns at 1000 rad/s). Such a step is a fall with a NaN reward, as
-# a non-finite one is: training resets the env and stores nothing of it, evaluations count it
-# as diverged.
-MAX_SPEED = 1_000.0
 
 
 class _Observed(NamedTuple):
@@ -210,8 +205,13 @@ class QuadrupedEnv(base.Env):
         observed = self._observe(data, phase, command)
         position = data.qpos[self.layout.position]
         slope_truth = self.terrain.slope_at(position[0], position[1])
-        sane = jnp.isfinite(data.qpos).all() & (jnp.abs(data.qvel) < MAX_SPEED).all()
-        fell = self._fell(data, observed.attitude, slope_truth) | ~sane
+        # A step whose physics blew up is a fall with a NaN reward: training resets the env and
+        # stores nothing of it, evaluations count it as diverged.
+        blew_up = blown_up(data.qpos, data.qvel)
+        torso = self._torso_body
+        fell = blew_up | fallen(
+            self.layout, self.terrain, self.config, data, torso, observed.attitude, slope_truth
+        )
         last = before.qpos[self.layout.position]
         forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
@@ -243,7 +243,7 @@ class QuadrupedEnv(base.Env):
         return state.replace(
             pipeline_state=data,
             obs=obs,
-            reward=jnp.where(sane, sum(terms.values()), jnp.nan),
+            reward=jnp.where(blew_up, jnp.nan, sum(terms.values())),
             done=fell.astype(jnp.float32),
             metrics=metrics,
             info={**info, "phase": phase, "command": command, "mean_speed": mean_speed},
@@ -500,11 +500,6 @@ class QuadrupedEnv(base.Env):
         if not self.commanded:
             return obs
         return jnp.concatenate([obs, info["velocity_command"].velocity])
-
-    def _fell(self, data: mjx.Data, body: slope.Attitude, slope_truth: jax.Array) -> jax.Array:
-        """Torso too low, attitude beyond limits, or the torso box touching the ground."""
-        layout, torso = self.layout, self._torso_body
-        return fallen(layout, self.terrain, self.config, data, torso, body, slope_truth)
 
 
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground

@@ -276,7 +276,7 @@ def _update_stats(
     qpos = state.pipeline_state.qpos
     body = slope.attitude(qpos[:, constants.QPOS_QUATERNION])
     # A step whose physics blew up (the env's NaN reward: non-finite or beyond
-    # `env.quadruped.MAX_SPEED`) leaves the position NaN, so that the episode counts as diverged.
+    # `env.layout.MAX_SPEED`) leaves the position NaN, so that the episode counts as diverged.
     blown_up = ~jnp.isfinite(state.reward)
     x = jnp.where(blown_up, jnp.nan, qpos[:, 0])
     y = jnp.where(blown_up, jnp.nan, qpos[:, 1])
