@@ -66,7 +66,7 @@ def summary(path: Path) -> dict:
     ff = FEED_FORWARD.search(log)
     stopped = STOPPED.search(log)
     probe = PROBE.search(log)
-    steps = STEP.findall(log)
+    rows = STEP.findall(log)
     robust = files.get("robustness.json")
     config = json.loads(files.get("config.json", "{}"))
     argv = config.get("run_info", {}).get("argv")
@@ -85,10 +85,10 @@ def summary(path: Path) -> dict:
                 "speed": float(speed),
                 "fall_rate": float(falls),
             }
-            for steps, _, reward, speed, falls in steps
+            for steps, _, reward, speed, falls in rows
         ],
         # the trainer's env steps per second at its last evaluation (runs that logged it)
-        **({"env_steps_per_s": int(steps[-1][1].replace(",", ""))} if len(steps) > 1 else {}),
+        **({"env_steps_per_s": int(rows[-1][1].replace(",", ""))} if len(rows) > 1 else {}),
         **({"solver_probe": probe[1]} if probe else {}),
         "stopped": stopped[1] if stopped else None,
         "kept": _evaluation(files.get("eval.json")),
