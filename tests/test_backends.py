@@ -33,8 +33,8 @@ def test_warp_without_warp_lang_says_how_to_install(monkeypatch):
 
 @pytest.fixture
 def fake_warp(monkeypatch):
-    """A stand-in `warp` module (warp-lang is absent on the CPU machines) that prints its
-    module-load lines, as Warp does by default; QUADCOS_VERBOSE empty."""
+    """A stand-in `warp` module (warp-lang is absent on the CPU machines) as Warp before 1.1x:
+    `config.quiet`, its module-load lines printed by default; QUADCOS_VERBOSE empty."""
     warp = types.ModuleType("warp")
     warp.config = types.SimpleNamespace(quiet=False)
     monkeypatch.setitem(sys.modules, "warp", warp)
@@ -49,6 +49,16 @@ def test_warp_is_quiet_by_default_and_verbose_keeps_its_lines(fake_warp, monkeyp
     assert not fake_warp.config.quiet
     backends.resolve_impl("warp")  # the env's own call keeps the choice
     assert not fake_warp.config.quiet
+
+
+def test_warp_with_log_levels_is_quiet_at_its_warning_level(fake_warp):
+    """Warp 1.19 prints a module-load line at its info level (20) and ignores `config.quiet`."""
+    fake_warp.LOG_INFO, fake_warp.LOG_WARNING = 20, 30
+    fake_warp.config.log_level = fake_warp.LOG_INFO
+    backends.resolve_impl("warp")
+    assert fake_warp.config.log_level == fake_warp.LOG_WARNING
+    quiet.quiet_warp(verbose=True)
+    assert fake_warp.config.log_level == fake_warp.LOG_INFO
 
 
 @pytest.mark.parametrize("verbose", [False, True])

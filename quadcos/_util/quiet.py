@@ -35,7 +35,8 @@ VERBOSE_ENV = "QUADCOS_VERBOSE"  # "1": Warp prints its module-load lines (the C
 
 def quiet_warp(verbose: bool = False) -> None:
     """Silences Warp's line per kernel module loaded ("Module ... load on device 'cuda:0' took
-    ... ms (cached)", ~36 a process) unless `verbose` or `QUADCOS_VERBOSE=1`. `verbose` sets
+    ... ms (cached)", ~36 a process) and its start-up banner (Warp's info level: `log_level`
+    where Warp has it, 1.19 among them; `quiet` before) unless `verbose` or `QUADCOS_VERBOSE=1`. `verbose` sets
     `QUADCOS_VERBOSE`, so that later calls (`quadcos.env.backends.resolve_impl`, before Warp
     loads a module) and child processes keep it. Nothing without warp-lang."""
     if verbose:
@@ -44,4 +45,8 @@ def quiet_warp(verbose: bool = False) -> None:
         import warp  # noqa: PLC0415 — only where it is installed
     except ImportError:
         return
-    warp.config.quiet = os.environ.get(VERBOSE_ENV, "") != "1"
+    quiet = os.environ.get(VERBOSE_ENV, "") != "1"
+    if hasattr(warp.config, "log_level"):  # warp-lang 1.1x: levels; `config.quiet` is ignored
+        warp.config.log_level = warp.LOG_WARNING if quiet else warp.LOG_INFO
+    else:
+        warp.config.quiet = quiet
