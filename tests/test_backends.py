@@ -1,6 +1,8 @@
 """Choosing the MJX implementation: JAX on the CPU, Warp only where it can run."""
 
 import sys
+import threading
+import time
 import types
 
 import ml_collections
@@ -215,3 +217,32 @@ def test_unrolled_substeps_step_the_robots_as_the_loop_does():
     # the substep loop is the one while loop that unrolling removes (MJX's own loops remain)
     loops = [steps.as_text().count("stablehlo.while") for steps in lowered]
     assert loops[0] == loops[1] + 1
+
+
+def test_warp_step_modules_load_in_parallel_once_and_a_missing_one_is_skipped(fake_warp):
+    loaded, threads = [], set()
+
+    def load_module(name, device):
+        if name.endswith(".sensor"):
+            raise RuntimeError(f"Module '{name}' does not contain any Warp kernels")
+        loaded.append((name, device))
+        threads.add(threading.get_ident())
+        time.sleep(0.05)  # a compile: the others start meanwhile
+
+    fake_warp.is_cuda_available = lambda: True
+    fake_warp.get_cuda_device = lambda ordinal: f"cuda:{ordinal}"
+    fake_warp.load_module = load_module
+    backends.preload_warp_modules.cache_clear()
+    backends.preload_warp_modules()
+    backends.preload_warp_modules()  # once a process
+    names = [name for name, _ in loaded]
+    modules = backends._STEP_MODULES  # noqa: SLF001
+    expected = [name for name in modules if not name.endswith(".sensor")]
+    assert sorted(names) == sorted(expected)
+    assert {device for _, device in loaded} == {"cuda:0"} and len(threads) > 1
+    fake_warp.is_cuda_available = lambda: False
+    loaded.clear()
+    backends.preload_warp_modules.cache_clear()
+    backends.preload_warp_modules()
+    assert not loaded  # no CUDA device: Warp compiles nothing
+    backends.preload_warp_modules.cache_clear()

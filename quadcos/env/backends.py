@@ -10,6 +10,7 @@ together (`naconmax`), constraint rows per world (`njmax`). `warp_sizes` derives
 largest batch the env will be stepped in and a per-robot bound.
 """
 
+import concurrent.futures
 import functools
 import importlib.util
 
@@ -158,6 +159,7 @@ def put_model(
     if warp_config.arena or warp_config.graph_mode == "jax":
         warp_arena.install()
     model = mjx.put_model(mj_model, impl=impl, graph_mode=mode)
+    preload_warp_modules()
     from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType  # noqa: PLC0415
 
     option = model.opt._impl  # noqa: SLF001 — Warp's own options live there
@@ -173,3 +175,42 @@ def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Dat
     if impl == "warp":
         return mjx.make_data(mj_model, impl="warp", **warp_sizes(config, mj_model))
     return mjx.make_data(mj_model, impl="jax")
+
+
+# MuJoCo Warp's modules that every MJX-Warp step loads (Warp 1.19's module-load lines), ~40 s of
+# CUDA compiling one after the other at a step's first launches on a machine with an empty kernel
+# cache (passive 13 s, smooth 12 s, sensor 7 s, forward 6 s); the kernels built per model
+# (collision, the Cholesky solve) still compile at their first launch.
+_STEP_MODULES = tuple(
+    "mujoco.mjx." + name
+    for name in (
+        "warp.ffi",
+        *(
+            f"third_party.mujoco_warp._src.{module}"
+            for module in (
+                "smooth", "constraint", "sensor", "forward", "passive", "support", "solver"
+            )
+        ),
+    )
+)
+
+
+@functools.cache
+def preload_warp_modules() -> None:
+    """Compiles (or loads from Warp's kernel cache) `_STEP_MODULES` on the first CUDA device, a
+    thread each, once a process: a cold start waits for the longest module, not their sum.
+    Nothing without a CUDA device; a module this MJX does not have is skipped."""
+    import warp  # noqa: PLC0415 — installed wherever impl is warp
+
+    if not warp.is_cuda_available():
+        return
+    device = warp.get_cuda_device(0)
+
+    def load(name: str) -> None:
+        try:
+            warp.load_module(name, device=device)
+        except RuntimeError:  # not imported by this MJX: it loads (if ever) at its launch
+            pass
+
+    with concurrent.futures.ThreadPoolExecutor(len(_STEP_MODULES)) as pool:
+        list(pool.map(load, _STEP_MODULES))
