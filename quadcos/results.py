@@ -1,6 +1,6 @@
 """Result records, and the tables of the docs rendered from them.
 
-    python -m quadcos.results                 # rewrite the generated tables in README.md and docs/
+    python -m quadcos.results                 # rewrite the generated tables of the pages (PAGES)
     python -m quadcos.results --check         # exit 1 naming each table that differs from its records
     python -m quadcos.results record --name flat --claim "..." --device "NVIDIA H200" \\
         --command "bash experiments/run_gpu.sh flat" eval_s0.json eval_s1.json eval_s2.json
@@ -43,7 +43,7 @@ from quadcos._util import cli
 
 RESULTS_DIR = "results"
 LAYOUT_FILE = "tables.json"
-PAGES = ("README.md", "docs/*.md")
+PAGES = ("README.md", "docs/*.md", "experiments/*/README.md")
 PER_EPISODE_KEYS = ("episodes",)  # the list `quadcos.evaluate --out` writes, one item an episode
 MARKER = re.compile(
     r"<!-- results:(?P<name>[\w.-]+) -->(?P<body>.*?)<!-- /results:(?P=name) -->", re.S

@@ -21,6 +21,10 @@ def _copy(tmp_path: pathlib.Path) -> pathlib.Path:
             shutil.copytree(source, tmp_path / name)
         else:
             shutil.copy(source, tmp_path / name)
+    for readme in (ROOT / "experiments").glob("*/README.md"):  # pages too (results.PAGES)
+        target = tmp_path / readme.relative_to(ROOT)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(readme, target)
     return tmp_path
 
 

@@ -8,7 +8,9 @@ testset2027,testset4242,slope5,s4,flat}.json, for the run names REGEX matches (d
 `any_slope_s\d+`); evaluations not there are null. `train_seconds` is the process's wall time
 when `policy_best` was written (its `best_of_run.written_at_s`; runs from before the trainer
 recorded it: the start of the evaluation whose policy it keeps, by the trainer's rule:
-`best_policy_max_fall_rate`, then the evaluation reward); `command` is the run's own command line.
+`best_policy_max_fall_rate`, then the evaluation reward); `first_chunk_s` the seconds from process
+start to the first training chunk (the run's startup.json); `command` is the run's own command
+line.
 Prints the rows as a Markdown table.
 """
 
@@ -74,9 +76,12 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
 
     flat = evals["flat"]
     seed = int(sac["seed"])
+    startup = _read(run / "startup.json")
     return {
         "run": name,
         "seed": seed,
+        # Process start -> the first training chunk done (gait search and compiling included).
+        "first_chunk_s": startup and round(startup["seconds"]["first_chunk"], 1),
         "train_seconds": round(_written_at(run, kept), 1),
         "env_steps": int(kept["step"]),
         "last_env_steps": int(metrics[-1]["step"]),
