@@ -120,6 +120,7 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " in C MuJoCo, v_ref 1.00 kept",
     "go1path5_s0": "Go1's MJCF by its path, the probe's 5 ms (the preset's physics), 225 s: v_ref"
     " 0.68, no map (its gait falls in C MuJoCo at one of three frictions)",
+    "go1long_s0": "the preset (seed 0), 540 s: the ten minutes of the targets",
 }
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 
