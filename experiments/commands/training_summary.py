@@ -7,9 +7,10 @@
 replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
 --no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
-rate), the training rate at the last evaluation, the solver probe's physics (a robot without a
-preset), and the key numbers of the kept policy's random-command evaluation and robustness
-conditions and of the last policy's evaluation (per-episode data left out).
+rate, the env-steps/s of the window it ends), the training rate at the last evaluation, the
+solver probe's physics (a robot without a preset), and the key numbers of the kept policy's
+random-command evaluation and robustness conditions and of the last policy's evaluation
+(per-episode data left out).
 """
 
 import io
@@ -84,8 +85,10 @@ def summary(path: Path) -> dict:
                 "eval_reward": float(reward),
                 "speed": float(speed),
                 "fall_rate": float(falls),
+                # the trainer's rate over the window since the row before (0 at step 0)
+                "env_steps_per_s": int(rate.replace(",", "")),
             }
-            for steps, _, reward, speed, falls in rows
+            for steps, rate, reward, speed, falls in rows
         ],
         # the trainer's env steps per second at its last evaluation (runs that logged it)
         **({"env_steps_per_s": int(rows[-1][1].replace(",", ""))} if len(rows) > 1 else {}),
