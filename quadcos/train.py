@@ -29,7 +29,7 @@ from quadcos._util.cli import UsageError
 from quadcos._util.overrides import parse_value
 from quadcos.deploy import calibration
 from quadcos.evaluation import gait_search
-from quadcos.training import host, parallel, reuse, run_dirs
+from quadcos.training import host, parallel, population, reuse, run_dirs
 from quadcos.training.presets import PRESETS, build_config, default_config  # noqa: F401 (re-exported)
 
 # Short flags -> the config key each one sets.
@@ -136,6 +136,24 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--num_processes", type=int, help="with --coordinator: processes in all")
     parser.add_argument("--process_id", type=int, help="with --coordinator: this one, 0 to N-1")
     parser.add_argument(
+        "--population",
+        type=int,
+        metavar="N",
+        help="N runs of this command, a GPU and a seed each (seed, seed + 1, ...), in"
+        " DIR/member_I; the best on --population_terrain is copied to DIR/policy_best",
+    )
+    parser.add_argument(
+        "--population_terrain",
+        help="where --population compares its members (default: the run's terrain; testset:4242"
+        " for random courses)",
+    )
+    parser.add_argument(
+        "--population_envs", type=int, default=1024, help="--population: episodes a member"
+    )
+    parser.add_argument(
+        "--population_seconds", type=float, default=20.0, help="--population: episode length, s"
+    )
+    parser.add_argument(
         "--print_config", action="store_true", help="print the resolved config as JSON and exit"
     )
     parser.add_argument(
@@ -199,6 +217,8 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
         ):
             logger.info("%s", message)
             return 0
+        if args.population is not None:
+            return _population(argv, args, config, run_dir)
         if args.numbered and args.coordinator:
             raise UsageError(
                 "--numbered with --coordinator: give every process the same --output_dir"
@@ -230,6 +250,28 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
         logger.info("env step %s: policy in %s", f"{result.env_steps:,}", run_dir / "policy")
         print(run_dir)
     return 0
+
+
+def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> int:
+    """`--population=N` (training.population): checked, then its members run."""
+    if args.population < 2:
+        raise UsageError(f"--population runs at least 2 members, not {args.population}")
+    if args.resume or args.coordinator:
+        raise UsageError("--population starts new runs: not with --resume or --coordinator")
+    if args.population_envs < 1 or args.population_seconds <= 0:
+        raise UsageError("--population_envs and --population_seconds must be positive")
+    select = args.population_terrain or population.selection_terrain(config.env.terrain)
+    terrain_lib.parse(select)  # a bad spec is refused now, not after the training
+    if args.numbered and run_dir is not None:
+        run_dir = run_dirs.numbered_dir(run_dir)
+    run_dirs.check_output_dir(run_dir, resume=False)
+    status = population.run(
+        argv, args.population, run_dir, int(config.sac.seed), select,
+        args.population_envs, args.population_seconds,
+    )
+    if status == 0:
+        print(run_dir)
+    return status
 
 
 class _Formatter(logging.Formatter):

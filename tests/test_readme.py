@@ -114,8 +114,8 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
         line
         for block in BASH_BLOCKS
         for line in block.replace("\\\n", " ").splitlines()
-        if "quadcos.train" in line and "--preset=any_slope" in line
-    ]
+        if "quadcos.train" in line and "--preset=any_slope" in line and "--population" not in line
+    ]  # (a population of the preset: tests/test_population.py)
     assert len(lines) == 2  # docs/training.md and docs/terrains.md: the same line
     assert len({line.split("#")[0].strip() for line in lines}) == 1
     command = shlex.split(lines[0].split("#")[0])

@@ -1,0 +1,195 @@
+"""`python -m quadcos.train --population=N`: N runs of one command, a GPU each, and the best kept.
+
+Each member is the same `python -m quadcos.train` command with its own seed (the run's seed + its
+index) and run directory (`DIR/member_I`), started as a process of its own on one GPU (the I-th of
+`CUDA_VISIBLE_DEVICES`, or of the host's GPUs; without a GPU all members share the CPU). When all
+have ended, each member's `policy_best` (else its last policy) is evaluated on held-out courses
+(`--population_terrain`: by default the run's terrain, `testset:4242` where it trains on random
+courses), each on its member's GPU, and the best member's policies are copied to `DIR/policy_best`
+and `DIR/policy`: the highest worst-course success, then mean course success (a test set), or the
+highest success, then mean episode reward. `DIR/population.json` records every member (seed, GPU,
+exit status, the policy compared, its evaluation) and the choice.
+
+The runs of one command differ by seed more than by cold or warm caches (experiments/any_slope):
+N GPUs give a user N draws in the time of one."""
+
+import json
+import logging
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+
+from quadcos._util.cli import UsageError
+
+logger = logging.getLogger("quadcos.train")
+
+# Flags of the population's command line that its members do not take (or take their own of).
+_OWN_FLAGS = (
+    "--population", "--population_terrain", "--population_envs", "--population_seconds",
+    "--output_dir", "--seed", "--numbered",
+)
+_VALUED = frozenset(_OWN_FLAGS) - {"--numbered"}
+_NVIDIA_GPUS = pathlib.Path("/proc/driver/nvidia/gpus")
+
+
+def member_argv(argv: Sequence[str], seed: int, run_dir: pathlib.Path) -> list[str]:
+    """The population's command line as member `seed`'s: without the population's own flags
+    (`--flag=value` or `--flag value`), with its seed and run directory."""
+    kept, skip = [], False
+    for arg in argv:
+        name = arg.split("=", 1)[0]
+        if skip:
+            skip = False
+        elif name in _OWN_FLAGS:
+            skip = "=" not in arg and name in _VALUED
+        else:
+            kept.append(arg)
+    return [*kept, f"--seed={seed}", f"--output_dir={run_dir}"]
+
+
+def gpus() -> list[str]:
+    """The GPUs a member may be pinned to: CUDA_VISIBLE_DEVICES's entries where it is set, else
+    the host's NVIDIA GPUs by index (none on a machine without them)."""
+    visible = os.environ.get("CUDA_VISIBLE_DEVICES")
+    if visible is not None:
+        return [entry for entry in visible.split(",") if entry.strip()]
+    return [str(index) for index in range(len(list(_NVIDIA_GPUS.glob("*"))))]
+
+
+def score(evaluation: dict) -> tuple[float, float]:
+    """A member's rank: worst-course then mean course success (a test set's evaluation), or
+    success then mean episode reward."""
+    if "worst_course_success_rate" in evaluation:
+        return evaluation["worst_course_success_rate"], evaluation["mean_course_success_rate"]
+    return evaluation["success_rate"], evaluation["mean_episode_reward"]
+
+
+def selection_terrain(terrain: str) -> str:
+    """Where members are compared by default: held-out courses for a run on random courses."""
+    return "testset:4242" if terrain.startswith("random") else terrain
+
+
+def run(
+    argv: Sequence[str],
+    size: int,
+    run_dir: pathlib.Path,
+    seed: int,
+    terrain: str,
+    episodes: int,
+    seconds: float,
+    poll_s: float = 30.0,
+) -> int:
+    """Trains and compares the members (module docstring); the exit status: 0 with a policy
+    chosen, 1 when no member left one. Ctrl-C stops every member."""
+    devices = gpus()
+    if devices and len(devices) < size:
+        raise UsageError(
+            f"--population={size} runs a member per GPU, and {len(devices)} are visible"
+            f" ({', '.join(devices)}); set --population to at most {len(devices)}"
+        )
+    if not devices:
+        logger.warning("population: no GPU; the %d members share the CPU", size)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    start = time.monotonic()
+    members = [
+        {"index": index, "seed": seed + index, "gpu": devices[index] if devices else None,
+         "run_dir": str(run_dir / f"member_{index}")}
+        for index in range(size)
+    ]
+    commands = [
+        [sys.executable, "-m", "quadcos.train",
+         *member_argv(argv, member["seed"], pathlib.Path(member["run_dir"])), "--no_progress"]
+        for member in members
+    ]
+    _run_all(members, commands, run_dir, "train", poll_s)
+    for member in members:
+        member["train_exit"] = member.pop("exit")
+    for member in members:  # the policy compared: the run's kept one, else its last
+        folder = pathlib.Path(member["run_dir"])
+        kept = [name for name in ("policy_best", "policy") if (folder / name).is_dir()]
+        member["compared"] = kept[0] if member["train_exit"] == 0 and kept else None
+    candidates = [member for member in members if member["compared"]]
+    def selection(member: dict) -> pathlib.Path:
+        return run_dir / f"member_{member['index']}_selection.json"
+
+    evaluate = [
+        [sys.executable, "-m", "quadcos.evaluate", "--no_progress",
+         f"--policy={pathlib.Path(member['run_dir']) / member['compared']}", f"--terrain={terrain}",
+         f"--num_envs={episodes}", f"--seconds={seconds:g}", f"--out={selection(member)}"]
+        for member in candidates
+    ]
+    _run_all(candidates, evaluate, run_dir, "selection", poll_s)
+    for member in candidates:
+        path = selection(member)
+        if member.pop("exit") == 0 and path.exists():
+            evaluation = json.loads(path.read_text())
+            member["selection"] = {key: value for key, value in evaluation.items()
+                                   if isinstance(value, (int, float, str)) and key != "format"}
+    ranked = [member for member in candidates if "selection" in member]
+    chosen = max(ranked, key=lambda member: score(member["selection"]), default=None)
+    record = {
+        "format": "quadcos.population", "size": size, "terrain": terrain,
+        "episodes": episodes, "seconds": seconds, "members": members,
+        "chosen": chosen and chosen["index"], "wall_time_s": round(time.monotonic() - start, 1),
+    }
+    if chosen is not None:
+        for name in ("policy_best", "policy"):
+            source = pathlib.Path(chosen["run_dir"]) / name
+            if source.is_dir():
+                shutil.copytree(source, run_dir / name)
+    (run_dir / "population.json").write_text(json.dumps(record, indent=1) + "\n")
+    for member in members:
+        logger.info(
+            "population: member %d (seed %d): train exit %d, %s", member["index"],
+            member["seed"], member["train_exit"],
+            "selection %s" % ", ".join(f"{value:.3f}" for value in score(member["selection"]))
+            if "selection" in member else "not compared",
+        )
+    if chosen is None:
+        logger.error("population: no member left a policy to compare; logs in %s", run_dir)
+        return 1
+    logger.info("population: member %d chosen, its policies in %s", chosen["index"], run_dir)
+    return 0
+
+
+def _run_all(
+    members: list[dict], commands: list[list[str]], run_dir: pathlib.Path, stage: str,
+    poll_s: float,
+) -> None:
+    """Starts `commands` (one per member, on its GPU), logs each to run_dir/member_I_STAGE.log,
+    reports progress every `poll_s` and sets each member's "exit"; stops them all on Ctrl-C."""
+    processes = []
+    for member, command in zip(members, commands, strict=True):
+        env = dict(os.environ)
+        if member["gpu"] is not None:
+            env["CUDA_VISIBLE_DEVICES"] = member["gpu"]
+        with open(run_dir / f"member_{member['index']}_{stage}.log", "w") as log:
+            processes.append(subprocess.Popen(
+                command, env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL
+            ))
+    report_at = time.monotonic() + poll_s
+    try:
+        while any(process.poll() is None for process in processes):
+            time.sleep(min(poll_s, 1.0))
+            if stage == "train" and time.monotonic() >= report_at:
+                report_at += poll_s
+                logger.info("population: %s", ", ".join(
+                    f"member {member['index']} at env step {_last_step(member):,}"
+                    for member in members))
+    except KeyboardInterrupt:
+        for process in processes:
+            process.terminate()
+        raise
+    for member, process in zip(members, processes, strict=True):
+        member["exit"] = process.returncode
+
+
+def _last_step(member: dict) -> int:
+    """The env step of a member's last metrics row (0 before its first)."""
+    path = pathlib.Path(member["run_dir"]) / "metrics.jsonl"
+    lines = path.read_text().splitlines() if path.exists() else []
+    return int(json.loads(lines[-1])["step"]) if lines else 0

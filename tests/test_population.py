@@ -1,0 +1,76 @@
+"""`python -m quadcos.train --population=N`: N runs of one command, the best on held-out courses
+kept (quadcos.training.population)."""
+
+import json
+
+import pytest
+
+from quadcos.training import population
+from tests.cli_runs import run_cli, run_in_process
+
+
+def test_a_member_runs_the_command_with_its_own_seed_and_folder(tmp_path):
+    argv = ["--preset=smoke", "--seed", "3", "--population=2", "--output_dir", "out", "--numbered",
+            "--population_terrain=flat", "--population_envs", "8", "--max_seconds=5"]
+    assert population.member_argv(argv, 4, tmp_path / "member_1") == [
+        "--preset=smoke", "--max_seconds=5", "--seed=4", f"--output_dir={tmp_path / 'member_1'}"
+    ]
+
+
+def test_members_rank_by_worst_course_on_a_test_set_else_by_success():
+    steady = {"worst_course_success_rate": 0.9, "mean_course_success_rate": 0.95}
+    lucky = {"worst_course_success_rate": 0.5, "mean_course_success_rate": 0.99}
+    assert population.score(steady) > population.score(lucky)
+    assert population.score({"success_rate": 1.0, "mean_episode_reward": 5.0}) > population.score(
+        {"success_rate": 1.0, "mean_episode_reward": 4.0}
+    )
+    assert population.selection_terrain("random:max_deg=12") == "testset:4242"
+    assert population.selection_terrain("slope5") == "slope5"
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--population=1"], "at least 2 members, not 1"),
+        (["--population=2", "--population_terrain=nowhere"], "nowhere"),
+        (["--population=2", "--coordinator=localhost:1234"], "not with --resume or --coordinator"),
+        (["--population=4"], "2 are visible (0, 1)"),
+    ],
+)
+def test_a_bad_population_is_refused_in_one_line_before_anything_is_written(
+    tmp_path, monkeypatch, flags, message
+):
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "0,1")
+    out = tmp_path / "run"
+    result = run_in_process("--preset=smoke", f"--output_dir={out}", *flags)
+    assert result.returncode == 2, result.stderr
+    assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_a_population_of_two_keeps_the_better_members_policy(tmp_path, smoke_run, monkeypatch):
+    del smoke_run  # its programs in the cache: the members load them
+    monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)  # no GPU: both on the CPU
+    out = tmp_path / "population"
+    result = run_cli(
+        "--preset=smoke", "--seed=3", "--no_progress", "--population=2", "--population_envs=2",
+        "--population_seconds=1",
+        f"--output_dir={out}",
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert result.stdout.strip() == str(out)
+    record = json.loads((out / "population.json").read_text())
+    members = record["members"]
+    assert [member["seed"] for member in members] == [3, 4]
+    assert all(member["train_exit"] == 0 and "selection" in member for member in members)
+    for member in members:  # each member trained with its own seed in its own folder
+        config = json.loads((out / f"member_{member['index']}" / "config.json").read_text())
+        assert config["config"]["seed"] == member["seed"]
+    best = max(members, key=lambda member: population.score(member["selection"]))
+    assert record["chosen"] == best["index"] and record["terrain"] == "flat"
+    compared = best["compared"]  # a smoke run keeps no policy_best: its last policy
+    chosen = out / f"member_{best['index']}" / compared / "policy.json"
+    assert compared == "policy"
+    assert (out / compared / "policy.json").read_text() == chosen.read_text()
+    assert "population: member" in result.stderr
