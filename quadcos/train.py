@@ -22,6 +22,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 from quadcos import env as env_lib
+from quadcos import evaluation
 from quadcos import terrain as terrain_lib
 from quadcos import training
 from quadcos._util import caches, cli, provenance, quiet
@@ -135,6 +136,22 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--num_processes", type=int, help="with --coordinator: processes in all")
     parser.add_argument("--process_id", type=int, help="with --coordinator: this one, 0 to N-1")
+    _population_flags(parser)
+    parser.add_argument(
+        "--print_config", action="store_true", help="print the resolved config as JSON and exit"
+    )
+    parser.add_argument(
+        "--no_progress", action="store_true", help="plain log lines even on a terminal"
+    )
+    parser.add_argument(
+        "--verbose",
+        action="store_true",
+        help="let Warp print its line per kernel module loaded (silenced by default)",
+    )
+    return parser
+
+
+def _population_flags(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--population",
         type=int,
@@ -153,18 +170,6 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--population_seconds", type=float, default=20.0, help="--population: episode length, s"
     )
-    parser.add_argument(
-        "--print_config", action="store_true", help="print the resolved config as JSON and exit"
-    )
-    parser.add_argument(
-        "--no_progress", action="store_true", help="plain log lines even on a terminal"
-    )
-    parser.add_argument(
-        "--verbose",
-        action="store_true",
-        help="let Warp print its line per kernel module loaded (silenced by default)",
-    )
-    return parser
 
 
 def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
@@ -265,10 +270,13 @@ def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> i
     if args.numbered and run_dir is not None:
         run_dir = run_dirs.numbered_dir(run_dir)
     run_dirs.check_output_dir(run_dir, resume=False)
-    status = population.run(
-        argv, args.population, run_dir, int(config.sac.seed), select,
-        args.population_envs, args.population_seconds,
-    )
+
+    def compare(policy: pathlib.Path) -> dict[str, Any]:  # after the members: the GPUs are free
+        return evaluation.evaluate(
+            str(policy), select, num_envs=args.population_envs, seconds=args.population_seconds
+        ).summary
+
+    status = population.run(argv, args.population, run_dir, int(config.sac.seed), select, compare)
     if status == 0:
         print(run_dir)
     return status

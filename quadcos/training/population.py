@@ -3,11 +3,11 @@
 Each member is the same `python -m quadcos.train` command with its own seed (the run's seed + its
 index) and run directory (`DIR/member_I`), started as a process of its own on one GPU (the I-th of
 `CUDA_VISIBLE_DEVICES`, or of the host's GPUs; without a GPU all members share the CPU). When all
-have ended, each member's `policy_best` (else its last policy) is evaluated on held-out courses
-(`--population_terrain`: by default the run's terrain, `testset:4242` where it trains on random
-courses), each on its member's GPU, and the best member's policies are copied to `DIR/policy_best`
-and `DIR/policy`: the highest worst-course success, then mean course success (a test set), or the
-highest success, then mean episode reward. `DIR/population.json` records every member (seed, GPU,
+have ended, each member's `policy_best` (else its last policy) is evaluated, one after another in
+this process, on held-out courses (`--population_terrain`: by default the run's terrain,
+`testset:4242` where it trains on random courses), and the best member's policies are copied to
+`DIR/policy_best` and `DIR/policy`: the highest worst-course success, then mean course success (a
+test set), or the highest success, then mean episode reward. `DIR/population.json` records every member (seed, GPU,
 exit status, the policy compared, its evaluation) and the choice.
 
 The runs of one command differ by seed more than by cold or warm caches (experiments/any_slope):
@@ -21,7 +21,7 @@ import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from quadcos._util.cli import UsageError
 
@@ -79,12 +79,12 @@ def run(
     run_dir: pathlib.Path,
     seed: int,
     terrain: str,
-    episodes: int,
-    seconds: float,
+    compare: Callable[[pathlib.Path], dict],
     poll_s: float = 30.0,
 ) -> int:
-    """Trains and compares the members (module docstring); the exit status: 0 with a policy
-    chosen, 1 when no member left one. Ctrl-C stops every member."""
+    """Trains and compares the members (module docstring): `compare(policy_dir)` evaluates a
+    member's policy on `terrain` and returns the evaluation's summary. The exit status: 0 with a
+    policy chosen, 1 when no member left one. Ctrl-C stops every member."""
     devices = gpus()
     if devices and len(devices) < size:
         raise UsageError(
@@ -105,35 +105,27 @@ def run(
          *member_argv(argv, member["seed"], pathlib.Path(member["run_dir"])), "--no_progress"]
         for member in members
     ]
-    _run_all(members, commands, run_dir, "train", poll_s)
-    for member in members:
-        member["train_exit"] = member.pop("exit")
+    _train_all(members, commands, run_dir, poll_s)
     for member in members:  # the policy compared: the run's kept one, else its last
         folder = pathlib.Path(member["run_dir"])
         kept = [name for name in ("policy_best", "policy") if (folder / name).is_dir()]
         member["compared"] = kept[0] if member["train_exit"] == 0 and kept else None
     candidates = [member for member in members if member["compared"]]
-    def selection(member: dict) -> pathlib.Path:
-        return run_dir / f"member_{member['index']}_selection.json"
-
-    evaluate = [
-        [sys.executable, "-m", "quadcos.evaluate", "--no_progress",
-         f"--policy={pathlib.Path(member['run_dir']) / member['compared']}", f"--terrain={terrain}",
-         f"--num_envs={episodes}", f"--seconds={seconds:g}", f"--out={selection(member)}"]
-        for member in candidates
-    ]
-    _run_all(candidates, evaluate, run_dir, "selection", poll_s)
     for member in candidates:
-        path = selection(member)
-        if member.pop("exit") == 0 and path.exists():
-            evaluation = json.loads(path.read_text())
-            member["selection"] = {key: value for key, value in evaluation.items()
-                                   if isinstance(value, (int, float, str)) and key != "format"}
+        policy = pathlib.Path(member["run_dir"]) / member["compared"]
+        logger.info("population: member %d's %s on %s", member["index"], member["compared"],
+                    terrain)
+        try:
+            evaluation = compare(policy)
+        except Exception as error:  # noqa: BLE001 — one member's failure leaves the others
+            member["selection_error"] = f"{type(error).__name__}: {error}"
+            continue
+        member["selection"] = {key: value for key, value in evaluation.items()
+                               if isinstance(value, (int, float, str)) and key != "format"}
     ranked = [member for member in candidates if "selection" in member]
     chosen = max(ranked, key=lambda member: score(member["selection"]), default=None)
     record = {
-        "format": "quadcos.population", "size": size, "terrain": terrain,
-        "episodes": episodes, "seconds": seconds, "members": members,
+        "format": "quadcos.population", "size": size, "terrain": terrain, "members": members,
         "chosen": chosen and chosen["index"], "wall_time_s": round(time.monotonic() - start, 1),
     }
     if chosen is not None:
@@ -156,18 +148,17 @@ def run(
     return 0
 
 
-def _run_all(
-    members: list[dict], commands: list[list[str]], run_dir: pathlib.Path, stage: str,
-    poll_s: float,
+def _train_all(
+    members: list[dict], commands: list[list[str]], run_dir: pathlib.Path, poll_s: float
 ) -> None:
-    """Starts `commands` (one per member, on its GPU), logs each to run_dir/member_I_STAGE.log,
-    reports progress every `poll_s` and sets each member's "exit"; stops them all on Ctrl-C."""
+    """Starts `commands` (one per member, on its GPU), logs each to run_dir/member_I.log, reports
+    the members' env steps every `poll_s` and sets each one's "train_exit"; Ctrl-C stops them."""
     processes = []
     for member, command in zip(members, commands, strict=True):
         env = dict(os.environ)
         if member["gpu"] is not None:
             env["CUDA_VISIBLE_DEVICES"] = member["gpu"]
-        with open(run_dir / f"member_{member['index']}_{stage}.log", "w") as log:
+        with open(run_dir / f"member_{member['index']}.log", "w") as log:
             processes.append(subprocess.Popen(
                 command, env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL
             ))
@@ -175,7 +166,7 @@ def _run_all(
     try:
         while any(process.poll() is None for process in processes):
             time.sleep(min(poll_s, 1.0))
-            if stage == "train" and time.monotonic() >= report_at:
+            if time.monotonic() >= report_at:
                 report_at += poll_s
                 logger.info("population: %s", ", ".join(
                     f"member {member['index']} at env step {_last_step(member):,}"
@@ -185,7 +176,7 @@ def _run_all(
             process.terminate()
         raise
     for member, process in zip(members, processes, strict=True):
-        member["exit"] = process.returncode
+        member["train_exit"] = process.returncode
 
 
 def _last_step(member: dict) -> int:
