@@ -54,6 +54,7 @@ logger = logging.getLogger("quadcos.train")  # also when run as __main__
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m quadcos.train",
+        allow_abbrev=False,  # a flag is its whole name: --population's members drop theirs by it
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog=(
@@ -263,6 +264,8 @@ def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> i
         raise UsageError(f"--population runs at least 2 members, not {args.population}")
     if args.resume or args.coordinator:
         raise UsageError("--population starts new runs: not with --resume or --coordinator")
+    if os.environ.get(population.MEMBER_ENV):
+        raise UsageError("--population inside a population's member: a member is one run")
     if args.population_envs < 1 or args.population_seconds <= 0:
         raise UsageError("--population_envs and --population_seconds must be positive")
     select = args.population_terrain or population.selection_terrain(config.env.terrain)

@@ -17,6 +17,12 @@ def test_a_member_runs_the_command_with_its_own_seed_and_folder(tmp_path):
     ]
 
 
+def test_a_member_is_never_a_population_itself(tmp_path, monkeypatch):
+    monkeypatch.setenv(population.MEMBER_ENV, "0")
+    result = run_in_process("--preset=smoke", f"--output_dir={tmp_path / 'run'}", "--population=2")
+    assert result.returncode == 2 and "a member is one run" in result.stderr
+
+
 def test_members_rank_by_worst_course_on_a_test_set_else_by_success():
     steady = {"worst_course_success_rate": 0.9, "mean_course_success_rate": 0.95}
     lucky = {"worst_course_success_rate": 0.5, "mean_course_success_rate": 0.99}
@@ -35,6 +41,7 @@ def test_members_rank_by_worst_course_on_a_test_set_else_by_success():
         (["--population=2", "--population_terrain=nowhere"], "nowhere"),
         (["--population=2", "--coordinator=localhost:1234"], "not with --resume or --coordinator"),
         (["--population=4"], "2 are visible (0, 1)"),
+        (["--popul=2"], "unrecognised argument '--popul=2'"),  # no abbreviations: members drop it
     ],
 )
 def test_a_bad_population_is_refused_in_one_line_before_anything_is_written(

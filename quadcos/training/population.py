@@ -7,8 +7,8 @@ have ended, each member's `policy_best` (else its last policy) is evaluated, one
 this process, on held-out courses (`--population_terrain`: by default the run's terrain,
 `testset:4242` where it trains on random courses), and the best member's policies are copied to
 `DIR/policy_best` and `DIR/policy`: the highest worst-course success, then mean course success (a
-test set), or the highest success, then mean episode reward. `DIR/population.json` records every member (seed, GPU,
-exit status, the policy compared, its evaluation) and the choice.
+test set), or the highest success, then mean episode reward. `DIR/population.json` records every
+member (seed, GPU, exit status, the policy compared, its evaluation) and the choice.
 
 The runs of one command differ by seed more than by cold or warm caches (experiments/any_slope):
 N GPUs give a user N draws in the time of one."""
@@ -34,6 +34,7 @@ _OWN_FLAGS = (
 )
 _VALUED = frozenset(_OWN_FLAGS) - {"--numbered"}
 _NVIDIA_GPUS = pathlib.Path("/proc/driver/nvidia/gpus")
+MEMBER_ENV = "QUADCOS_POPULATION_MEMBER"  # set in a member's environment: its index
 
 
 def member_argv(argv: Sequence[str], seed: int, run_dir: pathlib.Path) -> list[str]:
@@ -155,7 +156,7 @@ def _train_all(
     the members' env steps every `poll_s` and sets each one's "train_exit"; Ctrl-C stops them."""
     processes = []
     for member, command in zip(members, commands, strict=True):
-        env = dict(os.environ)
+        env = {**os.environ, MEMBER_ENV: str(member["index"])}
         if member["gpu"] is not None:
             env["CUDA_VISIBLE_DEVICES"] = member["gpu"]
         with open(run_dir / f"member_{member['index']}.log", "w") as log:
