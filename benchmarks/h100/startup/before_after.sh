@@ -9,6 +9,9 @@
 # started), status (each process's wall time, start to exit).
 set -u
 O=$OUT; mkdir -p $O
+case $(realpath "$O") in /tmp/qc_startup|/tmp/qc_startup/*)  # the caches, emptied below
+  echo "OUT=$O is the start-up runs' cache folder (/tmp/qc_startup): choose another" >&2; exit 2 ;;
+esac
 note() { echo "$(date +%T) $*" >> $O/status; }
 ARGS="--preset=gpu --terrain=flat --num_timesteps=100000 --no_progress"
 run() {  # TREE NAME [train flags]
