@@ -8,10 +8,11 @@
 # runs after it. $OUT/NAME.startup.json, NAME.log (stderr stamped with seconds since the process
 # started), status (each process's wall time, start to exit).
 set -u
-O=$OUT; mkdir -p $O
-case $(realpath "$O") in /tmp/qc_startup|/tmp/qc_startup/*)  # the caches, emptied below
+O=$OUT
+case $(realpath -m "$O") in /tmp/qc_startup|/tmp/qc_startup/*)  # the caches, emptied below
   echo "OUT=$O is the start-up runs' cache folder (/tmp/qc_startup): choose another" >&2; exit 2 ;;
 esac
+mkdir -p $O
 note() { echo "$(date +%T) $*" >> $O/status; }
 ARGS="--preset=gpu --terrain=flat --num_timesteps=100000 --no_progress"
 run() {  # TREE NAME [train flags]
