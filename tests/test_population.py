@@ -10,7 +10,7 @@ from tests.cli_runs import run_cli, run_in_process
 
 
 def test_a_member_runs_the_command_with_its_own_seed_and_folder(tmp_path):
-    argv = ["--preset=smoke", "--seed", "3", "--population=2", "--output_dir", "out", "--numbered",
+    argv = ["--preset=smoke", "--seed", "3", "--config.sac.seed=9", "--population=2", "--output_dir", "out", "--numbered",
             "--population_terrain=flat", "--population_envs", "8", "--max_seconds=5"]
     assert population.member_argv(argv, 4, tmp_path / "member_1") == [
         "--preset=smoke", "--max_seconds=5", "--seed=4", f"--output_dir={tmp_path / 'member_1'}"
@@ -58,7 +58,7 @@ def test_a_bad_population_is_refused_in_one_line_before_anything_is_written(
 @pytest.mark.slow
 def test_a_population_of_two_keeps_the_better_members_policy(tmp_path, smoke_run, monkeypatch):
     del smoke_run  # its programs in the cache: the members load them
-    monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)  # no GPU: both on the CPU
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "")  # no GPU: both on the CPU
     out = tmp_path / "population"
     result = run_cli(
         "--preset=smoke", "--seed=3", "--no_progress", "--population=2", "--population_envs=2",

@@ -24,13 +24,14 @@ import time
 from collections.abc import Callable, Sequence
 
 from quadcos._util.cli import UsageError
+from quadcos.training import metrics_log
 
 logger = logging.getLogger("quadcos.train")
 
 # Flags of the population's command line that its members do not take (or take their own of).
 _OWN_FLAGS = (
     "--population", "--population_terrain", "--population_envs", "--population_seconds",
-    "--output_dir", "--seed", "--numbered",
+    "--output_dir", "--seed", "--config.sac.seed", "--numbered",
 )
 _VALUED = frozenset(_OWN_FLAGS) - {"--numbered"}
 _NVIDIA_GPUS = pathlib.Path("/proc/driver/nvidia/gpus")
@@ -57,7 +58,7 @@ def gpus() -> list[str]:
     the host's NVIDIA GPUs by index (none on a machine without them)."""
     visible = os.environ.get("CUDA_VISIBLE_DEVICES")
     if visible is not None:
-        return [entry for entry in visible.split(",") if entry.strip()]
+        return [entry.strip() for entry in visible.split(",") if entry.strip()]
     return [str(index) for index in range(len(list(_NVIDIA_GPUS.glob("*"))))]
 
 
@@ -182,6 +183,5 @@ def _train_all(
 
 def _last_step(member: dict) -> int:
     """The env step of a member's last metrics row (0 before its first)."""
-    path = pathlib.Path(member["run_dir"]) / "metrics.jsonl"
-    lines = path.read_text().splitlines() if path.exists() else []
-    return int(json.loads(lines[-1])["step"]) if lines else 0
+    rows = metrics_log.read_rows(pathlib.Path(member["run_dir"]) / "metrics.jsonl")
+    return int(rows[-1]["step"]) if rows else 0  # (a torn last line is skipped)
