@@ -10,7 +10,8 @@ from tests.cli_runs import run_cli, run_in_process
 
 
 def test_a_member_runs_the_command_with_its_own_seed_and_folder(tmp_path):
-    argv = ["--preset=smoke", "--seed", "3", "--config.sac.seed=9", "--population=2", "--output_dir", "out", "--numbered",
+    argv = ["--preset=smoke", "--seed", "3", "--config.sac.seed=9", "--population=2",
+            "--output_dir", "out", "--numbered",
             "--population_terrain=flat", "--population_envs", "8", "--max_seconds=5"]
     assert population.member_argv(argv, 4, tmp_path / "member_1") == [
         "--preset=smoke", "--max_seconds=5", "--seed=4", f"--output_dir={tmp_path / 'member_1'}"
