@@ -4,8 +4,8 @@
 # EXPERIMENT: flat | reward_xy | drl_only | from_scratch | slope5 | any_slope | any_slope_seeds |
 #   robustness | robust_scratch | fixed_params | warp | scaling | bench_slope5 | robots |
 #   robots_alone | anymal | anymal_slope5 | anymal_any_slope | profile | imports | startup |
-#   randomized (scaling needs 2 GPUs; robots*, anymal* need MENAGERIE_ROOT, a folder of MuJoCo
-#   Menagerie's robot XMLs).
+#   randomized (scaling needs 2 GPUs, or 4 with SCALING_DEVICES="2 4"; robots*, anymal* need
+#   MENAGERIE_ROOT, a folder of MuJoCo Menagerie's robot XMLs).
 # Its files go to $OUT/EXPERIMENT (default /tmp/quadcos_out): runs/NAME/ (config.json,
 # metrics.jsonl, train.log, gait_search.json, policy/, policy_best/), eval_*.json with their logs
 # and traces, status (one line per step). Copy the summaries into experiments/EXPERIMENT.
@@ -147,20 +147,26 @@ fixed_params)  # Fig. 15: the search for the best fixed parameters, and FIXED_TR
   evaluate fixed:trot trot_slope5 slope5 1024 40 --trace="$OUT/trace_trot_slope5.json" ;;
 warp)  # MJX-JAX vs MJX-Warp parity, start-up (warp-lang installed)
   bash experiments/warp/run_gpu.sh ;;
-scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench); IMPL=warp for MJX-Warp.
-  # SCALING_ROWS: the one-GPU train rows (ENVSxBATCHxUPDATES); two GPUs run each with twice the envs
-  # and batch (equal per-GPU work). SCALING_CROSS=0 leaves out the time-to-cross-slope5 runs.
+scaling)  # data-parallel training over N GPUs vs 1 (quadcos.bench); IMPL=warp for MJX-Warp.
+  # SCALING_ROWS: the one-GPU train rows (ENVSxBATCHxUPDATES); N GPUs (SCALING_DEVICES, default
+  # "2"; "2 4" on a host of four) run each with N times the envs and batch (equal per-GPU work),
+  # every row SCALING_SECONDS long (default 30). SCALING_CROSS=0 leaves out the
+  # time-to-cross-slope5 runs.
   export NCCL_NVLS_ENABLE=0 PYTHONFAULTHANDLER=1
-  rows1=${SCALING_ROWS:-4096x8192x8,8192x8192x8} rows2=""
-  IFS=, read -ra one <<< "$rows1"
-  for row in "${one[@]}"; do
-    IFS=x read -r envs batch updates <<< "$row"
-    rows2+="${rows2:+,}$((2 * envs))x$((2 * batch))x$updates"
-  done
+  rows1=${SCALING_ROWS:-4096x8192x8,8192x8192x8}
+  rows() {  # N: the one-GPU rows scaled N times
+    local row envs batch updates out=""
+    IFS=, read -ra one <<< "$rows1"
+    for row in "${one[@]}"; do
+      IFS=x read -r envs batch updates <<< "$row"
+      out+="${out:+,}$(($1 * envs))x$(($1 * batch))x$updates"
+    done
+    echo "$out"
+  }
   bench() {  # NAME ARGS...
     local name=$1; shift
-    python3 -m quadcos.bench --train_seconds 10 --walk_timeout_s 480 --impl "${IMPL:-jax}" \
-      --out "$OUT/$name.json" "$@" > "$OUT/$name.log" 2>&1
+    python3 -m quadcos.bench --train_seconds "${SCALING_SECONDS:-30}" --walk_timeout_s 480 \
+      --impl "${IMPL:-jax}" --out "$OUT/$name.json" "$@" > "$OUT/$name.log" 2>&1
     note "$name: exit $?"
   }
   if [ "${SCALING_CROSS:-1}" = 1 ]; then
@@ -171,9 +177,13 @@ scaling)  # data-parallel training over 2 GPUs vs 1 (quadcos.bench); IMPL=warp f
   fi
   CUDA_VISIBLE_DEVICES=1 bench slope5_1dev --num_devices 1 --only train --terrain slope5 --train_rows "$rows1"
   wait
-  bench flat_2dev --num_devices 2 --only train --terrain flat --train_rows "$rows2"
-  [ "${SCALING_CROSS:-1}" = 1 ] && bench slope5cross_2dev --num_devices 2 --only slope5
-  bench slope5_2dev --num_devices 2 --only train --terrain slope5 --train_rows "$rows2"
+  for n in ${SCALING_DEVICES:-2}; do
+    export CUDA_VISIBLE_DEVICES=$(seq -s, 0 $((n - 1)))
+    bench flat_${n}dev --num_devices "$n" --only train --terrain flat --train_rows "$(rows "$n")"
+    [ "${SCALING_CROSS:-1}" = 1 ] && bench slope5cross_${n}dev --num_devices "$n" --only slope5
+    bench slope5_${n}dev --num_devices "$n" --only train --terrain slope5 --train_rows "$(rows "$n")"
+  done
+  unset CUDA_VISIBLE_DEVICES
   python3 -m quadcos.benchmarking.scaling --out "$OUT/scaling.json" "$OUT"/*_?dev.json > "$OUT/table.md" 2>&1 ;;
 bench_slope5)  # docs/benchmarks.md's slope5 rows: time until >= 99 % of 1024 episodes cross
   python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_timeout_s=420 \

@@ -22,8 +22,8 @@ A generated table, value or sentence in a page sits between `<!-- results:NAME -
 column), `rows` of cell templates, or `text`: a value or a sentence of prose (its marker pair
 inside a paragraph, not at a line's start, so that Markdown renders the text between them). A template's fields
 are `{RECORD:KEY|FORMAT}` (`RECORD:` may be left out for the table's `record`), `{A / B|FORMAT}`
-(a ratio), `{min GLOB|FORMAT}`, `{max GLOB|FORMAT}` and `{count GLOB}` over a record's keys
-(`fnmatch`). FORMAT is Python's, and a trailing `k`, `M` or `%` scales the value by 1e-3, 1e-6
+(a ratio), `{min GLOB|FORMAT}`, `{max GLOB|FORMAT}` and `{count GLOB}` (0 where none matches)
+over a record's keys (`fnmatch`). FORMAT is Python's, and a trailing `k`, `M` or `%` scales the value by 1e-3, 1e-6
 or 100 and appends the unit (`.0fk` → `505 k`).
 
 Bad arguments, an unknown record or number: one line on stderr, exit status 2.
@@ -242,7 +242,7 @@ def _term(records: dict[str, dict], default: str | None, term: str) -> float:
     head, _, pattern = rest.partition(" ")
     if head in AGGREGATES and pattern:
         found = [v for k, v in numbers.items() if fnmatch.fnmatchcase(k, pattern.strip())]
-        if not found:
+        if not found and head != "count":  # (a count of none is 0)
             raise ValueError(f"no number matches {term.strip()!r}")
         return AGGREGATES[head](found)
     if rest not in numbers:

@@ -111,6 +111,9 @@ def test_a_record_round_trips_from_its_sources(tmp_path, capsys):
     spec = {"text": "{toy:min *.mean_forward_speed|.3f}–{toy:max *.mean_forward_speed|.3f} "
                     "({toy:count *.success_rate} seeds, {toy:eval_s1.success_rate|.0f%})"}
     assert results.render(spec, records) == "0.500–0.625 (2 seeds, 75 %)"
+    assert results.render({"text": "{toy:count *.missing} met"}, records) == "0 met"
+    with pytest.raises(ValueError, match="no number matches"):
+        results.render({"text": "{toy:min *.missing}"}, records)
 
 
 @pytest.mark.parametrize(

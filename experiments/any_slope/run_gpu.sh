@@ -7,6 +7,7 @@
 #   bash experiments/any_slope/run_gpu.sh summary MODE SEED...   # $OUT/seeds_MODE.json, NAME.tgz
 #   bash experiments/any_slope/run_gpu.sh all MODE SEED...       # the four, from the copy in /tmp/qa
 #                                                                # (start it detached: setsid)
+#   bash experiments/any_slope/run_gpu.sh population MODE SIZE SEED  # --population=SIZE, 300 s
 # MODE cold: each run's compilation caches (JAX's and Warp's, QUADCOS_CACHE_DIR) are deleted
 # first, as on a fresh machine; warm: the same folder as that seed's cold run left it, as a user's
 # second run finds it. Runs are any_slope_MODE_sSEED, 300 s from process start each
@@ -17,7 +18,7 @@
 # table's (a dry run on a CPU: tiny sizes in ANY_FLAGS, EVAL_ENVS=4 EVAL_SECONDS=1).
 set -uo pipefail
 # shellcheck disable=SC2086  # ANY_FLAGS: several flags
-verb=${1:?usage: run_gpu.sh train|wait|evaluate|summary cold|warm SEED...}
+verb=${1:?usage: run_gpu.sh train|wait|evaluate|summary|population cold|warm SEED...}
 mode=${2:?MODE: cold or warm}; shift 2
 [[ $mode =~ ^(cold|warm)$ ]] || { echo "MODE is cold or warm, not '$mode'" >&2; exit 2; }
 for seed in "$@"; do
@@ -82,6 +83,34 @@ summary)
     tar -C "$dir" -czf "$out/$name.tgz" --exclude='*/checkpoints' "runs/$name" "$name.log" \
       $(cd "$dir" && ls eval_"${name}"_*) 2>/dev/null
   done ;;
+population)  # MODE SIZE SEED: `--population=SIZE` from seed SEED (cold: caches deleted first) on
+  # GPUs 0..SIZE-1, each member's policy_best on test set 2026 and flat, then $OUT/popSIZE_sSEED.json
+  # (population.json) and popSIZE_sSEED_members.json (seeds.py's rows of the members)
+  size=${1:?SIZE} seed=${2:?SEED} out=${OUT:-/tmp/qa_summary}; mkdir -p "$out"
+  name=pop${size}_s$seed run=$dir/pop/pop${size}_s$seed cache=/tmp/qa_cache/$name
+  [ "$mode" = cold ] && rm -rf "$cache"
+  rm -rf "$run" "$dir/pop/runs"; mkdir -p "$dir/pop/runs"
+  QUADCOS_CACHE_DIR=$cache CUDA_VISIBLE_DEVICES=$(seq -s, 0 $((size - 1))) python3 -m quadcos.train \
+    --preset=any_slope --population="$size" --population_seconds=40 --seed="$seed" \
+    --max_seconds=300 --output_dir="$run" --no_progress ${ANY_FLAGS:-} > "$dir/pop/$name.log" 2>&1
+  echo "$(date +%T) $name: exit $? $(tail -n 1 "$dir/pop/$name.log")"
+  for ((i = 0; i < size; i++)); do
+    member=${name}_m$i
+    cp -r "$run/member_$i" "$dir/pop/runs/$member"
+    (
+      export CUDA_VISIBLE_DEVICES=$i QUADCOS_CACHE_DIR=$cache
+      for course in "testset2026 testset:2026 4288 40" "flat flat 1024 20"; do
+        read -r key terrain n secs <<< "$course"
+        python3 -m quadcos.evaluate --no_progress --policy="$run/member_$i/policy_best" \
+          --terrain="$terrain" --num_envs="${EVAL_ENVS:-$n}" --seconds="${EVAL_SECONDS:-$secs}" \
+          --out="$dir/pop/eval_${member}_$key.json" > "$dir/pop/eval_${member}_$key.log" 2>&1
+      done
+    ) &
+  done
+  wait
+  cp "$run/population.json" "$out/$name.json"
+  python3 experiments/any_slope/seeds.py "$dir/pop" --runs "${name}_m[0-9]+" \
+    --out "$out/${name}_members.json" ;;
 all)
   bash "$0" train "$mode" "$@" || exit
   [ -d /tmp/qa ] && cd /tmp/qa && export PYTHONPATH=/tmp/site:/tmp/qa

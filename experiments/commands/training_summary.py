@@ -114,4 +114,11 @@ if __name__ == "__main__":
     )
     runs |= {p.name.removesuffix(".tgz"): summary(p) for p in paths}
     command = "bash experiments/commands/run_gpu.sh train|wait|evaluate|pack RUN..."
-    print(json.dumps({"command": command, "runs": runs}, indent=1))
+    # One line per run and per part of a run: a small record that diffs run by run.
+    parts = ",\n".join(
+        f"  {json.dumps(name)}: {{\n"
+        + ",\n".join(f"   {json.dumps(key)}: {json.dumps(value)}" for key, value in run.items())
+        + "\n  }"
+        for name, run in runs.items()
+    )
+    print(f'{{\n "command": {json.dumps(command)},\n "runs": {{\n{parts}\n }}\n}}')
