@@ -232,17 +232,19 @@ def test_warp_step_modules_load_in_parallel_once_and_a_missing_one_is_skipped(fa
     fake_warp.is_cuda_available = lambda: True
     fake_warp.get_cuda_device = lambda ordinal: f"cuda:{ordinal}"
     fake_warp.load_module = load_module
-    backends.preload_warp_modules.cache_clear()
-    backends.preload_warp_modules()
-    backends.preload_warp_modules()  # once a process
-    names = [name for name, _ in loaded]
-    modules = backends._STEP_MODULES  # noqa: SLF001
-    expected = [name for name in modules if not name.endswith(".sensor")]
-    assert sorted(names) == sorted(expected)
-    assert {device for _, device in loaded} == {"cuda:0"} and len(threads) > 1
-    fake_warp.is_cuda_available = lambda: False
-    loaded.clear()
-    backends.preload_warp_modules.cache_clear()
-    backends.preload_warp_modules()
-    assert not loaded  # no CUDA device: Warp compiles nothing
-    backends.preload_warp_modules.cache_clear()
+    try:
+        backends.preload_warp_modules.cache_clear()
+        backends.preload_warp_modules()
+        backends.preload_warp_modules()  # once a process
+        names = [name for name, _ in loaded]
+        modules = backends._STEP_MODULES  # noqa: SLF001
+        expected = [name for name in modules if not name.endswith(".sensor")]
+        assert sorted(names) == sorted(expected)
+        assert {device for _, device in loaded} == {"cuda:0"} and len(threads) > 1
+        fake_warp.is_cuda_available = lambda: False
+        loaded.clear()
+        backends.preload_warp_modules.cache_clear()
+        backends.preload_warp_modules()
+        assert not loaded  # no CUDA device: Warp compiles nothing
+    finally:  # the real Warp (or none) for the tests after this one
+        backends.preload_warp_modules.cache_clear()

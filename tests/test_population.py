@@ -2,6 +2,12 @@
 kept (quadcos.training.population)."""
 
 import json
+import math
+import os
+import signal
+import sys
+import threading
+import time
 
 import pytest
 
@@ -31,6 +37,8 @@ def test_members_rank_by_worst_course_on_a_test_set_else_by_success():
     assert population.score({"success_rate": 1.0, "mean_episode_reward": 5.0}) > population.score(
         {"success_rate": 1.0, "mean_episode_reward": 4.0}
     )
+    broken = {"worst_course_success_rate": math.nan, "mean_course_success_rate": 1.0}
+    assert population.score(broken) < population.score(lucky)
     assert population.selection_terrain("random:max_deg=12") == "testset:4242"
     assert population.selection_terrain("slope5") == "slope5"
 
@@ -54,6 +62,36 @@ def test_a_bad_population_is_refused_in_one_line_before_anything_is_written(
     assert result.returncode == 2, result.stderr
     assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_sigterm_stops_every_member_and_waits_for_them(tmp_path):
+    members = [{"index": index, "gpu": None, "run_dir": str(tmp_path / f"member_{index}")}
+               for index in range(2)]
+    sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGTERM))
+    handler, start = signal.getsignal(signal.SIGTERM), time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        population._train_all(members, [sleeper, sleeper], tmp_path, poll_s=0.2)
+    timer.join()
+    assert time.monotonic() - start < 30
+    assert [member["train_exit"] for member in members] == [-signal.SIGTERM] * 2
+    assert signal.getsignal(signal.SIGTERM) is handler  # the previous handler back
+
+
+def test_a_stopped_population_says_so_and_exits_130(tmp_path, monkeypatch):
+    def interrupted(members, *_):
+        for member in members:
+            member["train_exit"] = -signal.SIGTERM
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(population, "_train_all", interrupted)
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "0,1")
+    status = population.run(["--preset=smoke"], 2, tmp_path, 0, "flat", compare=None)
+    record = json.loads((tmp_path / "population.json").read_text())
+    assert status == 130 and record["interrupted"] and record["chosen"] is None
+    assert [member["gpu"] for member in record["members"]] == ["0", "1"]
+    assert not (tmp_path / "policy_best").exists()
 
 
 @pytest.mark.slow

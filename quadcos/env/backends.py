@@ -13,6 +13,7 @@ largest batch the env will be stepped in and a per-robot bound.
 import concurrent.futures
 import functools
 import importlib.util
+import logging
 
 import jax
 import ml_collections
@@ -21,6 +22,8 @@ import mujoco
 from quadcos._util import quiet
 from quadcos._util.quiet import warp_absence_unprinted
 from quadcos.env import warp_arena
+
+logger = logging.getLogger(__name__)
 
 with warp_absence_unprinted():  # MJX prints a notice to stdout when warp-lang is absent
     from mujoco import mjx
@@ -209,8 +212,8 @@ def preload_warp_modules() -> None:
     def load(name: str) -> None:
         try:
             warp.load_module(name, device=device)
-        except RuntimeError:  # not imported by this MJX: it loads (if ever) at its launch
-            pass
+        except RuntimeError as error:  # not imported by this MJX: it loads (if ever) at its launch
+            logger.debug("Warp preload: %s skipped (%s)", name, error)
 
     with concurrent.futures.ThreadPoolExecutor(len(_STEP_MODULES)) as pool:
         list(pool.map(load, _STEP_MODULES))

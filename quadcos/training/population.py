@@ -13,16 +13,21 @@ member (seed, GPU, exit status, the policy compared, its evaluation) and the cho
 The runs of one command differ by seed more than by cold or warm caches (experiments/any_slope):
 N GPUs give a user N draws in the time of one."""
 
+import functools
 import json
 import logging
+import math
 import os
 import pathlib
 import shutil
+import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 
+from quadcos._util import files
 from quadcos._util.cli import UsageError
 from quadcos.training import metrics_log
 
@@ -64,10 +69,16 @@ def gpus() -> list[str]:
 
 def score(evaluation: dict) -> tuple[float, float]:
     """A member's rank: worst-course then mean course success (a test set's evaluation), or
-    success then mean episode reward."""
+    success then mean episode reward; a value that is not a finite number ranks lowest."""
     if "worst_course_success_rate" in evaluation:
-        return evaluation["worst_course_success_rate"], evaluation["mean_course_success_rate"]
-    return evaluation["success_rate"], evaluation["mean_episode_reward"]
+        keys = ("worst_course_success_rate", "mean_course_success_rate")
+    else:
+        keys = ("success_rate", "mean_episode_reward")
+    return tuple(_finite(evaluation.get(key)) for key in keys)
+
+
+def _finite(value) -> float:
+    return float(value) if isinstance(value, (int, float)) and math.isfinite(value) else -math.inf
 
 
 def selection_terrain(terrain: str) -> str:
@@ -86,7 +97,9 @@ def run(
 ) -> int:
     """Trains and compares the members (module docstring): `compare(policy_dir)` evaluates a
     member's policy on `terrain` and returns the evaluation's summary. The exit status: 0 with a
-    policy chosen, 1 when no member left one. Ctrl-C stops every member."""
+    policy chosen, 1 when no member left one, 130 when Ctrl-C or SIGTERM stopped the members
+    (population.json then says `interrupted`). The chosen policies and population.json are
+    written whole or not at all."""
     devices = gpus()
     if devices and len(devices) < size:
         raise UsageError(
@@ -107,7 +120,16 @@ def run(
          *member_argv(argv, member["seed"], pathlib.Path(member["run_dir"])), "--no_progress"]
         for member in members
     ]
-    _train_all(members, commands, run_dir, poll_s)
+    record = {"format": "quadcos.population", "size": size, "terrain": terrain, "members": members}
+    try:
+        _train_all(members, commands, run_dir, poll_s)
+    except KeyboardInterrupt:
+        record.update(chosen=None, interrupted=True,
+                      wall_time_s=round(time.monotonic() - start, 1))
+        files.atomic_write_text(run_dir / "population.json", json.dumps(record, indent=1) + "\n")
+        logger.error("population: stopped; each member saved its run in %s/member_I (--resume"
+                     " continues one)", run_dir)
+        return 130
     for member in members:  # the policy compared: the run's kept one, else its last
         folder = pathlib.Path(member["run_dir"])
         kept = [name for name in ("policy_best", "policy") if (folder / name).is_dir()]
@@ -126,16 +148,14 @@ def run(
                                if isinstance(value, (int, float, str)) and key != "format"}
     ranked = [member for member in candidates if "selection" in member]
     chosen = max(ranked, key=lambda member: score(member["selection"]), default=None)
-    record = {
-        "format": "quadcos.population", "size": size, "terrain": terrain, "members": members,
-        "chosen": chosen and chosen["index"], "wall_time_s": round(time.monotonic() - start, 1),
-    }
+    record.update(chosen=chosen and chosen["index"],
+                  wall_time_s=round(time.monotonic() - start, 1))
     if chosen is not None:
         for name in ("policy_best", "policy"):
             source = pathlib.Path(chosen["run_dir"]) / name
             if source.is_dir():
-                shutil.copytree(source, run_dir / name)
-    (run_dir / "population.json").write_text(json.dumps(record, indent=1) + "\n")
+                files.atomic_replace_dir(run_dir / name, functools.partial(_copy, source))
+    files.atomic_write_text(run_dir / "population.json", json.dumps(record, indent=1) + "\n")
     for member in members:
         logger.info(
             "population: member %d (seed %d): train exit %d, %s", member["index"],
@@ -154,18 +174,23 @@ def _train_all(
     members: list[dict], commands: list[list[str]], run_dir: pathlib.Path, poll_s: float
 ) -> None:
     """Starts `commands` (one per member, on its GPU), logs each to run_dir/member_I.log, reports
-    the members' env steps every `poll_s` and sets each one's "train_exit"; Ctrl-C stops them."""
+    the members' env steps every `poll_s` and sets each one's "train_exit". Ctrl-C or SIGTERM
+    (turned into KeyboardInterrupt while the members run) stops every member that is running
+    (SIGTERM: it saves its run after its chunk), waits for them and raises KeyboardInterrupt."""
     processes = []
-    for member, command in zip(members, commands, strict=True):
-        env = {**os.environ, MEMBER_ENV: str(member["index"])}
-        if member["gpu"] is not None:
-            env["CUDA_VISIBLE_DEVICES"] = member["gpu"]
-        with open(run_dir / f"member_{member['index']}.log", "w") as log:
-            processes.append(subprocess.Popen(
-                command, env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL
-            ))
-    report_at = time.monotonic() + poll_s
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _interrupt)
     try:
+        for member, command in zip(members, commands, strict=True):
+            env = {**os.environ, MEMBER_ENV: str(member["index"])}
+            if member["gpu"] is not None:
+                env["CUDA_VISIBLE_DEVICES"] = member["gpu"]
+            with open(run_dir / f"member_{member['index']}.log", "w") as log:
+                processes.append(subprocess.Popen(
+                    command, env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL
+                ))
+        report_at = time.monotonic() + poll_s
         while any(process.poll() is None for process in processes):
             time.sleep(min(poll_s, 1.0))
             if time.monotonic() >= report_at:
@@ -174,11 +199,26 @@ def _train_all(
                     f"member {member['index']} at env step {_last_step(member):,}"
                     for member in members))
     except KeyboardInterrupt:
+        logger.warning("population: stopping %d members", len(processes))
         for process in processes:
-            process.terminate()
+            if process.poll() is None:
+                process.terminate()
         raise
-    for member, process in zip(members, processes, strict=True):
-        member["train_exit"] = process.returncode
+    finally:
+        for process in processes:
+            process.wait()
+        for member, process in zip(members, processes):
+            member["train_exit"] = process.returncode
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _copy(source: pathlib.Path, folder: pathlib.Path) -> None:
+    shutil.copytree(source, folder, dirs_exist_ok=True)
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt(f"signal {signum}")
 
 
 def _last_step(member: dict) -> int:
