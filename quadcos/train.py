@@ -169,7 +169,9 @@ def _population_flags(parser: argparse.ArgumentParser) -> None:
         "--population_envs", type=int, default=1024, help="--population: episodes a member"
     )
     parser.add_argument(
-        "--population_seconds", type=float, default=20.0, help="--population: episode length, s"
+        "--population_seconds",
+        type=float,
+        help="--population: episode length, s (default: 40 on a test set's courses, else 20)",
     )
 
 
@@ -266,9 +268,12 @@ def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> i
         raise UsageError("--population starts new runs: not with --resume or --coordinator")
     if os.environ.get(population.MEMBER_ENV):
         raise UsageError("--population inside a population's member: a member is one run")
-    if args.population_envs < 1 or args.population_seconds <= 0:
-        raise UsageError("--population_envs and --population_seconds must be positive")
     select = args.population_terrain or population.selection_terrain(config.env.terrain)
+    seconds = args.population_seconds
+    if seconds is None:
+        seconds = population.selection_seconds(select)
+    if args.population_envs < 1 or seconds <= 0:
+        raise UsageError("--population_envs and --population_seconds must be positive")
     terrain_lib.parse(select)  # a bad spec is refused now, not after the training
     if args.numbered and run_dir is not None:
         run_dir = run_dirs.numbered_dir(run_dir)
@@ -276,7 +281,7 @@ def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> i
 
     def compare(policy: pathlib.Path) -> dict[str, Any]:  # after the members: the GPUs are free
         return evaluation.evaluate(
-            str(policy), select, num_envs=args.population_envs, seconds=args.population_seconds
+            str(policy), select, num_envs=args.population_envs, seconds=seconds
         ).summary
 
     status = population.run(argv, args.population, run_dir, int(config.sac.seed), select, compare)

@@ -41,12 +41,15 @@ def test_members_rank_by_worst_course_on_a_test_set_else_by_success():
     assert population.score(broken) < population.score(lucky)
     assert population.selection_terrain("random:max_deg=12") == "testset:4242"
     assert population.selection_terrain("slope5") == "slope5"
+    assert population.selection_seconds("testset:4242") == 40.0
+    assert population.selection_seconds("slope5") == 20.0
 
 
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
         (["--population=1"], "at least 2 members, not 1"),
+        (["--population=2", "--population_seconds=0"], "must be positive"),
         (["--population=2", "--population_terrain=nowhere"], "nowhere"),
         (["--population=2", "--coordinator=localhost:1234"], "not with --resume or --coordinator"),
         (["--population=4"], "2 are visible (0, 1)"),

@@ -91,7 +91,7 @@ population)  # MODE SIZE SEED: `--population=SIZE` from seed SEED (cold: caches 
   [ "$mode" = cold ] && rm -rf "$cache"
   rm -rf "$run" "$dir/pop/runs"; mkdir -p "$dir/pop/runs"
   QUADCOS_CACHE_DIR=$cache CUDA_VISIBLE_DEVICES=$(seq -s, 0 $((size - 1))) python3 -m quadcos.train \
-    --preset=any_slope --population="$size" --population_seconds=40 --seed="$seed" \
+    --preset=any_slope --population="$size" --seed="$seed" \
     --max_seconds=300 --output_dir="$run" --no_progress ${ANY_FLAGS:-} > "$dir/pop/$name.log" 2>&1
   echo "$(date +%T) $name: exit $? $(tail -n 1 "$dir/pop/$name.log")"
   for ((i = 0; i < size; i++)); do

@@ -86,6 +86,12 @@ def selection_terrain(terrain: str) -> str:
     return "testset:4242" if terrain.startswith("random") else terrain
 
 
+def selection_seconds(terrain: str) -> float:
+    """The default episode length of the comparison: 40 s on a test set (courses of up to five
+    sections of up to 3 m and a run-out, walked at 0.5-1 m/s), else 20 s."""
+    return 40.0 if terrain.startswith("testset") else 20.0
+
+
 def run(
     argv: Sequence[str],
     size: int,
