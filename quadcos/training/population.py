@@ -133,8 +133,8 @@ def run(
         record.update(chosen=None, interrupted=True,
                       wall_time_s=round(time.monotonic() - start, 1))
         files.atomic_write_text(run_dir / "population.json", json.dumps(record, indent=1) + "\n")
-        logger.error("population: stopped; each member saved its run in %s/member_I (--resume"
-                     " continues one)", run_dir)
+        logger.error("population: stopped; the members' runs are in %s/member_I (--resume"
+                     " continues one that checkpointed)", run_dir)
         return 130
     for member in members:  # the policy compared: the run's kept one, else its last
         folder = pathlib.Path(member["run_dir"])
@@ -182,7 +182,8 @@ def _train_all(
     """Starts `commands` (one per member, on its GPU), logs each to run_dir/member_I.log, reports
     the members' env steps every `poll_s` and sets each one's "train_exit". Ctrl-C or SIGTERM
     (turned into KeyboardInterrupt while the members run) stops every member that is running
-    (SIGTERM: it saves its run after its chunk), waits for them and raises KeyboardInterrupt."""
+    (SIGTERM: one in its training loop checkpoints after its chunk), waits for them and raises
+    KeyboardInterrupt."""
     processes = []
     previous = None
     if threading.current_thread() is threading.main_thread():
