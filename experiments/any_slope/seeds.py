@@ -131,12 +131,16 @@ def main(argv=None) -> int:
         return 2
     rows = [seed_row(args.folder, run) for run in runs]
     args.out.write_text(json.dumps(rows, indent=2) + "\n")
-    keys = [key for key in rows[0] if key != "command"]
+    print_table(rows, [key for key in rows[0] if key != "command"])
+    return 0
+
+
+def print_table(rows: list[dict], keys: list[str]) -> None:
+    """`rows` as a Markdown table of the columns `keys` (None: "—", floats to 3 decimals)."""
     print("| " + " | ".join(keys) + " |")
     print("|" + "---|" * len(keys))
     for row in rows:
         print("| " + " | ".join(_cell(row[key]) for key in keys) + " |")
-    return 0
 
 
 if __name__ == "__main__":

@@ -17,6 +17,8 @@ import json
 import pathlib
 import sys
 
+import seeds  # this folder's: the Markdown table
+
 TARGETS = {"testset2026_mean": 0.97, "testset2026_worst": 0.90}
 MAX_FLAT_ATTITUDE = 0.05
 
@@ -67,12 +69,6 @@ def population_row(prefix: pathlib.Path) -> dict:
     }
 
 
-def _cell(value) -> str:
-    if value is None:
-        return "—"
-    return f"{value:.3f}" if isinstance(value, float) else str(value)
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--single", type=pathlib.Path, nargs="*", default=[])
@@ -86,11 +82,7 @@ def main(argv=None) -> int:
         return 2
     args.out.write_text(json.dumps({"targets": {**TARGETS, "flat_max_attitude_rad":
                                                 MAX_FLAT_ATTITUDE}, "rows": rows}, indent=1) + "\n")
-    keys = [key for key in rows[0] if key != "run"]
-    print("| run | " + " | ".join(keys) + " |")
-    print("|---|" + "---|" * len(keys))
-    for row in rows:
-        print(f"| {row['run']} | " + " | ".join(_cell(row[key]) for key in keys) + " |")
+    seeds.print_table(rows, [key for key in rows[0] if not key.startswith("members_")])
     return 0
 
 
