@@ -189,3 +189,22 @@ def test_every_record_rebuilds_from_its_sources_unchanged():
     for name, record in results.load_records(ROOT).items():
         if all((ROOT / source["path"]).is_file() for source in record["sources"]):
             assert results.rebuild(record, ROOT) == record, name
+
+
+def test_the_time_to_targets_record_is_what_its_script_computes(tmp_path, monkeypatch):
+    folder = ROOT / "experiments" / "any_slope"
+    monkeypatch.syspath_prepend(str(folder))
+    import time_to_targets  # noqa: PLC0415 — the experiment's script
+
+    out = tmp_path / "time_to_targets.json"
+    argv = ["--single", str(folder / "seeds_cold_warm.json"),
+            "--population", str(folder / "population" / "pop2_s0"), "--out", str(out)]
+    assert time_to_targets.main(argv) == 0
+    committed = (ROOT / "benchmarks" / "h200_time_to_targets.json").read_text()
+    assert out.read_text() == committed
+    cold_s0 = json.loads(committed)["rows"][0]  # 0.975 / 0.812, flat attitude 0.015
+    assert cold_s0["seconds_to_targets"] is None and not time_to_targets.meets(cold_s0)
+    met = dict(cold_s0, testset2026_worst=0.95)
+    assert time_to_targets.meets(met)
+    assert not time_to_targets.meets(dict(met, flat_max_attitude_rad=0.06))
+    assert not time_to_targets.meets(dict(met, testset2026_mean=None))  # not evaluated: missed
