@@ -80,8 +80,9 @@ def main(argv=None) -> int:
     if not rows:
         print("time_to_targets.py: give --single or --population", file=sys.stderr)
         return 2
-    args.out.write_text(json.dumps({"targets": {**TARGETS, "flat_max_attitude_rad":
-                                                MAX_FLAT_ATTITUDE}, "rows": rows}, indent=1) + "\n")
+    targets = {**TARGETS, "flat_max_attitude_rad": MAX_FLAT_ATTITUDE}
+    lines = ",\n".join(f"  {json.dumps(row)}" for row in rows)  # a row a line
+    args.out.write_text(f'{{\n "targets": {json.dumps(targets)},\n "rows": [\n{lines}\n ]\n}}\n')
     seeds.print_table(rows, [key for key in rows[0] if not key.startswith("members_")])
     return 0
 
