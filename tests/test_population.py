@@ -67,6 +67,20 @@ def test_a_bad_population_is_refused_in_one_line_before_anything_is_written(
     assert not out.exists()
 
 
+def test_progress_says_where_each_member_stands(tmp_path):
+    member = {"index": 0, "run_dir": str(tmp_path / "member_0")}
+    assert population._where(member, tmp_path) == "starting"  # noqa: SLF001
+    log = tmp_path / "member_0.log"
+    line = "gait search round 2/6 (65 s): best 988 at 0.41 m/s"
+    log.write_text(f"quadcos.train: {line}\n")
+    assert population._where(member, tmp_path) == line  # noqa: SLF001
+    log.write_text("x" * 100 + "\n")
+    assert population._where(member, tmp_path) == "x" * 77 + "..."  # noqa: SLF001
+    (tmp_path / "member_0").mkdir()
+    (tmp_path / "member_0" / "metrics.jsonl").write_text('{"step": 1024}\n')
+    assert population._where(member, tmp_path) == "env step 1,024"  # noqa: SLF001
+
+
 def test_sigterm_stops_every_member_and_waits_for_them(tmp_path):
     members = [{"index": index, "gpu": None, "run_dir": str(tmp_path / f"member_{index}")}
                for index in range(2)]

@@ -202,9 +202,8 @@ def _train_all(
             time.sleep(min(poll_s, 1.0))
             if time.monotonic() >= report_at:
                 report_at += poll_s
-                logger.info("population: %s", ", ".join(
-                    f"member {member['index']} at env step {_last_step(member):,}"
-                    for member in members))
+                logger.info("population: %s", "; ".join(
+                    f"member {member['index']}: {_where(member, run_dir)}" for member in members))
     except KeyboardInterrupt:
         logger.warning("population: stopping %d members", len(processes))
         for process in processes:
@@ -226,6 +225,18 @@ def _copy(source: pathlib.Path, folder: pathlib.Path) -> None:
 
 def _interrupt(signum, frame) -> None:
     raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _where(member: dict, run_dir: pathlib.Path) -> str:
+    """Where a member stands: its env step once it has trained, else its log's last line (the
+    gait search's rounds, the start-up)."""
+    step = _last_step(member)
+    if step:
+        return f"env step {step:,}"
+    log = run_dir / f"member_{member['index']}.log"
+    lines = log.read_text(errors="replace").strip().splitlines() if log.exists() else []
+    last = lines[-1].removeprefix("quadcos.train: ") if lines else "starting"
+    return last if len(last) <= 80 else last[:77] + "..."
 
 
 def _last_step(member: dict) -> int:
