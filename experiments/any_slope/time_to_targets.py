@@ -10,7 +10,9 @@ members, evaluated like single runs). The targets (README.md): test set 2026 mea
 >= 0.97 and worst course >= 0.90, flat attitude (the largest mean of max |pitch error|, |roll|,
 |yaw|) <= 0.05 rad. `seconds_to_targets`: process start until the kept policy was written (a single
 run) or until the population chose its member (`wall_time_s`: training and selection), null where
-the policy misses a target. Prints the rows as a Markdown table."""
+the policy misses a target; `seconds` that time whether or not the policy meets them;
+`first_chunk_s` process start to the first training chunk (a population: its slowest member's).
+Prints the rows as a Markdown table."""
 
 import argparse
 import json
@@ -33,9 +35,13 @@ def meets(row: dict) -> bool:
     )
 
 
-def _row(run: str, devices: int, seed: int, cache: str, seconds: float, policy: dict) -> dict:
+def _row(
+    run: str, devices: int, seed: int, cache: str, first_chunk_s: float, seconds: float,
+    policy: dict,
+) -> dict:
     return {
         "run": run, "num_devices": devices, "seed": seed, "cache": cache,
+        "first_chunk_s": first_chunk_s, "seconds": round(seconds, 1),
         "seconds_to_targets": round(seconds, 1) if meets(policy) else None,
         "testset2026_mean": policy["testset2026_mean"],
         "testset2026_worst": policy["testset2026_worst"],
@@ -48,7 +54,7 @@ def single_rows(path: pathlib.Path) -> list[dict]:
     """One row per run of a seeds.py file: run names any_slope_{cold,warm}_sSEED say the caches."""
     return [
         _row(row["run"], 1, row["seed"], "cold" if "_cold_" in row["run"] else "warm",
-             row["train_seconds"], row)
+             row["first_chunk_s"], row["train_seconds"], row)
         for row in json.loads(path.read_text())
     ]
 
@@ -62,7 +68,8 @@ def population_row(prefix: pathlib.Path) -> dict:
     seeds = {member["index"]: member["seed"] for member in record["members"]}
     chosen = next(row for row in members if row["seed"] == seeds[record["chosen"]])
     return {
-        **_row(prefix.name, record["size"], seeds[0], "cold", record["wall_time_s"], chosen),
+        **_row(prefix.name, record["size"], seeds[0], "cold",
+               max(row["first_chunk_s"] for row in members), record["wall_time_s"], chosen),
         "chosen_seed": chosen["seed"],
         "members_testset2026": [[row["testset2026_mean"], row["testset2026_worst"]]
                                 for row in members],
