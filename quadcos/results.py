@@ -23,8 +23,8 @@ column), `rows` of cell templates, or `text`: a value or a sentence of prose (it
 inside a paragraph, not at a line's start, so that Markdown renders the text between them). A template's fields
 are `{RECORD:KEY|FORMAT}` (`RECORD:` may be left out for the table's `record`), `{A / B|FORMAT}`
 (a ratio), `{min GLOB|FORMAT}`, `{max GLOB|FORMAT}` and `{count GLOB}` (0 where none matches)
-over a record's keys (`fnmatch`). FORMAT is Python's, and a trailing `k`, `M` or `%` scales the value by 1e-3, 1e-6
-or 100 and appends the unit (`.0fk` → `505 k`).
+over a record's keys (`fnmatch`). FORMAT is Python's, and a trailing `k`, `M` or `%` scales the
+value by 1e-3, 1e-6 or 100 and appends the unit (`.0fk` → `505 k`).
 
 Bad arguments, an unknown record or number: one line on stderr, exit status 2.
 """

@@ -37,8 +37,9 @@ def quiet_warp(verbose: bool = False) -> None:
     """Silences Warp's line per kernel module loaded ("Module ... load on device 'cuda:0' took
     ... ms (cached)", ~36 a process) and its start-up banner (Warp's info level: `log_level`
     where Warp has it, 1.19 among them; `quiet` before) unless `verbose` or
-    `QUADCOS_VERBOSE=1`. `verbose` sets `QUADCOS_VERBOSE`, so that later calls (`quadcos.env.backends.resolve_impl`, before Warp
-    loads a module) and child processes keep it. Nothing without warp-lang."""
+    `QUADCOS_VERBOSE=1`. `verbose` sets `QUADCOS_VERBOSE`, so that later calls
+    (`quadcos.env.backends.resolve_impl`, before Warp loads a module) and child processes keep
+    it. Nothing without warp-lang."""
     if verbose:
         os.environ[VERBOSE_ENV] = "1"
     try:

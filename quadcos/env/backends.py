@@ -212,7 +212,7 @@ def preload_warp_modules() -> None:
     def load(name: str) -> None:
         try:
             warp.load_module(name, device=device)
-        except RuntimeError as error:  # not imported by this MJX: it loads (if ever) at its launch
+        except RuntimeError as error:  # not in this MJX: it loads (if ever) at its launch
             logger.debug("Warp preload: %s skipped (%s)", name, error)
 
     with concurrent.futures.ThreadPoolExecutor(len(_STEP_MODULES)) as pool:
