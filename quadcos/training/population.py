@@ -228,15 +228,19 @@ def _interrupt(signum, frame) -> None:
 
 
 def _where(member: dict, run_dir: pathlib.Path) -> str:
-    """Where a member stands: its env step once it has trained, else its log's last line (the
-    gait search's rounds, the start-up)."""
+    """Where a member stands: its env step once it has trained, else the last of its log's lines
+    that quadcos wrote (the gait search's rounds; not XLA's or Warp's)."""
     step = _last_step(member)
     if step:
         return f"env step {step:,}"
     log = run_dir / f"member_{member['index']}.log"
-    lines = log.read_text(errors="replace").strip().splitlines() if log.exists() else []
-    last = lines[-1].removeprefix("quadcos.train: ") if lines else "starting"
+    lines = log.read_text(errors="replace").splitlines() if log.exists() else []
+    ours = [line[len(_PREFIX):] for line in lines if line.startswith(_PREFIX)]
+    last = ours[-1].strip() if ours else "starting"
     return last if len(last) <= 80 else last[:77] + "..."
+
+
+_PREFIX = "quadcos.train: "  # the start of the lines a member's logger writes
 
 
 def _last_step(member: dict) -> int:
