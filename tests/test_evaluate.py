@@ -10,6 +10,7 @@ import dataclasses
 import json
 import math
 import pathlib
+import shutil
 import types
 
 import jax.numpy as jnp
@@ -24,8 +25,10 @@ from quadcos.robot import constants
 from quadcos.viz import plots, video
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-# A trained flat-ground run, standing in for the pretrained policies to come (as in the notebooks).
+# A trained flat-ground run (its config.json and metrics.jsonl; its policy is the shipped
+# experiments/policies/flat, put back into a copy of the run by `stand_in_run`).
 STAND_IN_RUN = ROOT / "tests" / "data" / "trained" / "flat" / "flat_s0"
+FLAT_POLICY = ROOT / "experiments" / "policies" / "flat"
 LEGACY_POLICY = ROOT / "tests" / "data" / "trained" / "archive" / "flat_gpu" / "paper_20hz" / "policy"
 NUM_ENVS, SECONDS = 4, 2.0
 
@@ -65,10 +68,19 @@ def fixed_trot_result(fixed_trot_files):
 
 
 @pytest.fixture(scope="session")
-def policy_evaluation():
+def stand_in_run(tmp_path_factory) -> pathlib.Path:
+    """A run folder: the stand-in run's files with the flat policy as its `policy`."""
+    run = tmp_path_factory.mktemp("trained") / STAND_IN_RUN.name
+    shutil.copytree(STAND_IN_RUN, run)
+    shutil.copytree(FLAT_POLICY, run / "policy")
+    return run
+
+
+@pytest.fixture(scope="session")
+def policy_evaluation(stand_in_run):
     """The stand-in trained run evaluated through the library on its training terrain (flat)."""
     return evaluation_lib.evaluate(
-        str(STAND_IN_RUN), num_envs=NUM_ENVS, seconds=SECONDS, trace_episode=1
+        str(stand_in_run), num_envs=NUM_ENVS, seconds=SECONDS, trace_episode=1
     )
 
 
@@ -296,7 +308,7 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
         (["--policy=fixed:0.4,0.15,0.6"], "five numbers"),
         (["--policy=fixed:0.4,0.15,5,0,0"], "period=5 is outside"),
         (["--policy=fixed:0.4,0.15,0.6,pi/2,exit()"], "'exit()' is not a number"),
-        ([f"--policy={STAND_IN_RUN}", "--env.observe_slope=True"], "observations of size 19"),
+        ([f"--policy={FLAT_POLICY}", "--env.observe_slope=True"], "observations of size 19"),
         (["--policy=fixed:trot", "--env.no_such_option=1"], "unknown config key"),
         (["--policy=fixed:trot", "--env.observe_slope"], "unrecognised argument"),
         (["--policy=fixed:trot", "--env.terrain=s4"], "the terrain is not an env option"),
