@@ -10,6 +10,7 @@ the env, `quadcos.equations.oscillator`).
 """
 
 import ast
+import collections
 import dataclasses
 import json
 import math
@@ -376,12 +377,29 @@ def build_env(
     config = env_config(env_overrides, source.env_overrides, keep_robot=source.kind != "fixed")
     if source.kind == "fixed":
         _check_fixed(source.name, source.fixed_parameters, config)
-    env = env_lib.QuadrupedEnv(
-        terrain if terrain is not None else source.training_terrain, config
-    )
+    env = _env(terrain if terrain is not None else source.training_terrain, config)
     expected = source.observation_size, source.action_size
     check_sizes(source.name, expected, (env.observation_size, env.action_size))
     return env
+
+
+# The envs build_env made last, by terrain (a spec, or a Terrain by identity) and config.
+_ENVS: collections.OrderedDict[tuple[Any, str], env_lib.QuadrupedEnv] = collections.OrderedDict()
+
+
+def _env(
+    terrain: terrain_lib.Terrain | str, config: ml_collections.ConfigDict
+) -> env_lib.QuadrupedEnv:
+    """One env per terrain and config (the last 8): an evaluation or search that runs again in
+    the same env reuses its compiled programs (`rollout`'s caches are keyed on the env) instead
+    of tracing them anew."""
+    key = (terrain, json.dumps(config.to_dict(), sort_keys=True, default=repr))
+    if key not in _ENVS:
+        _ENVS[key] = env_lib.QuadrupedEnv(terrain, config)
+        while len(_ENVS) > 8:
+            _ENVS.popitem(last=False)
+    _ENVS.move_to_end(key)
+    return _ENVS[key]
 
 
 def check_sizes(
