@@ -346,6 +346,7 @@ def test_a_commanded_env_follows_its_schedule(commanded_env):
     env = commanded_env
     reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
     state = reset(jax.random.split(jax.random.PRNGKey(0), 2))
+    assert state.obs.shape == (2, env.observation_size)  # command and turn filter counted
     np.testing.assert_allclose(state.obs[:, -2:], [[0.5, 0.0]] * 2)
     action = jnp.zeros((2, env.action_size)).at[:, -1].set(0.5)
     yaws, headings = [], []

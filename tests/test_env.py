@@ -94,6 +94,7 @@ def test_optional_observations_and_joint_controller():
     assert env.observation_size == 14 + 1 + 2 + 8
     assert env.action_size == 8
     state = jax.jit(env.reset)(jax.random.PRNGKey(0))
+    assert state.obs.shape == (env.observation_size,)  # the counted size is the observed one
     state = jax.jit(env.step)(state, jnp.full(8, 0.1))
     assert np.isfinite(np.asarray(state.obs)).all()
     np.testing.assert_allclose(  # the filtered command, then the joints follow it
@@ -103,7 +104,7 @@ def test_optional_observations_and_joint_controller():
 
 def test_reset_is_finite_and_standing(flat_env, flat_reset):
     state = flat_reset(jax.random.split(jax.random.PRNGKey(1), FLAT_ROBOTS))
-    assert state.obs.shape == (FLAT_ROBOTS, 19)
+    assert state.obs.shape == (FLAT_ROBOTS, 19) == (FLAT_ROBOTS, flat_env.observation_size)
     np.testing.assert_array_equal(state.obs[:, 14:], 0.0)  # the command starts at the centre
     assert np.isfinite(state.obs).all()
     np.testing.assert_allclose(

@@ -102,8 +102,19 @@ class QuadrupedEnv(base.Env):
 
     @functools.cached_property
     def observation_size(self) -> int:
-        state = jax.eval_shape(self.reset, jax.random.PRNGKey(0))
-        return state.obs.shape[-1]
+        """The length of `_observe`'s observation with the velocity command `_with_command`
+        adds, counted part by part in their order (tracing a reset for its shape would cost
+        seconds of every env's start)."""
+        config = self.config
+        return (
+            3  # torso linear velocity
+            + 3  # pitch, yaw, roll
+            + len(self.layout.joint_qpos)
+            + int(config.observe_slope)
+            + 2 * int(config.observe_phase)  # cos ψ, sin ψ
+            + self.action_size * (config.action_filter_tau > 0)  # the filtered action
+            + 2 * self.commanded  # v*, ω*
+        )
 
     @property
     def action_size(self) -> int:
