@@ -43,7 +43,7 @@ class ActionSource:
       name: the --policy string (or a description).
       kind: "sac" or "fixed".
       act: (params, obs (n, obs_size)) -> actions (n, action_size); jit-able.
-      params: the first argument of `act` (fixed: the (5,) parameters; sac: None).
+      params: the first argument of `act` (fixed: the (5,) parameters; sac: the network's).
       env_overrides: env config overrides (dotted keys) that rebuild the training env.
       training_terrain: the terrain spec the policy was trained on ("flat" for fixed parameters).
       fixed_parameters: the rhythm parameters of a fixed source, else None.
@@ -242,12 +242,13 @@ class PolicySpec:
                 f"the policy {self.text} is an exported .{self.kind}: the mjx engine runs run or"
                 " policy directories and fixed:...; run it with the mujoco engine"
             )
-        policy = self.policy
+        from quadcos.training import policy as policy_lib
+
         return ActionSource(
             name=self.text,
             kind="sac",
-            act=lambda _, obs: policy.act(obs),
-            params=None,
+            act=policy_lib.action_function(self.policy.spec),
+            params=self.policy.params,
             env_overrides=dict(self.env_options),
             training_terrain=self.training_terrain,
             observation_size=self.observation_size,

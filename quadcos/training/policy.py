@@ -9,6 +9,7 @@ import dataclasses
 import functools
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -83,8 +84,7 @@ class Policy:
         self.spec = spec
         self.params = jax.device_put(params)
         self.config = dict(config or {})
-        networks = _networks(spec)
-        self._apply = jax.jit(functools.partial(_deterministic_action, networks))
+        self._apply = jax.jit(action_function(spec))
 
     @classmethod
     def from_training_state(
@@ -173,6 +173,14 @@ def _unreadable(path: Path, cause: str, error: Exception) -> ValueError:
         f" ({type(error).__name__}: {detail:.200});"
         " copy it again from its run directory"
     )
+
+
+@functools.lru_cache(maxsize=8)
+def action_function(spec: PolicySpec) -> Callable[[dict[str, Any], jax.Array], jax.Array]:
+    """(params, observation) -> the deterministic action of any policy of `spec`: one function
+    per network shape, so that programs compiled for one policy (an evaluation's rollout) run
+    every other policy of that shape, its parameters an argument."""
+    return functools.partial(_deterministic_action, _networks(spec))
 
 
 def _networks(spec: PolicySpec) -> sac_networks.SACNetworks:
