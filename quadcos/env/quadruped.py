@@ -102,19 +102,13 @@ class QuadrupedEnv(base.Env):
 
     @functools.cached_property
     def observation_size(self) -> int:
-        """The length of `_observe`'s observation with the velocity command `_with_command`
-        adds, counted part by part in their order (tracing a reset for its shape would cost
-        seconds of every env's start)."""
-        config = self.config
-        return (
-            3  # torso linear velocity
-            + 3  # pitch, yaw, roll
-            + len(self.layout.joint_qpos)
-            + int(config.observe_slope)
-            + 2 * int(config.observe_phase)  # cos ψ, sin ψ
-            + self.action_size * (config.action_filter_tau > 0)  # the filtered action
-            + 2 * self.commanded  # v*, ω*
-        )
+        """`_observe`'s parts in order (torso velocity, pitch / yaw / roll, joints, slope, cos ψ /
+        sin ψ, the filtered action), then `_with_command`'s (v*, ω*): counted, as tracing a
+        reset for its shape would cost seconds of every env's start."""
+        c = self.config
+        filtered = self.action_size if c.action_filter_tau > 0 else 0
+        joints = len(self.layout.joint_qpos)
+        return 6 + joints + c.observe_slope + 2 * c.observe_phase + filtered + 2 * self.commanded
 
     @property
     def action_size(self) -> int:
