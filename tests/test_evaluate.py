@@ -162,6 +162,18 @@ def test_trace_has_every_series_at_one_length(fixed_trot_files):
 
 
 @pytest.mark.slow
+def test_a_second_evaluation_of_a_network_shape_reuses_the_compiled_rollout(policy_evaluation):
+    # The stand-in run's policy folder: the same env, network shape and number of robots as
+    # `policy_evaluation`, another source object.
+    del policy_evaluation
+    before = rollout_lib._compiled_chunk.cache_info()
+    again = evaluation_lib.evaluate(str(FLAT_POLICY), num_envs=NUM_ENVS, seconds=SECONDS)
+    after = rollout_lib._compiled_chunk.cache_info()
+    assert after.misses == before.misses and after.hits == before.hits + 1
+    assert again.summary["num_episodes"] == NUM_ENVS and again.summary["fall_rate"] == 0.0
+
+
+@pytest.mark.slow
 def test_policy_run_is_evaluated_in_its_training_env(policy_evaluation):
     evaluation = policy_evaluation
     setup = evaluation.summary["setup"]
