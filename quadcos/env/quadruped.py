@@ -18,9 +18,7 @@ from quadcos import robot
 from quadcos import terrain as terrain_lib
 from quadcos._util.quiet import warp_absence_unprinted
 from quadcos.env import backends, commands, randomization
-from quadcos.env.config import (  # noqa: F401 (the config's home; re-exported as quadcos.env's)
-    CONTROLLERS,
-    OSCILLATOR_FORMS,
+from quadcos.env.config import (
     action_size,
     default_config,
     max_progress,
