@@ -309,9 +309,9 @@ class SACTrainer:
         """Steps all training envs; returns their transitions for the replay buffer (`_store`),
         those with non-finite values marked.
 
-        An env whose observation or reward is non-finite is replaced by a freshly
-        reset one (done = 1), its transition is neither stored nor counted in the
-        observation statistics, and `nan_resets` counts it.
+        An env whose observation or reward is non-finite restarts (`_reset_where`, done = 1),
+        its transition is neither stored nor counted in the observation statistics, and
+        `nan_resets` counts it.
         """
         env_state = state.env_state
         next_env_state = self._step_envs(env_state, actions)
@@ -360,7 +360,33 @@ class SACTrainer:
         return jax.tree.map(jnp.zeros_like, transitions), jnp.zeros((self.config.num_envs,), bool)
 
     def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:
-        """Replaces the whole state of the masked envs by a fresh reset state."""
+        """Restarts the masked envs. Where the training wrappers keep each env's first state
+        (Brax's AutoReset), as at the end of an episode: physics and observation back to that
+        state, done = 1 (the env restarts its own `info` where its clock reads 0), reward,
+        metrics and what else of the env is non-finite (the episode sums of Brax's wrappers) 0
+        — a select, where a reset would put a second MJX program (about half of a
+        chunk's compile time) into every training program. Elsewhere (the course curriculum)
+        the whole state by a fresh reset."""
+        info = env_state.info
+        if "first_pipeline_state" in info:
+            first = lambda start, now: state_lib.where_per_env(mask, start, now)
+            zero = lambda now: state_lib.where_per_env(mask, jnp.zeros_like(now), now)
+
+            def finite(now: jax.Array) -> jax.Array:
+                if not jnp.issubdtype(now.dtype, jnp.floating):
+                    return now
+                return state_lib.where_per_env(mask, jnp.where(jnp.isfinite(now), now, 0), now)
+
+            return env_state.replace(
+                pipeline_state=jax.tree.map(
+                    first, info["first_pipeline_state"], env_state.pipeline_state
+                ),
+                obs=jax.tree.map(first, info["first_obs"], env_state.obs),
+                reward=zero(env_state.reward),
+                metrics=jax.tree.map(zero, env_state.metrics),
+                done=jnp.where(mask, jnp.ones_like(env_state.done), env_state.done),
+                info=jax.tree.map(finite, info),
+            )
 
         def reset_masked() -> envs.State:
             fresh = self._reset_envs(jax.random.split(key, self.config.num_envs))
