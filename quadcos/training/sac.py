@@ -365,8 +365,8 @@ class SACTrainer:
         state, done = 1 (the env restarts its own `info` where its clock reads 0), reward,
         metrics and what else of the env is non-finite (the episode sums of Brax's wrappers) 0
         — a select, where a reset would put a second MJX program into every training program
-        (a third of the smoke trainer's chunk and prefill compile times on the CPU). Elsewhere (the course curriculum)
-        the whole state by a fresh reset."""
+        (a third of the smoke trainer's chunk and prefill compile times on the CPU). Elsewhere
+        (the course curriculum) the whole state by a fresh reset."""
         info = env_state.info
         if "first_pipeline_state" in info:
             first = lambda start, now: state_lib.where_per_env(mask, start, now)
