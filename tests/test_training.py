@@ -17,6 +17,7 @@ import pytest
 from quadcos import training
 from quadcos.training import best_policy, checkpoint, host, loop
 from quadcos.training import policy as policy_lib
+from quadcos.training import state as state_lib
 from tests.toy_env import CHUNK, PointEnv, toy_config
 
 pytestmark = pytest.mark.slow
@@ -412,6 +413,40 @@ def test_nan_guard(tmp_path):
             for leaf in leaves
             if jnp.issubdtype(leaf.dtype, jnp.floating)
         )
+
+
+def test_a_masked_env_restarts_from_its_first_state_and_the_others_carry_on():
+    from brax.envs.base import State
+
+    nan, first_q = jnp.nan, jnp.array([[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]])
+    env_state = State(
+        pipeline_state={
+            "q": jnp.array([[9.0, 9.0], [nan, nan], [7.0, 7.0]]),
+            "shared": jnp.ones(5),  # no env axis (MJX-Warp has such leaves)
+        },
+        obs=jnp.array([[1.0], [nan], [2.0]]),
+        reward=jnp.array([0.5, nan, 0.25]),
+        done=jnp.zeros(3),
+        metrics={"speed": jnp.array([1.0, nan, 2.0])},
+        info={
+            "first_pipeline_state": {"q": first_q, "shared": jnp.ones(5)},
+            "first_obs": jnp.array([[10.0], [11.0], [12.0]]),
+            "episode_metrics": {"sum_reward": jnp.array([1.0, nan, nan])},
+            "steps": jnp.array([3, 4, 5], jnp.int32),
+        },
+    )
+    assert state_lib.keeps_first_state(env_state)
+    restarted = state_lib.restart_where(jnp.array([False, True, False]), env_state)
+    np.testing.assert_array_equal(restarted.pipeline_state["q"], [[9, 9], [2, 3], [7, 7]])
+    np.testing.assert_array_equal(restarted.obs, [[1.0], [11.0], [2.0]])
+    np.testing.assert_array_equal(restarted.reward, [0.5, 0.0, 0.25])
+    np.testing.assert_array_equal(restarted.done, [0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(restarted.metrics["speed"], [1.0, 0.0, 2.0])
+    # Only the restarted env's non-finite values are cleared; another env's NaN is its own.
+    sums = restarted.info["episode_metrics"]["sum_reward"]
+    assert sums[0] == 1.0 and sums[1] == 0.0 and jnp.isnan(sums[2])
+    np.testing.assert_array_equal(restarted.info["steps"], [3, 4, 5])
+    assert restarted.pipeline_state["shared"].shape == (5,)  # no env axis: kept
 
 
 def test_non_finite_loss_raises_and_keeps_checkpoint(tmp_path):

@@ -360,33 +360,11 @@ class SACTrainer:
         return jax.tree.map(jnp.zeros_like, transitions), jnp.zeros((self.config.num_envs,), bool)
 
     def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:
-        """Restarts the masked envs. Where the training wrappers keep each env's first state
-        (Brax's AutoReset), as at the end of an episode: physics and observation back to that
-        state, done = 1 (the env restarts its own `info` where its clock reads 0), reward,
-        metrics and what else of the env is non-finite (the episode sums of Brax's wrappers) 0
-        — a select, where a reset would put a second MJX program into every training program
-        (a third of the smoke trainer's chunk and prefill compile times on the CPU). Elsewhere
-        (the course curriculum) the whole state by a fresh reset."""
-        info = env_state.info
-        if "first_pipeline_state" in info:
-            first = lambda start, now: state_lib.where_per_env(mask, start, now)
-            zero = lambda now: state_lib.where_per_env(mask, jnp.zeros_like(now), now)
-
-            def finite(now: jax.Array) -> jax.Array:
-                if not jnp.issubdtype(now.dtype, jnp.floating):
-                    return now
-                return state_lib.where_per_env(mask, jnp.where(jnp.isfinite(now), now, 0), now)
-
-            return env_state.replace(
-                pipeline_state=jax.tree.map(
-                    first, info["first_pipeline_state"], env_state.pipeline_state
-                ),
-                obs=jax.tree.map(first, info["first_obs"], env_state.obs),
-                reward=zero(env_state.reward),
-                metrics=jax.tree.map(zero, env_state.metrics),
-                done=jnp.where(mask, jnp.ones_like(env_state.done), env_state.done),
-                info=jax.tree.map(finite, info),
-            )
+        """Restarts the masked envs: from their episode's first state where the training
+        wrappers keep it (`state_lib.restart_where`), else (the course curriculum) by replacing
+        the whole state with a fresh reset."""
+        if state_lib.keeps_first_state(env_state):
+            return state_lib.restart_where(mask, env_state)
 
         def reset_masked() -> envs.State:
             fresh = self._reset_envs(jax.random.split(key, self.config.num_envs))
