@@ -5,7 +5,8 @@
 # BASE (/tmp/base: the same of the revision before `env.backends.preload_warp_modules`).
 #   cold: the run's whole cache folder (JAX's and Warp's kernels) emptied; jaxcold: JAX's cache
 #   emptied, Warp's kept (a machine that has run quadcos before, under another JAX); warm: a run
-#   after them. any_cold: `--preset=any_slope` from empty caches (its gait search included).
+#   after them; BASE's rows only where /tmp/base exists. any_cold (ANY_COLD=0 skips it):
+#   `--preset=any_slope` from empty caches (its gait search included).
 # $O/NAME.startup.json, NAME.log (with --verbose: Warp's module loads and their seconds), status.
 # Then: python -m quadcos.results record --name startup_h200 ... $O/*.startup.json
 set -u
@@ -24,6 +25,9 @@ F="--preset=gpu --terrain=flat --num_timesteps=100000"
 rm -rf /tmp/cn; run /tmp/new new_cold /tmp/cn $F; run /tmp/new new_warm1 /tmp/cn $F
 run /tmp/new new_warm2 /tmp/cn $F
 rm -rf /tmp/cn/jax; run /tmp/new new_jaxcold /tmp/cn $F
-rm -rf /tmp/cb; run /tmp/base base_cold /tmp/cb $F; run /tmp/base base_warm1 /tmp/cb $F
-rm -rf /tmp/ca; run /tmp/new any_cold /tmp/ca --preset=any_slope --num_timesteps=100000
+if [ -d /tmp/base ]; then  # BASE's rows only where its tree was unpacked
+  rm -rf /tmp/cb; run /tmp/base base_cold /tmp/cb $F; run /tmp/base base_warm1 /tmp/cb $F
+fi
+[ "${ANY_COLD:-1}" = 1 ] &&
+  { rm -rf /tmp/ca; run /tmp/new any_cold /tmp/ca --preset=any_slope --num_timesteps=100000; }
 echo "$(date +%T) done" >> "$O/status"
