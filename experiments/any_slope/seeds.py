@@ -9,7 +9,8 @@ testset2027,testset4242,slope5,s4,flat}.json, for the run names REGEX matches (d
 when `policy_best` was written (its `best_of_run.written_at_s`; runs from before the trainer
 recorded it: the start of the evaluation whose policy it keeps, by the trainer's rule:
 `best_policy_max_fall_rate`, then the evaluation reward); `first_chunk_s` the seconds from process
-start to the first training chunk (the run's startup.json); `command` is the run's own command
+start to the first training chunk (the run's startup.json), `first_evaluation_s` to the step-0
+evaluation (metrics.jsonl); `command` is the run's own command
 line.
 Prints the rows as a Markdown table.
 """
@@ -82,6 +83,8 @@ def seed_row(folder: pathlib.Path, run: pathlib.Path) -> dict:
         "seed": seed,
         # Process start -> the first training chunk done (gait search and compiling included).
         "first_chunk_s": startup and round(startup["seconds"]["first_chunk"], 1),
+        # Process start -> the step-0 evaluation logged (metrics.jsonl; runs without startup.json).
+        "first_evaluation_s": round(metrics[0]["wall_time_s"], 1),
         "train_seconds": round(_written_at(run, kept), 1),
         "env_steps": int(kept["step"]),
         "last_env_steps": int(metrics[-1]["step"]),
