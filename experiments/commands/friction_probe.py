@@ -1,0 +1,63 @@
+"""A command policy's survival at fixed frictions in C MuJoCo: every geom's sliding friction set
+to one value (as the randomisation draws it), nothing else randomised, random commands.
+
+    MENAGERIE_ROOT=DIR python experiments/commands/friction_probe.py --policy=RUN/policy_best \
+        --frictions 0 1.0 1.5 --episodes=8 --out=experiments/commands/anymal_friction.json
+
+A friction of 0 keeps the MJCF's own. Physics: the solver iterations the policy trained with
+(`quadcos.sim2sim --physics=training`). Each episode: `--seconds` of control steps from
+`HostRobot.reset(seed)`, ended by a fall.
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from quadcos.deploy import host_robot
+
+
+def survival(pilot: host_robot.Pilot, friction: float, episodes: int, seconds: float) -> dict:
+    """The share of `episodes` that did not fall and the mean seconds walked, at `friction`."""
+    robot = host_robot.HostRobot("flat", pilot.config, physics="training", commands="random")
+    if friction > 0:
+        robot.model.geom_friction[:, 0] = friction
+    feet = robot.layout.foot_geoms
+    act, steps, walked = pilot.actor(), round(seconds / robot.dt), []
+    for seed in range(episodes):
+        obs, step = robot.reset(seed), 0
+        while step < steps:
+            result = robot.step(act(obs))
+            obs, step = result.obs, step + 1
+            if result.fell:
+                break
+        walked.append(step * robot.dt)
+    return {
+        "friction": float(robot.model.geom_friction[feet[0], 0]),
+        "episodes": episodes,
+        "survival": float(np.mean([w >= steps * robot.dt - 1e-9 for w in walked])),
+        "mean_seconds": float(np.mean(walked)),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--policy", required=True)
+    parser.add_argument("--frictions", type=float, nargs="+", default=[0.0, 1.0, 1.5])
+    parser.add_argument("--episodes", type=int, default=8)
+    parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--out")
+    args = parser.parse_args()
+    pilot = host_robot.Pilot.load(args.policy)
+    rows = [survival(pilot, f, args.episodes, args.seconds) for f in args.frictions]
+    for row in rows:
+        print(f"friction {row['friction']:.2f}: survival {row['survival']:.3f} of"
+              f" {row['episodes']}, {row['mean_seconds']:.1f} s walked on average")
+    if args.out:
+        record = {"policy": args.policy, "seconds": args.seconds, "rows": rows}
+        Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
