@@ -7,7 +7,9 @@
 
 Each condition is `quadcos.evaluate`'s deterministic evaluation (flat, 20-s episodes, the same
 seeds) with `env.randomization` enabled and every range fixed to one value: the nominal robot
-(friction 1.5 as in the MJCF, scales 1, no latency, no pushes) except for the one perturbation.
+(friction 1.5 as in the paper's robot's MJCF and at the top of the training range; Go1, Go2 and
+ANYmal C's feet have 0.8 in theirs; scales 1, no latency, no pushes) except for the one
+perturbation. `--env randomization.friction='(0.8, 0.8)'` moves the nominal friction.
 """
 
 import argparse
