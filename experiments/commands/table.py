@@ -126,8 +126,8 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go2long_s0": "the preset (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
     "anymal_conf_s0": "the preset, gait search `min_speed` 0.15, its 16 best confirmed on 256"
     " robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
-    "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s: the best"
-    " confirmed fell in 4.7 %, v_ref 0.44 with a map",
+    "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
+    " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
 }
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")  # the same, --config.sac.max_seconds=540
