@@ -1,8 +1,10 @@
 """A command policy's survival at fixed frictions in C MuJoCo: every geom's sliding friction set
-to one value (as the randomisation draws it), nothing else randomised, random commands.
+to one value (as the randomisation draws it), nothing else randomised, random commands or one
+schedule (`--commands`, `quadcos.sim2sim`'s spec).
 
     MENAGERIE_ROOT=DIR python experiments/commands/friction_probe.py --policy=RUN/policy_best \
         --frictions 0 1.0 1.5 --episodes=8 --out=experiments/commands/anymal_friction.json
+    ... --frictions 1.5 --commands 0,0@10 0.2,0@10 0.4,0@10 --out=...   # a row per schedule
 
 A friction of 0 keeps the MJCF's own. Physics: the solver iterations the policy trained with
 (`quadcos.sim2sim --physics=training`). Each episode: `--seconds` of control steps from
@@ -18,9 +20,11 @@ import numpy as np
 from quadcos.deploy import host_robot
 
 
-def survival(pilot: host_robot.Pilot, friction: float, episodes: int, seconds: float) -> dict:
+def survival(
+    pilot: host_robot.Pilot, friction: float, commands: str, episodes: int, seconds: float
+) -> dict:
     """The share of `episodes` that did not fall and the mean seconds walked, at `friction`."""
-    robot = host_robot.HostRobot("flat", pilot.config, physics="training", commands="random")
+    robot = host_robot.HostRobot("flat", pilot.config, physics="training", commands=commands)
     if friction > 0:
         robot.model.geom_friction[:, 0] = friction
     feet = robot.layout.foot_geoms
@@ -35,6 +39,7 @@ def survival(pilot: host_robot.Pilot, friction: float, episodes: int, seconds: f
         walked.append(step * robot.dt)
     return {
         "friction": float(robot.model.geom_friction[feet[0], 0]),
+        "commands": commands,
         "episodes": episodes,
         "survival": float(np.mean([w >= steps * robot.dt - 1e-9 for w in walked])),
         "mean_seconds": float(np.mean(walked)),
@@ -45,14 +50,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--policy", required=True)
     parser.add_argument("--frictions", type=float, nargs="+", default=[0.0, 1.0, 1.5])
+    parser.add_argument("--commands", nargs="+", default=["random"])
     parser.add_argument("--episodes", type=int, default=8)
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--out")
     args = parser.parse_args()
     pilot = host_robot.Pilot.load(args.policy)
-    rows = [survival(pilot, f, args.episodes, args.seconds) for f in args.frictions]
+    rows = [
+        survival(pilot, friction, commands, args.episodes, args.seconds)
+        for commands in args.commands
+        for friction in args.frictions
+    ]
     for row in rows:
-        print(f"friction {row['friction']:.2f}: survival {row['survival']:.3f} of"
+        print(f"friction {row['friction']:.2f}, {row['commands']}: survival {row['survival']:.3f} of"
               f" {row['episodes']}, {row['mean_seconds']:.1f} s walked on average")
     if args.out:
         record = {"policy": args.policy, "seconds": args.seconds, "rows": rows}

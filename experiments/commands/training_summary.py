@@ -71,9 +71,12 @@ def summary(path: Path) -> dict:
     robust = files.get("robustness.json")
     config = json.loads(files.get("config.json", "{}"))
     argv = config.get("run_info", {}).get("argv")
+    centre = config.get("run_info", {}).get("env", {}).get("action_centre")
     return {
         **({"argv": [a for a in argv if a.startswith("--") and not a.startswith(DROPPED)]}
            if argv else {}),
+        # the searched gait, A_k,A_h,T,phi1,phi3 (runs that recorded their config)
+        **({"action_centre": centre} if centre else {}),
         "feed_forward": ff and {
             "reference_speed": float(ff[1]),
             "half_track": float(ff[2]),
