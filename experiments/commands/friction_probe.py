@@ -62,8 +62,11 @@ def main() -> None:
         for friction in args.frictions
     ]
     for row in rows:
-        print(f"friction {row['friction']:.2f}, {row['commands']}: survival {row['survival']:.3f} of"
-              f" {row['episodes']}, {row['mean_seconds']:.1f} s walked on average")
+        print(
+            f"friction {row['friction']:.2f}, {row['commands']}: survival"
+            f" {row['survival']:.3f} of {row['episodes']}, {row['mean_seconds']:.1f} s walked"
+            " on average"
+        )
     if args.out:
         record = {"policy": args.policy, "seconds": args.seconds, "rows": rows}
         Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
