@@ -10,8 +10,7 @@ when `policy_best` was written (its `best_of_run.written_at_s`; runs from before
 recorded it: the start of the evaluation whose policy it keeps, by the trainer's rule:
 `best_policy_max_fall_rate`, then the evaluation reward); `first_chunk_s` the seconds from process
 start to the first training chunk (the run's startup.json), `first_evaluation_s` to the step-0
-evaluation (metrics.jsonl); `command` is the run's own command
-line.
+evaluation (metrics.jsonl); `command` is the run's own command line.
 Prints the rows as a Markdown table.
 """
 
