@@ -33,6 +33,18 @@ def test_warp_without_warp_lang_says_how_to_install(monkeypatch):
     assert backends.resolve_impl("auto") == "jax"
 
 
+def test_auto_on_a_gpu_without_warp_lang_runs_jax_and_says_so(monkeypatch, caplog):
+    monkeypatch.setattr(backends, "cuda_available", lambda: True)
+    monkeypatch.setattr(backends, "warp_installed", lambda: False)
+    with caplog.at_level("WARNING", logger=backends.__name__):
+        assert backends.resolve_impl("auto", gpu_physics="warp") == "jax"
+    assert "warp-lang is not installed" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger=backends.__name__):
+        assert backends.resolve_impl("auto", gpu_physics="jax") == "jax"  # its own choice
+    assert caplog.text == ""
+
+
 @pytest.fixture
 def fake_warp(monkeypatch):
     """A stand-in `warp` module (warp-lang is absent on the CPU machines) as Warp before 1.1x:

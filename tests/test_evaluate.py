@@ -178,6 +178,7 @@ def test_policy_run_is_evaluated_in_its_training_env(policy_evaluation):
     evaluation = policy_evaluation
     setup = evaluation.summary["setup"]
     assert setup["policy_kind"] == "sac" and setup["terrain"] == "flat"
+    assert setup["impl"] == "jax"  # "auto" on a machine without a GPU
     saved = json.loads((STAND_IN_RUN / "config.json").read_text())["run_info"]["env"]
     assert setup["env"]["action_filter_tau"] == saved["action_filter_tau"]
     assert evaluation.summary["num_episodes"] == NUM_ENVS

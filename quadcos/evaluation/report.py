@@ -189,6 +189,7 @@ def _setup(
         "seconds": num_steps * env.dt,
         "num_steps": num_steps,
         "control_dt": env.dt,
+        "impl": env.impl,  # the MJX physics that ran: `env.impl` "auto" resolved
         "seed": seed,
         "trace_episode": trace_episode,
         "commands": commands if commands is not None else env.config.commands.spec,
