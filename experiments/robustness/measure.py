@@ -110,6 +110,7 @@ def main() -> None:
             "fall_rate": summary["fall_rate"],
             "mean_forward_speed": summary["mean_forward_speed"],
             **{key: summary.get(key) for key in GAIT_KEYS},
+            "impl": summary["setup"]["impl"],  # the MJX physics that ran
             "wall_time_s": time.monotonic() - started,
         }
         print(f"{name}: success {summary['success_rate']:.3f}, speed"
