@@ -54,14 +54,15 @@ def resolve_impl(impl: str, gpu_physics: str = "warp") -> str:
     if impl not in IMPLS:
         raise ValueError(f"unknown impl {impl!r}; known: {', '.join(IMPLS)}")
     if impl == "auto":
-        gpu = cuda_available()
-        if gpu and gpu_physics == "warp" and not warp_installed():
+        on_gpu = cuda_available()
+        runnable = gpu_physics == "jax" or warp_installed()
+        if on_gpu and not runnable:
             logger.warning(
                 "impl 'auto' runs MJX-JAX: this robot's GPU physics is MJX-Warp, and warp-lang is"
                 " not installed (%s)",
                 INSTALL_HINT,
             )
-        impl = gpu_physics if gpu and (gpu_physics == "jax" or warp_installed()) else "jax"
+        impl = gpu_physics if on_gpu and runnable else "jax"
     if impl == "warp":
         if not warp_installed():
             raise ValueError(f"impl 'warp' needs warp-lang, which is not installed: {INSTALL_HINT}")
