@@ -129,6 +129,15 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
     " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
 }
+ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (first row)
+    "anymal_it20_300_s0": "— (alone on the GPU)",
+    "anymal_ref_s0": "search under the trained scales: v_ref 0.4, `scale_max` 1.0; 540 s, 3 runs"
+    " on one GPU",
+    "anymal_per_s0": "period floor 0.25 s; 540 s, 3 runs on one GPU",
+    "anymal_refper_s0": "both; 540 s, 3 runs on one GPU",
+    "anymal_per25_300_s0": "period floor 0.25 s; 2 runs on one GPU",
+    "anymal_per30_300_s0": "period floor 0.30 s; 2 runs on one GPU",
+}
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")  # the same, --config.sac.max_seconds=540
 
@@ -208,6 +217,26 @@ def campaign() -> str:
     return "\n".join(rows)
 
 
+
+def anymal() -> str:
+    """The rows of the ANYmal C levers table: the searched period, the step-0 and kept policies'
+    training evaluations, the kept policy's survival in the four conditions, its pitch error
+    (nominal) and its tracking under random commands with the training randomisation."""
+    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    rows = []
+    for name, change in ANYMAL.items():
+        run, kept = runs[name], runs[name]["kept"]
+        conditions = run["robustness"]
+        period = float(run["action_centre"].split(",")[2])
+        rows.append(
+            f"| `{name}` | {change} | {period:.3f} | {run['evaluations'][0]['fall_rate']:.3f} |"
+            f" {kept['policy_env_steps'] / 1e6:.1f} M | "
+            + " / ".join(f"{c['success_rate']:.3f}" for c in conditions.values())
+            + f" | {conditions['nominal']['mean_max_abs_pitch_error']:.2f} |"
+            f" {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f} |"
+        )
+    return "\n".join(rows)
+
 ENGINES = ("MJX (JAX)", "C MuJoCo", "C MuJoCo, ONNX policy")
 ENGINE_POLICIES = ("unitree_go1_command", "unitree_go2_command")  # NAME_engines.json each
 
@@ -280,7 +309,9 @@ def figure() -> None:
 def check() -> list[str]:
     """The generated table rows that README.md lacks (none: its tables are the records')."""
     readme = set((HERE / "README.md").read_text().splitlines())
-    blocks = (table(), seeds(), seeds(SEEDS_540), campaign(), sac_levers(), engines(), levers())
+    blocks = (
+        table(), seeds(), seeds(SEEDS_540), campaign(), anymal(), sac_levers(), engines(), levers()
+    )
     return [line for block in blocks for line in block.splitlines() if line not in readme]
 
 
@@ -303,6 +334,8 @@ if __name__ == "__main__":
         print(seeds(SEEDS_540))
         print()
         print(campaign())
+        print()
+        print(anymal())
         print()
         print(sac_levers())
         print()
