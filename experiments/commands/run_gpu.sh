@@ -6,6 +6,7 @@
 #   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
 #   bash experiments/commands/run_gpu.sh pack RUN...      # $OUT/NAME.tgz
 #   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
+#   bash experiments/commands/run_gpu.sh anymal LEVER...  # all four for ANYmal C's (below)
 # RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
 # go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
 # the GPU's memory. The runs work from a copy of the tree under
@@ -27,7 +28,7 @@ split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops 
   [[ $NAME =~ ^[A-Za-z0-9_.-]+$ && -n $ROBOT && $SEED =~ ^[0-9]+$ ]] || {
     echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
 }
-[ "$verb" = levers ] || for spec in "$@"; do split_run "$spec"; done  # every RUN before any starts
+case $verb in levers|anymal) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
 
 case $verb in
 train)
@@ -121,6 +122,27 @@ levers)  # SAC's levers (issue 58, item 4) on one fixed start: Go2 seed 0 from t
   done
   bash "$0" train "${specs[@]}" && bash "$0" wait "${specs[@]}"
   timeout -k 3 $((${DEADLINE:-570} - SECONDS)) bash "$0" evaluate "${specs[@]}"
+  bash "$0" pack "${specs[@]}" ;;
+anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers"): the command preset
+  # with its gait search floored at 0.15 m/s, 16 gaits confirmed on 256 robots each, 20 / 20 solver
+  # iterations, and the lever's flags; runs share the GPUs (MJX-Warp where warp-lang is installed).
+  base="--config.sac.gait_search.min_speed=0.15 --config.sac.gait_search.confirm_robots=256"
+  base+=" --config.env.solver_iterations=20 --config.env.ls_iterations=20"
+  ref="--config.env.commands.reference_speed=0.4 --config.env.commands.scale_max=1.0"
+  declare -A lever=(  # NAME -> its seconds and flags
+    [it20_300]="300" [ref]="540 $ref" [per]="540 --config.env.period_min=0.25"
+    [refper]="540 $ref --config.env.period_min=0.25"
+    [per25_300]="300 --config.env.period_min=0.25" [per30_300]="300 --config.env.period_min=0.3"
+  )
+  specs=()
+  for name in "$@"; do
+    [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
+    read -r seconds flags <<< "${lever[$name]}"
+    flags="--config.sac.max_seconds=$seconds $base $flags"
+    specs+=("anymal_${name}_s0@menagerie:anybotics_anymal_c@0@$flags")
+  done
+  for next in train wait; do bash "$0" $next "${specs[@]}"; done
+  EVAL_ENVS=512 bash "$0" evaluate "${specs[@]}"
   bash "$0" pack "${specs[@]}" ;;
 *) echo "unknown verb $verb" >&2; exit 2 ;;
 esac
