@@ -133,11 +133,14 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
     [it20_300]="300" [ref]="540 $ref" [per]="540 --config.env.period_min=0.25"
     [refper]="540 $ref --config.env.period_min=0.25"
     [per25_300]="300 --config.env.period_min=0.25" [per30_300]="300 --config.env.period_min=0.3"
+    # from the open-loop trot of anybotics_anymal_c_open_loop.json: no search
+    [centre]="540 --config.env.action_centre=0.459,-0.246,0.264,-3.14159,0.0
+      --config.env.period_min=0.25"
   )
   specs=()
   for name in "$@"; do
     [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
-    read -r seconds flags <<< "${lever[$name]}"
+    read -r seconds flags <<< "$(echo ${lever[$name]})"  # one line
     flags="--config.sac.max_seconds=$seconds $base $flags"
     specs+=("anymal_${name}_s0@menagerie:anybotics_anymal_c@0@$flags")
   done
