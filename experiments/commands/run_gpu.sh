@@ -129,18 +129,17 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
   base="--config.sac.gait_search.min_speed=0.15 --config.sac.gait_search.confirm_robots=256"
   base+=" --config.env.solver_iterations=20 --config.env.ls_iterations=20"
   ref="--config.env.commands.reference_speed=0.4 --config.env.commands.scale_max=1.0"
+  trot="--config.env.action_centre=0.459,-0.246,0.264,-3.14159,0.0"  # anybotics_anymal_c_open_loop
   declare -A lever=(  # NAME -> its seconds and flags
     [it20_300]="300" [ref]="540 $ref" [per]="540 --config.env.period_min=0.25"
     [refper]="540 $ref --config.env.period_min=0.25"
     [per25_300]="300 --config.env.period_min=0.25" [per30_300]="300 --config.env.period_min=0.3"
-    # from the open-loop trot of anybotics_anymal_c_open_loop.json: no search
-    [centre]="540 --config.env.action_centre=0.459,-0.246,0.264,-3.14159,0.0
-      --config.env.period_min=0.25"
+    [centre]="540 $trot --config.env.period_min=0.25"  # from that trot: no search
   )
   specs=()
   for name in "$@"; do
     [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
-    read -r seconds flags <<< "$(echo ${lever[$name]})"  # one line
+    read -r seconds flags <<< "${lever[$name]}"
     flags="--config.sac.max_seconds=$seconds $base $flags"
     specs+=("anymal_${name}_s0@menagerie:anybotics_anymal_c@0@$flags")
   done

@@ -47,7 +47,12 @@ def _load(name: str) -> dict | None:
 def _survival(robust: dict | None) -> str:
     if robust is None:
         return "—"
-    return " / ".join(f"{robust['conditions'][c]['success_rate']:.3f}" for c in CONDITIONS)
+    return _rates(robust["conditions"][c] for c in CONDITIONS)
+
+
+def _rates(conditions) -> str:
+    """A survival cell: each robustness condition's success rate, "a / b / c / d"."""
+    return " / ".join(f"{c['success_rate']:.3f}" for c in conditions)
 
 
 def table() -> str:
@@ -158,7 +163,7 @@ def seeds(names: tuple[str, ...] = SEEDS) -> str:
         nominal = conditions["nominal"]
         rows.append(
             f"| {_flag(run['argv'], '--seed')} | {kept['policy_env_steps'] / 1e6:.1f} M | "
-            + " / ".join(f"{c['success_rate']:.3f}" for c in conditions.values())
+            + _rates(conditions.values())
             + f" | {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f} |"
             f" {nominal['speed_tracking_rms']:.3f}, {nominal['yaw_rate_tracking_rms']:.3f} |"
             f" {kept['mean_max_abs_pitch_error']:.3f}, {kept['mean_max_abs_roll']:.3f} |"
@@ -188,7 +193,7 @@ def sac_levers() -> str:
         rows.append(
             f"| `{name}` | {change} | {first['eval_reward']:.0f} → {last['eval_reward']:.0f}"
             f" ({last['env_steps'] / 1e6:.1f} M) | {run['kept']['policy_env_steps'] / 1e6:.1f} M | "
-            + " / ".join(f"{c['success_rate']:.3f}" for c in conditions) + " | "
+            + _rates(conditions) + " | "
             + " | ".join(
                 f"{c['speed_tracking_rms']:.3f}, {c['yaw_rate_tracking_rms']:.3f}"
                 for c in conditions
@@ -203,9 +208,7 @@ def campaign() -> str:
     rows = []
     for name, drive in CAMPAIGN.items():
         run, kept, last = runs[name], runs[name]["kept"], runs[name]["last"]
-        survival = " / ".join(
-            f"{c['success_rate']:.3f}" for c in (run["robustness"] or {}).values()
-        ) or "not measured"
+        survival = _rates((run["robustness"] or {}).values()) or "not measured"
         tracking = "{speed_tracking_rms:.3f}, {yaw_rate_tracking_rms:.3f}"
         rows.append(
             f"| `{name}` | {drive} | {kept['policy_env_steps'] / 1e6:.1f} M | {survival} |"
@@ -215,7 +218,6 @@ def campaign() -> str:
                else f" stopped: {run['stopped'].split(' in the chunk')[0]} |")
         )
     return "\n".join(rows)
-
 
 
 def anymal() -> str:
@@ -231,11 +233,12 @@ def anymal() -> str:
         rows.append(
             f"| `{name}` | {change} | {period:.3f} | {run['evaluations'][0]['fall_rate']:.3f} |"
             f" {kept['policy_env_steps'] / 1e6:.1f} M | "
-            + " / ".join(f"{c['success_rate']:.3f}" for c in conditions.values())
+            + _rates(conditions.values())
             + f" | {conditions['nominal']['mean_max_abs_pitch_error']:.2f} |"
             f" {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f} |"
         )
     return "\n".join(rows)
+
 
 ENGINES = ("MJX (JAX)", "C MuJoCo", "C MuJoCo, ONNX policy")
 ENGINE_POLICIES = ("unitree_go1_command", "unitree_go2_command")  # NAME_engines.json each
