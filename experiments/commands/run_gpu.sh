@@ -135,6 +135,8 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
     [refper]="540 $ref --config.env.period_min=0.25"
     [per25_300]="300 --config.env.period_min=0.25" [per30_300]="300 --config.env.period_min=0.3"
     [centre]="540 $trot --config.env.period_min=0.25"  # from that trot: no search
+    [per30ms30_300]="300 --config.env.period_min=0.3 --config.sac.gait_search.min_speed=0.3"
+    [per30as40_300]="300 --config.env.period_min=0.3 --config.env.action_scale=0.4"
   )
   specs=()
   for name in "$@"; do

@@ -142,6 +142,9 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     "anymal_refper_s0": "both; 540 s, 3 runs on one GPU",
     "anymal_per25_300_s0": "period floor 0.25 s; 2 runs on one GPU",
     "anymal_per30_300_s0": "period floor 0.30 s; 2 runs on one GPU",
+    "anymal_per30ms30_300_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 2 runs on one"
+    " GPU",
+    "anymal_per30as40_300_s0": "period floor 0.30 s, action bounds 0.4; 2 runs on one GPU",
 }
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")  # the same, --config.sac.max_seconds=540
