@@ -180,6 +180,27 @@ def put_model(
     return model.replace(opt=model.opt.replace(_impl=option))
 
 
+# MJX's JAX physics as jitted functions of (model, data), one pair per process: JAX keeps a jitted
+# function's trace per argument layout, so every env of one robot (a test's, an evaluation's after
+# training) reuses the first env's trace of MJX's physics instead of tracing it anew. XLA inlines
+# the call: the compiled program is the one a direct call gives. MJX-Warp's calls stay direct.
+_JAX_PHYSICS = {"step": jax.jit(mjx.step), "forward": jax.jit(mjx.forward)}
+
+
+def step(model: mjx.Model, data: mjx.Data) -> mjx.Data:
+    """MJX's `step` (one physics step of `model`'s implementation)."""
+    if model.impl == mjx.Impl.JAX:
+        return _JAX_PHYSICS["step"](model, data)
+    return mjx.step(model, data)
+
+
+def forward(model: mjx.Model, data: mjx.Data) -> mjx.Data:
+    """MJX's `forward` (positions and velocities to derived quantities, no integration)."""
+    if model.impl == mjx.Impl.JAX:
+        return _JAX_PHYSICS["forward"](model, data)
+    return mjx.forward(model, data)
+
+
 def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Data:
     """A fresh `mjx.Data` for one robot (batch with `jax.vmap`)."""
     if impl == "warp":

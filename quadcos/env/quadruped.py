@@ -168,7 +168,7 @@ class QuadrupedEnv(base.Env):
                 draw_key, self.config.randomization, self.config.physics_dt
             )
             info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
-        data = mjx.forward(self._model(info), data)
+        data = backends.forward(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
         observed = self._observe(data, phase, command)
@@ -411,7 +411,7 @@ class QuadrupedEnv(base.Env):
             command = command + blend * (target - command)
             targets = self.joint_targets(command, phase, data.time, drive)
             data = data.replace(ctrl=self.layout.controls(targets, data))
-            data = mjx.step(model, data)
+            data = backends.step(model, data)
             period = self._period(command)
             return (data, oscillator.advance_phase(phase, period, dt), command), period
 
