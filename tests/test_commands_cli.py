@@ -307,6 +307,38 @@ def test_mjx_evaluation_records_policy_env_steps(commanded):
 # --- the feed-forward measured on a gait ----------------------------------------------------------
 
 
+def test_the_feed_forward_leaves_out_the_walks_that_fall(monkeypatch):
+    from quadcos.deploy import calibration
+
+    # a robot's fall leaves the others' speed; more than half of them falling voids the walk
+    assert calibration.standing_mean([0.4, math.nan], 1) == 0.4
+    assert math.isnan(calibration.standing_mean([math.nan, math.nan, 0.3], 2))
+
+    def walk(config, schedule, seed, robots, friction=None):  # falls on ice with long strides
+        scale = float(schedule.split(",")[0])
+        if friction == 0.4 and scale > 0.5:
+            return math.nan, math.nan
+        return 0.5 * scale * (friction or 1.0), 0.2
+
+    monkeypatch.setattr(calibration, "_walk", walk)
+    config = evaluation.env_config(
+        {
+            "commands.spec": "random",
+            "commands.feed_forward": True,
+            "randomization.enabled": True,
+            "randomization.friction": (0.4, 1.5),
+        }
+    )
+    measured = calibration.measure(config)
+    # the map: each scale's mean speed over the frictions (0.4, 0.95, 1.5) it stays up at
+    standing = {0.25: (0.4, 0.95, 1.5), 0.5: (0.4, 0.95, 1.5), 0.75: (0.95, 1.5), 1.0: (0.95, 1.5)}
+    expected = [
+        np.mean([0.5 * scale * f for f in frictions]) for scale, frictions in standing.items()
+    ]
+    assert measured["speed_map"] == pytest.approx(expected, abs=1e-4)
+    assert measured["reference_speed"] == pytest.approx(0.5)
+
+
 def test_the_feed_forward_is_measured_on_the_gait_and_applied_to_the_run(monkeypatch, tmp_path):
     from quadcos.deploy import calibration
     from quadcos.training import presets, session
