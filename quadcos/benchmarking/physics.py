@@ -10,8 +10,8 @@ from brax.envs import base
 from mujoco import mjx
 
 from quadcos import env as env_lib
-from quadcos.env import backends
 from quadcos.benchmarking.timing import Timing, _strongly_typed, time_calls
+from quadcos.env import backends
 
 
 def make_batch_reset(env: base.Env) -> Callable[[int], base.State]:

@@ -9,10 +9,10 @@ sides, so b is several times the hips' half track. Both are measured here on the
 walking in C MuJoCo (with the training solver) for a few seconds on flat ground without
 randomisation: straight at each of `commands.SPEED_MAP_SCALES`, averaged over the low end, the
 middle and the high end of the run's friction range, those at which it stays up (the speed map,
-`commands.speed_map`, which the drive inverts); straight at scale 1 on the MJCF's ground (v_ref), then with the sides at
-1 ∓ δ (its yaw rate ω gives b = δ·v'/ω, v' the map's speed per unit of scale, its speed at
-scale 1, or v_ref without a map; b < 0 where the gait's phases make the longer strides of the
-right side turn it right). A fresh policy then walks near v* and turns near ω*, and SAC learns
+`commands.speed_map`, which the drive inverts); straight at scale 1 on the MJCF's ground
+(v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v'/ω, v' the map's speed per
+unit of scale, its speed at scale 1, or v_ref without a map; b < 0 where the gait's phases make
+the longer strides of the right side turn it right). A fresh policy then walks near v* and turns near ω*, and SAC learns
 what the drive misses.
 
 `find_gait` is `quadcos.evaluation.gait_search.find_gait` with this measurement added to its

@@ -189,16 +189,12 @@ _JAX_PHYSICS = {"step": jax.jit(mjx.step), "forward": jax.jit(mjx.forward)}
 
 def step(model: mjx.Model, data: mjx.Data) -> mjx.Data:
     """MJX's `step` (one physics step of `model`'s implementation)."""
-    if model.impl == mjx.Impl.JAX:
-        return _JAX_PHYSICS["step"](model, data)
-    return mjx.step(model, data)
+    return (_JAX_PHYSICS["step"] if model.impl == mjx.Impl.JAX else mjx.step)(model, data)
 
 
 def forward(model: mjx.Model, data: mjx.Data) -> mjx.Data:
     """MJX's `forward` (positions and velocities to derived quantities, no integration)."""
-    if model.impl == mjx.Impl.JAX:
-        return _JAX_PHYSICS["forward"](model, data)
-    return mjx.forward(model, data)
+    return (_JAX_PHYSICS["forward"] if model.impl == mjx.Impl.JAX else mjx.forward)(model, data)
 
 
 def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Data:
