@@ -137,6 +137,7 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
     [centre]="540 $trot --config.env.period_min=0.25"  # from that trot: no search
     [per30ms30_300]="300 --config.env.period_min=0.3 --config.sac.gait_search.min_speed=0.3"
     [per30as40_300]="300 --config.env.period_min=0.3 --config.env.action_scale=0.4"
+    [per30ms30]="540 --config.env.period_min=0.3 --config.sac.gait_search.min_speed=0.3"
   )
   specs=()
   for name in "$@"; do
@@ -146,7 +147,7 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
     specs+=("anymal_${name}_s0@menagerie:anybotics_anymal_c@0@$flags")
   done
   for next in train wait; do bash "$0" $next "${specs[@]}"; done
-  EVAL_ENVS=512 bash "$0" evaluate "${specs[@]}"
+  EVAL_ENVS=${EVAL_ENVS:-512} bash "$0" evaluate "${specs[@]}"
   bash "$0" pack "${specs[@]}" ;;
 *) echo "unknown verb $verb" >&2; exit 2 ;;
 esac

@@ -145,6 +145,12 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     "anymal_per30ms30_300_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 2 runs on one"
     " GPU",
     "anymal_per30as40_300_s0": "period floor 0.30 s, action bounds 0.4; 2 runs on one GPU",
+    "anymal_per30ms30_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 540 s, alone,"
+    " 1024 episodes",
+}
+NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
+    "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics",
+    "go1ref200_s0": "`menagerie:unitree_go1`: the preset's physics (rate only, 200 s)",
 }
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")  # the same, --config.sac.max_seconds=540
@@ -243,6 +249,28 @@ def anymal() -> str:
     return "\n".join(rows)
 
 
+def no_preset() -> str:
+    """The rows of the robot-without-a-preset table: each run's training rate (its first window
+    of evaluations and the whole run) and, where evaluated, its kept policy."""
+    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    rows = []
+    for name, loads in NO_PRESET.items():
+        run, kept = runs[name], runs[name]["kept"]
+        physics = run.get("solver_probe", "the preset's")
+        first = run["evaluations"][1]["env_steps_per_s"] / 1e3
+        policy = "not evaluated | — | —"
+        if kept:
+            policy = (
+                f"{kept['policy_env_steps'] / 1e6:.1f} M | {_rates(run['robustness'].values())} |"
+                f" {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f}"
+            )
+        rows.append(
+            f"| `{name}` | {loads} | {physics} | {first:.1f} k / {run['env_steps_per_s'] / 1e3:.1f} k"
+            f" | {policy} |"
+        )
+    return "\n".join(rows)
+
+
 ENGINES = ("MJX (JAX)", "C MuJoCo", "C MuJoCo, ONNX policy")
 ENGINE_POLICIES = ("unitree_go1_command", "unitree_go2_command")  # NAME_engines.json each
 
@@ -316,7 +344,8 @@ def check() -> list[str]:
     """The generated table rows that README.md lacks (none: its tables are the records')."""
     readme = set((HERE / "README.md").read_text().splitlines())
     blocks = (
-        table(), seeds(), seeds(SEEDS_540), campaign(), anymal(), sac_levers(), engines(), levers()
+        table(), seeds(), seeds(SEEDS_540), campaign(), anymal(), sac_levers(), engines(), levers(),
+        no_preset(),
     )
     return [line for block in blocks for line in block.splitlines() if line not in readme]
 
@@ -348,3 +377,5 @@ if __name__ == "__main__":
         print(engines())
         print()
         print(levers())
+        print()
+        print(no_preset())
