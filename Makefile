@@ -9,11 +9,13 @@ TRAIN_ARGS ?=
 
 install: $(STAMP)
 
-# Python's own pip (no upgrade) and no byte-compiling of every installed file: imports compile what
-# they use (an install in 31 s instead of 45 s on 2 cores).
+# uv (from PyPI, into the venv) installs the packages, unpacking them side by side: a sixth of
+# pip's time. Where uv cannot be had, Python's own pip does it. Neither byte-compiles every
+# installed file: imports compile what they use.
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv --clear $(VENV)
-	$(BIN)/python -m pip install -q --no-compile -e ".[test,plots]"
+	($(BIN)/python -m pip install -q uv && $(BIN)/uv pip install -q --python $(BIN)/python \
+		-e ".[test,plots]") || $(BIN)/python -m pip install -q --no-compile -e ".[test,plots]"
 	touch $(STAMP)
 
 # Two pytest workers (pytest-xdist), a test file each at a time: the suite is compile-bound and

@@ -18,7 +18,7 @@ import jax  # noqa: E402
 import numpy as np  # noqa: E402
 
 from quadcos import training  # noqa: E402
-from quadcos.training import parallel  # noqa: E402
+from quadcos.training import parallel, reuse  # noqa: E402
 from tests.toy_env import CHUNK, PointEnv, toy_config  # noqa: E402
 
 def replicas_identical(tree) -> bool:
@@ -51,9 +51,9 @@ def collectives(env: PointEnv) -> list[str]:
     return _collectives(trainer.train_chunk.lower(trainer.prefill(trainer.init())))
 
 
-def eval_collectives(env: PointEnv) -> list[str]:
-    """The cross-device operations of the compiled 2-device training-time evaluation."""
-    trainer = training.SACTrainer(env, toy_config(num_devices=2))
+def eval_collectives(trainer: training.SACTrainer) -> list[str]:
+    """The cross-device operations of the trainer's compiled 2-device training-time
+    evaluation."""
     state = trainer.init()
     keys = jax.random.split(jax.random.PRNGKey(0), trainer.config.num_eval_envs)
     lowered = trainer._evaluate_compiled.lower(state.normalizer_params, state.policy_params, keys)
@@ -83,7 +83,10 @@ def devices(run_dir: pathlib.Path) -> dict:
     env = PointEnv()
     shardy = jax.config.jax_use_shardy_partitioner  # before any trainer runs over the mesh
     out = {"device_count": jax.device_count(), "collectives": collectives(env), "shardy": shardy}
-    out["eval_collectives"] = eval_collectives(env)
+    # One trainer per device count, its programs traced once: the runs below differ from it
+    # only in what no program reads (`quadcos.training.reuse`).
+    trainers = {count: training.SACTrainer(env, toy_config(num_devices=count)) for count in (1, 2)}
+    out["eval_collectives"] = eval_collectives(trainers[2])
     per_device = training.train(PerDevicePointEnv(), toy_config(num_devices=2), progress=False)
     out["per_device"] = {
         "collectives": collectives(PerDevicePointEnv()),
@@ -92,7 +95,9 @@ def devices(run_dir: pathlib.Path) -> dict:
         "shardy": jax.config.jax_use_shardy_partitioner,
     }
     for count in (1, 2):
-        result = training.train(env, toy_config(num_devices=count), progress=False)
+        result = training.train(
+            env, toy_config(num_devices=count), progress=False, trainer=trainers[count]
+        )
         out[f"d{count}"] = {
             "first_eval_reward": result.history[0]["eval/episode_reward"],
             "final_eval_reward": result.metrics["eval/episode_reward"],
@@ -107,10 +112,13 @@ def devices(run_dir: pathlib.Path) -> dict:
     # A checkpoint with its replay buffer, saved on 2 devices, resumed on 1, and back on 2.
     resumed = {}
     config = toy_config(num_devices=2, save_replay=True, num_timesteps=3 * CHUNK)
-    training.train(env, config, run_dir, progress=False)
+    training.train(env, config, run_dir, progress=False, trainer=reuse.for_run(trainers[2], config))
     for count, until in ((1, 5 * CHUNK), (2, 7 * CHUNK)):
         config = toy_config(num_devices=count, save_replay=True, num_timesteps=until)
-        result = training.train(env, config, run_dir, resume=True, progress=False)
+        result = training.train(
+            env, config, run_dir, resume=True, progress=False,
+            trainer=reuse.for_run(trainers[count], config),
+        )
         resumed[f"on_{count}"] = {
             "env_steps": result.env_steps,
             "replay_size": int(np.sum(np.asarray(result.state.replay.size))),

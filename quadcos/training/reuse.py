@@ -17,10 +17,17 @@ import ml_collections
 from quadcos._util.overrides import flatten
 from quadcos.training import sac
 
-# Trainer config fields no program reads: the host loop's and the keys' (the keys are arguments
-# of the programs, not constants).
+# Trainer config fields no program reads: the host loop's, the checkpoints' and the keys' (the
+# keys are arguments of the programs, not constants).
 HOST_FIELDS = frozenset(
-    {"seed", "num_timesteps", "eval_interval", "checkpoint_interval", "keep_checkpoints"}
+    {
+        "seed",
+        "num_timesteps",
+        "eval_interval",
+        "checkpoint_interval",
+        "keep_checkpoints",
+        "save_replay",
+    }
 )
 
 
