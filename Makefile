@@ -9,8 +9,8 @@ TRAIN_ARGS ?=
 
 install: $(STAMP)
 
-# uv (from PyPI, into the venv) installs the packages, unpacking them side by side: a sixth of
-# pip's time. Where uv cannot be had, Python's own pip does it. Neither byte-compiles every
+# uv (from PyPI, into the venv) installs the packages, unpacking them side by side, in a fraction
+# of pip's time; where uv cannot be had, Python's own pip does it. Neither byte-compiles every
 # installed file: imports compile what they use.
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv --clear $(VENV)
