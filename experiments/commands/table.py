@@ -264,10 +264,8 @@ def no_preset() -> str:
                 f"{kept['policy_env_steps'] / 1e6:.1f} M | {_rates(run['robustness'].values())} |"
                 f" {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f}"
             )
-        rows.append(
-            f"| `{name}` | {loads} | {physics} | {first:.1f} k / {run['env_steps_per_s'] / 1e3:.1f} k"
-            f" | {policy} |"
-        )
+        whole = run["env_steps_per_s"] / 1e3
+        rows.append(f"| `{name}` | {loads} | {physics} | {first:.1f} k / {whole:.1f} k | {policy} |")
     return "\n".join(rows)
 
 

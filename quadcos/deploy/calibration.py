@@ -8,12 +8,12 @@ at friction 0.4, 0.65 m/s at 1.5), a legged robot's feet slip and its diagonal p
 sides, so b is several times the hips' half track. Both are measured here on the found gait,
 walking in C MuJoCo (with the training solver) for a few seconds on flat ground without
 randomisation: straight at each of `commands.SPEED_MAP_SCALES`, averaged over the low end, the
-middle and the high end of the run's friction range, those at which it stays up (the speed map,
-`commands.speed_map`, which the drive inverts); straight at scale 1 on the MJCF's ground
+middle and the high end of the run's friction range, those at which it stays up (the speed
+map, `commands.speed_map`, which the drive inverts); straight at scale 1 on the MJCF's ground
 (v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v'/ω, v' the map's speed per
 unit of scale, its speed at scale 1, or v_ref without a map; b < 0 where the gait's phases make
-the longer strides of the right side turn it right). A fresh policy then walks near v* and turns near ω*, and SAC learns
-what the drive misses.
+the longer strides of the right side turn it right). A fresh policy then walks near v* and turns
+near ω*, and SAC learns what the drive misses.
 
 `find_gait` is `quadcos.evaluation.gait_search.find_gait` with this measurement added to its
 result ("feed_forward"), which `quadcos.training.run` applies to the run's config.
