@@ -130,11 +130,14 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
   base+=" --config.env.solver_iterations=20 --config.env.ls_iterations=20"
   ref="--config.env.commands.reference_speed=0.4 --config.env.commands.scale_max=1.0"
   trot="--config.env.action_centre=0.459,-0.246,0.264,-3.14159,0.0"  # anybotics_anymal_c_open_loop
+  # that trot's feed-forward, measured as a search's would be (README, "ANYmal C levers")
+  trot+=" --config.env.commands.reference_speed=0.0928 --config.env.commands.half_track=0.3201"
+  trot+=" --config.env.commands.speed_map=0.0799,0.191,0.3884,0.5223 --config.env.period_min=0.25"
   declare -A lever=(  # NAME -> its seconds and flags
     [it20_300]="300" [ref]="540 $ref" [per]="540 --config.env.period_min=0.25"
     [refper]="540 $ref --config.env.period_min=0.25"
     [per25_300]="300 --config.env.period_min=0.25" [per30_300]="300 --config.env.period_min=0.3"
-    [centre]="540 $trot --config.env.period_min=0.25"  # from that trot: no search
+    [trot]="540 $trot" [trot_as10]="540 $trot --config.env.action_scale=0.1"  # no search
     [per30ms30_300]="300 --config.env.period_min=0.3 --config.sac.gait_search.min_speed=0.3"
     [per30as40_300]="300 --config.env.period_min=0.3 --config.env.action_scale=0.4"
     [per30ms30]="540 --config.env.period_min=0.3 --config.sac.gait_search.min_speed=0.3"

@@ -147,6 +147,9 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     "anymal_per30as40_300_s0": "period floor 0.30 s, action bounds 0.4; 2 runs on one GPU",
     "anymal_per30ms30_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 540 s, alone,"
     " 1024 episodes",
+    "anymal_trot_s0": "from the open-loop trot below (no search), its feed-forward measured on it,"
+    " period floor 0.25 s; 540 s, a GPU each, 1024 episodes",
+    "anymal_trot_as10_s0": "as `anymal_trot_s0`, action bounds 0.1",
 }
 NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
     "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics",
