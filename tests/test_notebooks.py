@@ -5,7 +5,9 @@ tests/test_evaluate.py's, so only notebook (b)'s course and the own-robot notebo
 rollouts compile anew.
 """
 
+import asyncio
 import json
+import os
 import pathlib
 
 import nbformat
@@ -16,22 +18,46 @@ from tests.cli_runs import cache_env
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 NOTEBOOKS = ROOT / "notebooks"
+NOTEBOOKS_RUN = ("evaluate_and_plot.ipynb", "custom_course.ipynb", "own_robot.ipynb")
 
 
-def run_notebook(name: str, out: pathlib.Path, monkeypatch) -> nbformat.NotebookNode:
-    monkeypatch.setenv("QUADCOS_NOTEBOOK_TINY", "1")
-    monkeypatch.setenv("QUADCOS_NOTEBOOK_OUT", str(out))
-    for variable, value in cache_env().items():
-        monkeypatch.setenv(variable, value)
-    notebook = nbformat.read(NOTEBOOKS / name, as_version=4)
-    client = NotebookClient(
-        notebook,
-        timeout=600,
-        kernel_name="python3",
-        resources={"metadata": {"path": str(NOTEBOOKS)}},
-    )
-    client.execute()
-    return notebook
+def _run_all(out: pathlib.Path) -> dict[str, nbformat.NotebookNode | BaseException]:
+    """Every notebook of NOTEBOOKS_RUN executed at once, each in its own kernel (a process of
+    its own) writing to out/<name>: name -> the executed notebook, or what stopped it."""
+    base = {**os.environ, **cache_env(), "QUADCOS_NOTEBOOK_TINY": "1"}
+
+    async def run(name: str) -> nbformat.NotebookNode:
+        notebook = nbformat.read(NOTEBOOKS / name, as_version=4)
+        client = NotebookClient(
+            notebook,
+            timeout=600,
+            kernel_name="python3",
+            resources={"metadata": {"path": str(NOTEBOOKS)}},
+        )
+        (out / name).mkdir(parents=True)
+        await client.async_execute(env={**base, "QUADCOS_NOTEBOOK_OUT": str(out / name)})
+        return notebook
+
+    async def run_all() -> list[nbformat.NotebookNode | BaseException]:
+        runs = (run(name) for name in NOTEBOOKS_RUN)
+        return await asyncio.gather(*runs, return_exceptions=True)
+
+    return dict(zip(NOTEBOOKS_RUN, asyncio.run(run_all())))
+
+
+@pytest.fixture(scope="module")
+def run_notebook(tmp_path_factory):
+    """name -> (its executed notebook, its output folder), the notebooks run side by side (each
+    kernel compiles its own programs while the others wait on theirs); raises what stopped it."""
+    out = tmp_path_factory.mktemp("notebooks")
+    executed = _run_all(out)
+
+    def result(name: str) -> tuple[nbformat.NotebookNode, pathlib.Path]:
+        if isinstance(executed[name], BaseException):
+            raise executed[name]
+        return executed[name], out / name
+
+    return result
 
 
 def _text(notebook: nbformat.NotebookNode) -> str:
@@ -44,10 +70,10 @@ def _text(notebook: nbformat.NotebookNode) -> str:
 
 
 @pytest.mark.slow
-def test_evaluate_and_plot_notebook(tmp_path, monkeypatch):
-    notebook = run_notebook("evaluate_and_plot.ipynb", tmp_path, monkeypatch)
+def test_evaluate_and_plot_notebook(run_notebook):
+    notebook, out = run_notebook("evaluate_and_plot.ipynb")
     assert "success_rate" in _text(notebook)
-    result = json.loads((tmp_path / "evaluation_flat.json").read_text())
+    result = json.loads((out / "evaluation_flat.json").read_text())
     assert result["num_episodes"] == 4 and result["setup"]["policy_kind"] == "sac"
     for name in (
         "cog_flat",
@@ -57,26 +83,26 @@ def test_evaluate_and_plot_notebook(tmp_path, monkeypatch):
         "cog_fixed",
         "learning_curve",
     ):
-        assert (tmp_path / f"{name}.png").stat().st_size > 1000, name
+        assert (out / f"{name}.png").stat().st_size > 1000, name
 
 
 @pytest.mark.slow
-def test_custom_course_notebook(tmp_path, monkeypatch):
-    notebook = run_notebook("custom_course.ipynb", tmp_path, monkeypatch)
-    result = json.loads((tmp_path / "evaluation_my_course.json").read_text())
+def test_custom_course_notebook(run_notebook):
+    notebook, out = run_notebook("custom_course.ipynb")
+    result = json.loads((out / "evaluation_my_course.json").read_text())
     assert result["setup"]["terrain"] == "sections:4@2,0@1.5,7@1,0@1,-6@2;lead_in=1"
     assert result["setup"]["course_end_x"] == pytest.approx(8.5)
     assert result["num_episodes"] == 4
     for name in ("course", "cog_my_course", "attitude_my_course", "controller_my_course"):
-        assert (tmp_path / f"{name}.png").stat().st_size > 1000, name
-    assert (tmp_path / "my_course.mp4").exists() or "lib" in _text(notebook)
+        assert (out / f"{name}.png").stat().st_size > 1000, name
+    assert (out / "my_course.mp4").exists() or "lib" in _text(notebook)
 
 
 @pytest.mark.slow
-def test_own_robot_notebook(tmp_path, monkeypatch):
-    notebook = run_notebook("own_robot.ipynb", tmp_path, monkeypatch)
+def test_own_robot_notebook(run_notebook):
+    notebook, out = run_notebook("own_robot.ipynb")
     text = _text(notebook)
     assert "robot: quad12" in text and "success_rate" in text
     assert "FL_thigh_joint" in text  # the legs' table
     for name in ("cog_quad12", "attitude_quad12"):
-        assert (tmp_path / f"{name}.png").stat().st_size > 1000, name
+        assert (out / f"{name}.png").stat().st_size > 1000, name
