@@ -8,6 +8,7 @@ import pytest
 
 import quadcos
 from quadcos import train
+from quadcos._util import caches
 from tests.cli_runs import run_in_process
 
 
@@ -17,6 +18,9 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
     assert config["config"]["seed"] == 3
     assert config["run_info"]["env"]["terrain"] == "flat"
     assert {"jax", "brax", "mujoco"} <= set(config["versions"])
+    # Its trainer's programs are kept traced beside the compilation cache, for the next run.
+    kept = {path.name.split("-")[0] for path in caches.traced_directory().iterdir()}
+    assert {"init", "prefill", "train_chunk", "evaluate"} <= kept
     rows = [json.loads(line) for line in (smoke_run / "metrics.jsonl").read_text().splitlines()]
     for key in (
         "step",

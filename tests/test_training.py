@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from quadcos import training
+from quadcos._util import caches
 from quadcos.training import best_policy, checkpoint, host, loop
 from quadcos.training import policy as policy_lib
 from quadcos.training import state as state_lib
@@ -582,3 +583,50 @@ def test_a_delayed_actor_learns_every_second_update_beside_layer_norm_critics():
         assert not _trees_equal(before[1], state.q_params)  # the critics learn every update
         moved.append(not _trees_equal(before[0], state.policy_params))
     assert moved == [True, False, True]
+
+
+# --- traced programs kept on disk ----------------------------------------------------------------
+
+
+def _affine(params: dict, x: jax.Array) -> dict:
+    return {"y": params["w"] * x + params["b"], "n": jnp.sum(x)}
+
+
+def test_a_traced_program_is_loaded_from_disk_by_the_next_trainer(tmp_path, monkeypatch):
+    monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path / caches.TRACED)
+    args = ({"w": jnp.float32(2.0), "b": jnp.float32(1.0)}, jnp.arange(3.0))
+    first = caches.Program(_affine, "affine", "fingerprint")(*args)
+    assert [path.name[:7] for path in (tmp_path / caches.TRACED).iterdir()] == ["affine-"]
+
+    def no_trace(*_):
+        raise AssertionError("traced again")
+
+    monkeypatch.setattr(caches.Program, "_trace", no_trace)
+    again = caches.Program(_affine, "affine", "fingerprint")
+    np.testing.assert_array_equal(again(*args)["y"], first["y"])
+    assert float(again(*args)["n"]) == 3.0
+    with pytest.raises(AssertionError, match="traced again"):  # another fingerprint or shape
+        caches.Program(_affine, "affine", "other")(*args)
+    with pytest.raises(AssertionError, match="traced again"):
+        caches.Program(_affine, "affine", "fingerprint")(args[0], jnp.arange(4.0))
+
+
+def test_a_damaged_traced_program_is_traced_again_and_rewritten(tmp_path, monkeypatch):
+    monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path / caches.TRACED)
+    args = ({"w": jnp.float32(3.0), "b": jnp.float32(0.0)}, jnp.ones(2))
+    caches.Program(_affine, "affine", "fingerprint")(*args)
+    (saved,) = (tmp_path / caches.TRACED).iterdir()
+    saved.write_bytes(saved.read_bytes()[:100])
+    result = caches.Program(_affine, "affine", "fingerprint")(*args)
+    np.testing.assert_array_equal(result["y"], [3.0, 3.0])
+    assert saved.stat().st_size > 100
+
+
+def test_only_quadcos_envs_on_one_device_with_mjx_jax_keep_their_programs(tmp_path, monkeypatch):
+    monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path / caches.TRACED)
+    trainer = training.SACTrainer(PointEnv(), toy_config())  # the toy env: traced as usual
+    assert not isinstance(trainer.train_chunk, caches.Program)
+    config = toy_config()
+    assert caches.trainer_fingerprint(PointEnv(), None, config, one_device=True) is None
+    monkeypatch.setattr(caches, "traced_directory", lambda: None)  # the compilation cache off
+    assert caches.trainer_fingerprint(PointEnv(), None, config, one_device=True) is None

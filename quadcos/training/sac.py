@@ -32,6 +32,7 @@ from brax.training.agents.sac import losses as sac_losses
 from brax.training.agents.sac import networks as sac_networks
 from jax.sharding import PartitionSpec
 
+from quadcos._util import caches
 from quadcos.training import curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import replay as replay_lib
 from quadcos.training import state as state_lib
@@ -114,6 +115,14 @@ class SACTrainer:
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
         self._compile(config, getattr(env, "compiler_options", None) or None)
+        fingerprint = caches.trainer_fingerprint(env, eval_env, config, self.layout.mesh is None)
+        if fingerprint is not None:  # one device, MJX-JAX: each program traced once, kept on disk
+            self._init = caches.Program(self._init_state, "init", fingerprint)
+            self.prefill = caches.Program(self._prefill, "prefill", fingerprint, donate=True)
+            self.train_chunk = caches.Program(
+                self._train_chunk, "train_chunk", fingerprint, donate=True
+            )
+            self._evaluate_compiled = caches.Program(self._evaluate, "evaluate", fingerprint)
 
     def _sac_update(self, config: ml_collections.ConfigDict) -> updates.SACUpdate:
         """The losses (Brax's) and optimizers of one SAC gradient update."""
@@ -241,9 +250,7 @@ class SACTrainer:
             ),
             (state.normalizer_params, state.policy_params, self._eval_keys),
         )
-        self._evaluate_compiled = _Compiling(
-            pool.submit(lambda: evaluate.lower(*args).compile())
-        )
+        self._evaluate_compiled = _Compiling(pool.submit(lambda: evaluate.lower(*args).compile()))
         pool.shutdown(wait=False)
 
     def replay_size(self, state: TrainingState) -> int:
