@@ -622,11 +622,21 @@ def test_a_damaged_traced_program_is_traced_again_and_rewritten(tmp_path, monkey
     assert saved.stat().st_size > 100
 
 
+def test_a_program_export_refuses_runs_traced_as_usual(tmp_path, monkeypatch):
+    monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path / caches.TRACED)
+
+    def with_host_callback(x: jax.Array) -> jax.Array:
+        return jax.pure_callback(np.negative, jax.ShapeDtypeStruct(x.shape, x.dtype), x) + 1
+
+    result = caches.Program(with_host_callback, "callback", "fingerprint")(jnp.arange(3.0))
+    np.testing.assert_array_equal(result, [1.0, 0.0, -1.0])
+    assert not (tmp_path / caches.TRACED).exists() or not any((tmp_path / caches.TRACED).iterdir())
+
+
 def test_only_quadcos_envs_on_one_device_with_mjx_jax_keep_their_programs(tmp_path, monkeypatch):
     monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path / caches.TRACED)
     trainer = training.SACTrainer(PointEnv(), toy_config())  # the toy env: traced as usual
     assert not isinstance(trainer.train_chunk, caches.Program)
-    config = toy_config()
-    assert caches.trainer_fingerprint(PointEnv(), None, config, one_device=True) is None
+    assert caches.trainer_fingerprint(PointEnv(), None, "{}", one_device=True) is None
     monkeypatch.setattr(caches, "traced_directory", lambda: None)  # the compilation cache off
-    assert caches.trainer_fingerprint(PointEnv(), None, config, one_device=True) is None
+    assert caches.trainer_fingerprint(PointEnv(), None, "{}", one_device=True) is None

@@ -118,8 +118,9 @@ def env_fingerprint(env: Any) -> str:
     return digest.hexdigest()
 
 
-def trainer_fingerprint(env: Any, eval_env: Any, config: Any, one_device: bool) -> str | None:
-    """What a trainer's programs close over: its envs' fingerprints and its config; None where
+def trainer_fingerprint(env: Any, eval_env: Any, programs: str, one_device: bool) -> str | None:
+    """What a trainer's programs close over: its envs' fingerprints and `programs`, the trainer
+    config's fields its programs read (`training.config.program_fields`); None where
     they are traced in every process: an env not quadcos's, several devices, MJX-Warp (its
     kernels load as a program is traced) or the compilation cache off."""
     envs = (env, eval_env or env)
@@ -127,7 +128,7 @@ def trainer_fingerprint(env: Any, eval_env: Any, config: Any, one_device: bool) 
         return None
     if not all(hasattr(e, "mj_model") and getattr(e, "impl", None) == "jax" for e in envs):
         return None
-    parts = [*map(env_fingerprint, envs), config.to_json(sort_keys=True)]
+    parts = [*map(env_fingerprint, envs), programs]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
@@ -141,11 +142,13 @@ class Program:
         self._compiled: Callable[..., Any] | None = None
 
     def __call__(self, *args: Any) -> Any:
+        if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)):
+            return jax.jit(self._fn)(*args)  # inside another trace (jax.eval_shape): inlined
         if self._compiled is None:
             self._compiled = self.lower(*args).compile()
         return self._compiled(*args)
 
-    def lower(self, *args: Any) -> "_Lowered":
+    def lower(self, *args: Any) -> Any:
         leaves, in_tree = jax.tree.flatten(args)
         avals = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
         key = hashlib.sha256(
@@ -157,9 +160,18 @@ class Program:
                 + [f"{aval.shape}{aval.dtype}" for aval in avals]
             ).encode()
         ).hexdigest()[:32]
-        exported, out_tree = self._load(key) or self._trace(key, in_tree, avals)
+        try:
+            exported, out_tree = self._load(key) or self._trace(key, in_tree, avals)
+        except (ValueError, NotImplementedError, TypeError) as error:
+            # what jax.export refuses (a host callback, say) is traced as any jitted program
+            logger.debug("program %s not kept traced: %s", self._name, error)
+            return jax.jit(self._fn, donate_argnums=(0,) if self._donate else ()).lower(*args)
         donate = tuple(range(len(leaves))) if self._donate else ()
-        return _Lowered(jax.jit(exported.call, donate_argnums=donate).lower(*avals), out_tree)
+        def call(*flat: Any) -> Any:
+            return exported.call(*flat)
+
+        call.__name__ = self._name  # the program's name in profiles: jit(train_chunk)
+        return _Lowered(jax.jit(call, donate_argnums=donate).lower(*avals), out_tree)
 
     def _load(self, key: str) -> tuple[export.Exported, Any] | None:
         folder = traced_directory()
@@ -184,6 +196,7 @@ class Program:
             )
             return results
 
+        flat.__name__ = self._name
         exported = export.export(jax.jit(flat))(*avals)
         folder = traced_directory()
         if folder is not None:

@@ -1,7 +1,30 @@
 """Configuration of the SAC trainer."""
 
+from typing import Any
+
 import ml_collections
 from ml_collections import config_dict
+
+from quadcos._util.overrides import flatten
+
+# Trainer config fields that no compiled program reads (the host's loop does): trainers and their
+# traced programs are shared by configs that differ only in these (`reuse.for_run`,
+# `quadcos._util.caches.Program`).
+HOST_FIELDS = frozenset(
+    {
+        "seed",
+        "num_timesteps",
+        "eval_interval",
+        "checkpoint_interval",
+        "keep_checkpoints",
+        "save_replay",
+    }
+)
+
+
+def program_fields(config: ml_collections.ConfigDict) -> dict[str, Any]:
+    """The trainer config's fields that its programs read: all but `HOST_FIELDS`, flattened."""
+    return {k: v for k, v in flatten(config.to_dict()).items() if k not in HOST_FIELDS}
 
 
 def default_config() -> ml_collections.ConfigDict:

@@ -14,42 +14,27 @@ from typing import Any
 import jax
 import ml_collections
 
-from quadcos._util.overrides import flatten
+from quadcos.training import config as config_lib
 from quadcos.training import sac
+
 
 # Trainer config fields no program reads: the host loop's, the checkpoints' and the keys' (the
 # keys are arguments of the programs, not constants).
-HOST_FIELDS = frozenset(
-    {
-        "seed",
-        "num_timesteps",
-        "eval_interval",
-        "checkpoint_interval",
-        "keep_checkpoints",
-        "save_replay",
-    }
-)
-
-
 def program_key(env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict) -> str:
     """What a trainer's programs depend on: the env config and the trainer config but for
-    `HOST_FIELDS`, as one JSON string."""
-    programs = _program_fields(config)
+    `config.HOST_FIELDS`, as one JSON string."""
+    programs = config_lib.program_fields(config)
     return json.dumps({"env": env_config.to_dict(), "sac": programs}, sort_keys=True, default=str)
-
-
-def _program_fields(config: ml_collections.ConfigDict) -> dict[str, Any]:
-    return {k: v for k, v in flatten(config.to_dict()).items() if k not in HOST_FIELDS}
 
 
 def for_run(trainer: sac.SACTrainer, config: ml_collections.ConfigDict) -> sac.SACTrainer:
     """`trainer` (a shallow copy, sharing its jitted and compiled programs) for a run with
-    `config`, which may differ from the trainer's own only in `HOST_FIELDS`.
+    `config`, which may differ from the trainer's own only in `config.HOST_FIELDS`.
 
     Raises:
       ValueError: `config` differs in a field a program reads.
     """
-    mine, theirs = _program_fields(trainer.config), _program_fields(config)
+    mine, theirs = config_lib.program_fields(trainer.config), config_lib.program_fields(config)
     if mine != theirs:
         changed = sorted(k for k in mine.keys() | theirs.keys() if mine.get(k) != theirs.get(k))
         raise ValueError(f"the trainer's programs read {', '.join(changed)}, which differ")

@@ -17,6 +17,7 @@ other, so the GPU may run them side by side.
 """
 
 import concurrent.futures
+import json
 from collections.abc import Callable
 from typing import Any
 
@@ -33,6 +34,7 @@ from brax.training.agents.sac import networks as sac_networks
 from jax.sharding import PartitionSpec
 
 from quadcos._util import caches
+from quadcos.training import config as config_lib
 from quadcos.training import curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import replay as replay_lib
 from quadcos.training import state as state_lib
@@ -115,7 +117,8 @@ class SACTrainer:
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
         self._compile(config, getattr(env, "compiler_options", None) or None)
-        fingerprint = caches.trainer_fingerprint(env, eval_env, config, self.layout.mesh is None)
+        programs = json.dumps(config_lib.program_fields(config), sort_keys=True, default=str)
+        fingerprint = caches.trainer_fingerprint(env, eval_env, programs, self.layout.mesh is None)
         if fingerprint is not None:  # one device, MJX-JAX: each program traced once, kept on disk
             self._init = caches.Program(self._init_state, "init", fingerprint)
             self.prefill = caches.Program(self._prefill, "prefill", fingerprint, donate=True)
