@@ -28,6 +28,7 @@ from collections.abc import Callable
 from typing import Any
 
 import jax
+import jax.numpy as jnp
 import mujoco
 import numpy as np
 from jax import export
@@ -142,8 +143,10 @@ class Program:
         self._compiled: Callable[..., Any] | None = None
 
     def __call__(self, *args: Any) -> Any:
-        if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)):
-            return jax.jit(self._fn)(*args)  # inside another trace (jax.eval_shape): inlined
+        if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)) or (
+            self._compiled is None and _tracing()
+        ):
+            return jax.jit(self._fn)(*args)  # inside another trace (jax.eval_shape): staged there
         if self._compiled is None:
             self._compiled = self.lower(*args).compile()
         return self._compiled(*args)
@@ -167,6 +170,7 @@ class Program:
             logger.debug("program %s not kept traced: %s", self._name, error)
             return jax.jit(self._fn, donate_argnums=(0,) if self._donate else ()).lower(*args)
         donate = tuple(range(len(leaves))) if self._donate else ()
+
         def call(*flat: Any) -> Any:
             return exported.call(*flat)
 
@@ -206,6 +210,11 @@ class Program:
             temporary.write_bytes(pickle.dumps((exported.serialize(), box["out_tree"])))
             temporary.replace(path)  # whole or not at all, also with several writers
         return exported, box["out_tree"]
+
+
+def _tracing() -> bool:
+    """Whether a JAX trace is active: an operation on a constant gives a tracer there."""
+    return isinstance(jnp.zeros(()) + 0, jax.core.Tracer)
 
 
 class _Lowered:
