@@ -637,6 +637,6 @@ def test_only_quadcos_envs_on_one_device_with_mjx_jax_keep_their_programs(tmp_pa
     monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path / caches.TRACED)
     trainer = training.SACTrainer(PointEnv(), toy_config())  # the toy env: traced as usual
     assert not isinstance(trainer.train_chunk, caches.Program)
-    assert caches.trainer_fingerprint(PointEnv(), None, "{}", one_device=True) is None
+    assert caches.trainer_fingerprint(PointEnv(), None, {}, one_device=True) is None
     monkeypatch.setattr(caches, "traced_directory", lambda: None)  # the compilation cache off
-    assert caches.trainer_fingerprint(PointEnv(), None, "{}", one_device=True) is None
+    assert caches.trainer_fingerprint(PointEnv(), None, {}, one_device=True) is None

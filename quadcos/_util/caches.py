@@ -19,6 +19,7 @@ import functools
 import hashlib
 import importlib.metadata
 import inspect
+import json
 import logging
 import os
 import pathlib
@@ -119,7 +120,9 @@ def env_fingerprint(env: Any) -> str:
     return digest.hexdigest()
 
 
-def trainer_fingerprint(env: Any, eval_env: Any, programs: str, one_device: bool) -> str | None:
+def trainer_fingerprint(
+    env: Any, eval_env: Any, programs: dict[str, Any], one_device: bool
+) -> str | None:
     """What a trainer's programs close over: its envs' fingerprints and `programs`, the trainer
     config's fields its programs read (`training.config.program_fields`); None where
     they are traced in every process: an env not quadcos's, several devices, MJX-Warp (its
@@ -129,7 +132,7 @@ def trainer_fingerprint(env: Any, eval_env: Any, programs: str, one_device: bool
         return None
     if not all(hasattr(e, "mj_model") and getattr(e, "impl", None) == "jax" for e in envs):
         return None
-    parts = [*map(env_fingerprint, envs), programs]
+    parts = [*map(env_fingerprint, envs), json.dumps(programs, sort_keys=True, default=str)]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 

@@ -75,7 +75,7 @@ def measure_trainer(
             for _ in range(2):
                 state, metrics = trainer.train_chunk(state)
                 jax.block_until_ready((state, metrics))
-    if trainer.chunk_traces > 1:  # 0: loaded traced (quadcos.training.traced)
+    if trainer.chunk_traces > 1:  # 0: loaded as traced before (quadcos._util.caches.Program)
         raise RuntimeError(f"train_chunk was traced {trainer.chunk_traces} times")
     env_steps = chunks * config.steps_per_chunk * config.num_envs
     return {

@@ -7,9 +7,9 @@ from ml_collections import config_dict
 
 from quadcos._util.overrides import flatten
 
-# Trainer config fields that no compiled program reads (the host's loop does): trainers and their
-# traced programs are shared by configs that differ only in these (`reuse.for_run`,
-# `quadcos._util.caches.Program`).
+# Trainer config fields no program reads: the host loop's, the checkpoints' and the keys' (the
+# keys are arguments of the programs, not constants). Trainers and their traced programs are
+# shared by configs that differ only in these (`reuse.for_run`, `quadcos._util.caches.Program`).
 HOST_FIELDS = frozenset(
     {
         "seed",

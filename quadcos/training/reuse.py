@@ -18,8 +18,6 @@ from quadcos.training import config as config_lib
 from quadcos.training import sac
 
 
-# Trainer config fields no program reads: the host loop's, the checkpoints' and the keys' (the
-# keys are arguments of the programs, not constants).
 def program_key(env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict) -> str:
     """What a trainer's programs depend on: the env config and the trainer config but for
     `config.HOST_FIELDS`, as one JSON string."""

@@ -17,7 +17,6 @@ other, so the GPU may run them side by side.
 """
 
 import concurrent.futures
-import json
 from collections.abc import Callable
 from typing import Any
 
@@ -116,16 +115,9 @@ class SACTrainer:
         self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
-        self._compile(config, getattr(env, "compiler_options", None) or None)
-        programs = json.dumps(config_lib.program_fields(config), sort_keys=True, default=str)
+        programs = config_lib.program_fields(config)
         fingerprint = caches.trainer_fingerprint(env, eval_env, programs, self.layout.mesh is None)
-        if fingerprint is not None:  # one device, MJX-JAX: each program traced once, kept on disk
-            self._init = caches.Program(self._init_state, "init", fingerprint)
-            self.prefill = caches.Program(self._prefill, "prefill", fingerprint, donate=True)
-            self.train_chunk = caches.Program(
-                self._train_chunk, "train_chunk", fingerprint, donate=True
-            )
-            self._evaluate_compiled = caches.Program(self._evaluate, "evaluate", fingerprint)
+        self._compile(config, getattr(env, "compiler_options", None) or None, fingerprint)
 
     def _sac_update(self, config: ml_collections.ConfigDict) -> updates.SACUpdate:
         """The losses (Brax's) and optimizers of one SAC gradient update."""
@@ -169,14 +161,26 @@ class SACTrainer:
         ring = replay_lib.RingReplay(config.replay_size // shards, dummy_transition)
         return ring if shards == 1 else replay_lib.ShardedReplay(ring, shards)
 
-    def _compile(self, config: ml_collections.ConfigDict, options: dict | None) -> None:
+    def _compile(
+        self, config: ml_collections.ConfigDict, options: dict | None, fingerprint: str | None
+    ) -> None:
         """Jits `init`, `prefill`, `train_chunk` and the evaluation, placed on the devices of
         `self.layout`. `options`: XLA's options for the programs that step the training envs
         (none but with MJX-Warp's calls recorded by XLA: `quadcos.env.backends.compiler_options`).
         Not the evaluation's: with them its program took 55 s more to compile (one H200) for no
-        gain to speak of."""
-        self._init = jax.jit(self._init_state)
+        gain to speak of. With a `fingerprint` (`caches.trainer_fingerprint`: one device,
+        MJX-JAX) each is a `caches.Program`, traced once and kept on disk."""
+        self._eval_keys = jax.random.split(self._eval_key, config.num_eval_envs)
         self._specs = None  # where each part of the state lives; on one device, nowhere to say
+        if fingerprint is not None:
+            self._init = caches.Program(self._init_state, "init", fingerprint)
+            self.prefill = caches.Program(self._prefill, "prefill", fingerprint, donate=True)
+            self.train_chunk = caches.Program(
+                self._train_chunk, "train_chunk", fingerprint, donate=True
+            )
+            self._evaluate_compiled = caches.Program(self._evaluate, "evaluate", fingerprint)
+            return
+        self._init = jax.jit(self._init_state)
         if self.layout.mesh is not None:
             self._specs = parallel.state_specs(
                 jax.eval_shape(self._init, self._key_init),
@@ -194,7 +198,6 @@ class SACTrainer:
         # the persistent compilation cache's copy). On several devices each device runs its share
         # of the episodes (the same episodes as on one device) and the means are averaged.
         self._evaluate_compiled = jax.jit(self._evaluate)
-        self._eval_keys = jax.random.split(self._eval_key, config.num_eval_envs)
         if self.layout.mesh is not None:
             replicated, split = PartitionSpec(), PartitionSpec(parallel.AXIS)
             self._evaluate_compiled = jax.jit(
