@@ -198,7 +198,9 @@ def test_the_time_to_targets_record_is_what_its_script_computes(tmp_path, monkey
 
     out = tmp_path / "time_to_targets.json"
     argv = ["--single", str(folder / "seeds_cold_warm.json"),
-            "--population", str(folder / "population" / "pop2_s0"), "--out", str(out)]
+            "--population", *(str(folder / "population" / name)
+                              for name in ("pop2_s0", "pop4_s0", "pop4_s4")),
+            "--out", str(out)]
     assert time_to_targets.main(argv) == 0
     committed = (ROOT / "benchmarks" / "h200_time_to_targets.json").read_text()
     assert out.read_text() == committed
@@ -208,3 +210,5 @@ def test_the_time_to_targets_record_is_what_its_script_computes(tmp_path, monkey
     assert time_to_targets.meets(met)
     assert not time_to_targets.meets(dict(met, flat_max_attitude_rad=0.06))
     assert not time_to_targets.meets(dict(met, testset2026_mean=None))  # not evaluated: missed
+    four = json.loads(committed)["rows"][-1]  # a population of four: its chosen member meets them
+    assert four["num_devices"] == 4 and four["seconds_to_targets"] == four["seconds"]
