@@ -120,19 +120,25 @@ def test_time_to_success_gives_up_at_the_timeout_with_a_reason():
     )
 
 
-def test_a_profiled_row_traces_two_more_chunks_without_the_python_tracer(tmp_path, monkeypatch):
+def test_a_profiled_row_traces_two_more_chunks_without_the_python_tracer(
+    tmp_path, monkeypatch, capsys
+):
     # The toy trainer stands in for the robots (the CPU's trace of a robot chunk holds every XLA
     # op of every physics step): what is profiled, not what is simulated, is under test.
+    monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
     monkeypatch.setattr(trainers, "make_bench_env", lambda *args, **kwargs: PointEnv())
     monkeypatch.setattr(trainers, "trainer_config", lambda *args, **kwargs: _toy_config())
-    row = trainers.measure_trainer(
-        settings.TrainRow(8, 16, 1), "smoke", 0.0, 0.0, profile_dir=str(tmp_path)
-    )
-    assert row["timed_chunks"] == 2 and _finite_positive(row["env_steps_per_s"])
-    events = profile.read_events(profile.trace_file(tmp_path))
-    chunks = [event for event in events if "train_chunk" in str(event.get("name", ""))]
-    assert chunks  # the two profiled chunks; the Python tracer's events start with "$"
+    out, traces = tmp_path / "bench.json", tmp_path / "profile"
+    argv = ["--preset=cpu", f"--out={out}", "--only=train", "--train_rows=8x16x1",
+            "--train_seconds=0", f"--profile_dir={traces}"]
+    assert bench.main(argv) == 0
+    (row,) = json.loads(out.read_text())["train"]
+    assert _finite_positive(row["quadcos_env_steps_per_s"])
+    events = profile.read_events(profile.trace_file(traces / "8x16x1"))  # a folder per row
+    assert any("train_chunk" in str(event.get("name", "")) for event in events)
+    # Without the Python tracer (--profile_python): its events' names start with "$".
     assert not any(str(event.get("name", "")).startswith("$") for event in events)
+    assert "train 8x16x1: " in capsys.readouterr().out
 
 
 def _stats(**values):
