@@ -34,6 +34,8 @@ import mujoco
 import numpy as np
 from jax import export
 
+from quadcos._util import files
+
 CACHE_ENV = "QUADCOS_CACHE_DIR"
 
 
@@ -208,10 +210,9 @@ class Program:
         folder = traced_directory()
         if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
-            path = folder / f"{self._name}-{key}"
-            temporary = path.with_name(f".{path.name}.{os.getpid()}")
-            temporary.write_bytes(pickle.dumps((exported.serialize(), box["out_tree"])))
-            temporary.replace(path)  # whole or not at all, also with several writers
+            files.atomic_write_bytes(
+                folder / f"{self._name}-{key}", pickle.dumps((exported.serialize(), box["out_tree"]))
+            )
         return exported, box["out_tree"]
 
 

@@ -8,10 +8,16 @@ from typing import Callable
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     """Writes `text` to a temporary file beside `path`, then renames it."""
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
+    """Writes `data` to a temporary file beside `path`, then renames it (whole or not at all,
+    also with several writers)."""
     path = Path(path)
     temporary = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    with open(temporary, "w", encoding="utf-8") as file:
-        file.write(text)
+    with open(temporary, "wb") as file:
+        file.write(data)
         file.flush()
         os.fsync(file.fileno())
     os.replace(temporary, path)
