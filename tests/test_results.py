@@ -198,8 +198,8 @@ def test_the_time_to_targets_record_is_what_its_script_computes(tmp_path, monkey
 
     out = tmp_path / "time_to_targets.json"
     argv = ["--single", str(folder / "seeds_cold_warm.json"),
-            "--population", *(str(folder / "population" / name)
-                              for name in ("pop2_s0", "pop4_s0", "pop4_s4")),
+            "--population", *(str(folder / "population" / f"pop{name}")
+                              for name in ("2_s0", "2_s2", "2_s4", "4_s0", "4_s4")),
             "--out", str(out)]
     assert time_to_targets.main(argv) == 0
     committed = (ROOT / "benchmarks" / "h200_time_to_targets.json").read_text()
