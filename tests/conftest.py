@@ -8,11 +8,16 @@ import os
 import pathlib
 
 # The suite is compile-bound (tiny batches, few steps): XLA:CPU at -O0 with its older (non-MLIR)
-# fusion emitters compiles the MJX programs faster, and they run fast enough. Set before JAX's
+# fusion emitters, and without the HLO passes that optimise while loops (simplifier, invariant
+# code motion, constant sinking: a quarter of the HLO-pass time of the smoke trainer's programs),
+# compiles the MJX programs faster, and they run fast enough. Set before JAX's
 # backend starts; the CLI subprocesses inherit it (quadcos.train only sets XLA_FLAGS where it is
 # unset), so their programs share the cache.
 os.environ.setdefault(
-    "XLA_FLAGS", "--xla_backend_optimization_level=0 --xla_cpu_use_fusion_emitters=false"
+    "XLA_FLAGS",
+    "--xla_backend_optimization_level=0 --xla_cpu_use_fusion_emitters=false"
+    " --xla_disable_hlo_passes="
+    "simplify-while-loops,while-loop-invariant-code-motion,while-loop-constant-sinking",
 )
 
 import jax  # noqa: E402
