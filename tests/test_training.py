@@ -609,6 +609,12 @@ def test_a_traced_program_is_loaded_from_disk_by_the_next_trainer(tmp_path, monk
         caches.Program(_affine, "affine", "other")(*args)
     with pytest.raises(AssertionError, match="traced again"):
         caches.Program(_affine, "affine", "fingerprint")(args[0], jnp.arange(4.0))
+    # Inside another trace (the memory check's jax.eval_shape of init) the kept trace stands in
+    # for the function, which is not traced again; a program not kept is staged there.
+    shapes = jax.eval_shape(caches.Program(no_trace, "affine", "fingerprint"), *args)
+    assert shapes["y"].shape == (3,) and shapes["n"].shape == ()
+    with pytest.raises(AssertionError, match="traced again"):
+        jax.eval_shape(caches.Program(no_trace, "affine", "other"), *args)
 
 
 def test_a_damaged_traced_program_is_traced_again_and_rewritten(tmp_path, monkeypatch):
@@ -640,3 +646,27 @@ def test_only_quadcos_envs_on_one_device_with_mjx_jax_keep_their_programs(tmp_pa
     assert caches.trainer_fingerprint(PointEnv(), None, {}, one_device=True) is None
     monkeypatch.setattr(caches, "traced_directory", lambda: None)  # the compilation cache off
     assert caches.trainer_fingerprint(PointEnv(), None, {}, one_device=True) is None
+
+
+def test_an_envs_observation_size_is_remembered_for_the_same_env_and_code(tmp_path, monkeypatch):
+    import quadcos  # noqa: PLC0415 (the rest of this module needs no MJX)
+
+    monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path / caches.TRACED)
+
+    def computed_again():
+        raise AssertionError("computed again")
+
+    env = quadcos.make_env("flat")
+    assert caches.remember("observation_size", env, lambda: 23) == 23
+    assert caches.remember("observation_size", env, computed_again) == 23  # read back
+    other = quadcos.make_env("flat", observe_slope=True)
+    with pytest.raises(AssertionError, match="computed again"):  # another env
+        caches.remember("observation_size", other, computed_again)
+    (kept,) = (tmp_path / caches.TRACED).glob("observation_size-*.json")
+    kept.write_text("{")  # damaged: computed again
+    assert caches.remember("observation_size", env, lambda: 24) == 24
+    with pytest.raises(AssertionError, match="computed again"):  # not a quadcos env
+        caches.remember("observation_size", PointEnv(), computed_again)
+    monkeypatch.setattr(caches, "traced_directory", lambda: None)  # the compilation cache off
+    with pytest.raises(AssertionError, match="computed again"):
+        caches.remember("observation_size", env, computed_again)

@@ -122,6 +122,25 @@ def env_fingerprint(env: Any) -> str:
     return digest.hexdigest()
 
 
+def remember(name: str, env: Any, compute: Callable[[], Any]) -> Any:
+    """`compute()`, a small JSON value that follows from a quadcos env and the code alone (its
+    observation's size, say), kept beside the traced programs: a later process with the same env
+    and code reads it instead of tracing the env for it. Computed every time where the
+    compilation cache is off or the env is not quadcos's; a damaged file is computed again."""
+    folder = traced_directory()
+    if folder is None or not hasattr(env, "mj_model"):
+        return compute()
+    key = hashlib.sha256("\n".join([name, env_fingerprint(env), code_version()]).encode())
+    path = folder / f"{name}-{key.hexdigest()[:32]}.json"
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        value = compute()
+        folder.mkdir(parents=True, exist_ok=True)
+        files.atomic_write_text(path, json.dumps(value))
+        return value
+
+
 def trainer_fingerprint(
     env: Any, eval_env: Any, programs: dict[str, Any], one_device: bool
 ) -> str | None:
@@ -151,23 +170,26 @@ class Program:
         if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)) or (
             self._compiled is None and _tracing()
         ):
-            return jax.jit(self._fn)(*args)  # inside another trace (jax.eval_shape): staged there
+            return self._staged(*args)
         if self._compiled is None:
             self._compiled = self.lower(*args).compile()
         return self._compiled(*args)
 
+    def _staged(self, *args: Any) -> Any:
+        """The program inside another trace (`jax.eval_shape`): its kept trace where there is
+        one (nothing traced again), else `fn` staged there."""
+        leaves, in_tree = jax.tree.flatten(args)
+        avals = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
+        loaded = self._load(self._key(in_tree, avals))
+        if loaded is None:
+            return jax.jit(self._fn)(*args)
+        exported, out_tree = loaded
+        return jax.tree.unflatten(out_tree, exported.call(*leaves))
+
     def lower(self, *args: Any) -> Any:
         leaves, in_tree = jax.tree.flatten(args)
         avals = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
-        key = hashlib.sha256(
-            "\n".join(
-                [self._name, self._fingerprint, code_version(), jax.default_backend()]
-                # (MJX's static arrays print as objects at an address: the model, fingerprinted,
-                # fixes them)
-                + [re.sub(r" at 0x[0-9a-f]+", "", str(in_tree))]
-                + [f"{aval.shape}{aval.dtype}" for aval in avals]
-            ).encode()
-        ).hexdigest()[:32]
+        key = self._key(in_tree, avals)
         try:
             exported, out_tree = self._load(key) or self._trace(key, in_tree, avals)
         except (ValueError, NotImplementedError, TypeError) as error:
@@ -181,6 +203,17 @@ class Program:
 
         call.__name__ = self._name  # the program's name in profiles: jit(train_chunk)
         return _Lowered(jax.jit(call, donate_argnums=donate).lower(*avals), out_tree)
+
+    def _key(self, in_tree: Any, avals: list[jax.ShapeDtypeStruct]) -> str:
+        return hashlib.sha256(
+            "\n".join(
+                [self._name, self._fingerprint, code_version(), jax.default_backend()]
+                # (MJX's static arrays print as objects at an address: the model, fingerprinted,
+                # fixes them)
+                + [re.sub(r" at 0x[0-9a-f]+", "", str(in_tree))]
+                + [f"{aval.shape}{aval.dtype}" for aval in avals]
+            ).encode()
+        ).hexdigest()[:32]
 
     def _load(self, key: str) -> tuple[export.Exported, Any] | None:
         folder = traced_directory()

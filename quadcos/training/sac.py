@@ -99,7 +99,9 @@ class SACTrainer:
         parallel.check_divisible(config, self.layout.shards)
         shards = self.layout.shards
         self._reset_envs, self._step_envs = self._batched_env(getattr(env, "impl", "jax"))
-        self.observation_size = observation_size(self._reset_envs, config.num_envs)
+        self.observation_size = caches.remember(  # traced once per env and code
+            "observation_size", env, lambda: observation_size(self._reset_envs, config.num_envs)
+        )
         self.action_size = env.action_size
         self.networks = make_networks(
             self.observation_size,
