@@ -46,7 +46,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from quadcos import evaluation
-from quadcos._util import cli, quiet
+from quadcos._util import caches, cli, quiet
 from quadcos.deploy import engines
 from quadcos.evaluation.fixed_search import SPEED_FLOOR_OF
 from quadcos.viz import video
@@ -190,6 +190,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args, overrides = _parse_args(argv)
         quiet.quiet_warp()  # before anything loads a Warp module
+        caches.enable()  # JAX's and Warp's caches: a second run compiles nothing
         if args.render:
             width, height = args.video_size
             evaluation.render_trace(args.render, args.video, width=width, height=height)

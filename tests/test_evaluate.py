@@ -534,3 +534,17 @@ def test_a_confirmation_ranks_clean_gaits_first_then_the_one_that_fell_least():
     fast, slow = dict(candidates["fell once, fast"]), dict(candidates["fell once, fast"])
     slow["mean_forward_speed"] = 0.3
     assert confirmation_key(fast) > confirmation_key(slow)
+
+
+def test_the_cli_switches_the_caches_on_before_it_compiles(tmp_path, monkeypatch, capsys):
+    calls = []
+    monkeypatch.setattr(evaluate.caches, "enable", lambda: calls.append("caches") or {})
+
+    def stop(*_, **__):
+        calls.append("evaluate")
+        raise ValueError("stopped here")
+
+    monkeypatch.setattr(evaluate.engines, "evaluate", stop)
+    argv = ["--policy=fixed:trot", "--num_envs=2", "--no_progress", f"--out={tmp_path / 'e.json'}"]
+    assert evaluate.main(argv) == 2
+    assert calls == ["caches", "evaluate"] and "stopped here" in capsys.readouterr().err
