@@ -15,7 +15,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from quadcos import env as env_lib
-from quadcos._util import caches
 from quadcos.env import episodes
 from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import sources
@@ -355,20 +354,8 @@ def _env_with_commands(env: env_lib.QuadrupedEnv, spec: str) -> env_lib.Quadrupe
 
 @functools.lru_cache(maxsize=16)
 def _compiled_reset(env: env_lib.QuadrupedEnv) -> Callable:
-    """jit((keys, lanes) -> the robots' first states); robot i runs on lane lanes[i]. Traced
-    once per robot count and kept on disk (`caches.Program`) where the env's programs can be."""
-    reset = jax.vmap(env.reset_on_lane)
-    fingerprint = caches.trainer_fingerprint(env, None, {}, one_device=True)
-    if fingerprint is None:
-        return jax.jit(reset)
-    programs = {}  # robot count -> its program
-
-    def kept(keys: jax.Array, lanes: jax.Array) -> Any:
-        if keys.shape not in programs:
-            programs[keys.shape] = caches.Program(reset, "reset_on_lane", fingerprint)
-        return programs[keys.shape](keys, lanes)
-
-    return kept
+    """jit((keys, lanes) -> the robots' first states); robot i runs on lane lanes[i]."""
+    return jax.jit(jax.vmap(env.reset_on_lane))
 
 
 def rollout(
