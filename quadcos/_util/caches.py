@@ -165,6 +165,7 @@ class Program:
     def __init__(self, fn: Callable[..., Any], name: str, fingerprint: str, donate: bool = False):
         self._fn, self._name, self._fingerprint, self._donate = fn, name, fingerprint, donate
         self._compiled: Callable[..., Any] | None = None
+        self._loaded: dict[str, tuple[export.Exported, Any] | None] = {}  # key -> read from disk
 
     def __call__(self, *args: Any) -> Any:
         if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)) or (
@@ -178,18 +179,15 @@ class Program:
     def _staged(self, *args: Any) -> Any:
         """The program inside another trace (`jax.eval_shape`): its kept trace where there is
         one (nothing traced again), else `fn` staged there."""
-        leaves, in_tree = jax.tree.flatten(args)
-        avals = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
-        loaded = self._load(self._key(in_tree, avals))
+        leaves, _, _, key = self._signature(args)
+        loaded = self._load(key)
         if loaded is None:
             return jax.jit(self._fn)(*args)
         exported, out_tree = loaded
         return jax.tree.unflatten(out_tree, exported.call(*leaves))
 
     def lower(self, *args: Any) -> Any:
-        leaves, in_tree = jax.tree.flatten(args)
-        avals = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
-        key = self._key(in_tree, avals)
+        leaves, in_tree, avals, key = self._signature(args)
         try:
             exported, out_tree = self._load(key) or self._trace(key, in_tree, avals)
         except (ValueError, NotImplementedError, TypeError) as error:
@@ -204,8 +202,11 @@ class Program:
         call.__name__ = self._name  # the program's name in profiles: jit(train_chunk)
         return _Lowered(jax.jit(call, donate_argnums=donate).lower(*avals), out_tree)
 
-    def _key(self, in_tree: Any, avals: list[jax.ShapeDtypeStruct]) -> str:
-        return hashlib.sha256(
+    def _signature(self, args: tuple) -> tuple[list[Any], Any, list[jax.ShapeDtypeStruct], str]:
+        """The arguments' leaves, tree and shapes, and the key of the program traced for them."""
+        leaves, in_tree = jax.tree.flatten(args)
+        avals = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
+        key = hashlib.sha256(
             "\n".join(
                 [self._name, self._fingerprint, code_version(), jax.default_backend()]
                 # (MJX's static arrays print as objects at an address: the model, fingerprinted,
@@ -214,8 +215,16 @@ class Program:
                 + [f"{aval.shape}{aval.dtype}" for aval in avals]
             ).encode()
         ).hexdigest()[:32]
+        return leaves, in_tree, avals, key
 
     def _load(self, key: str) -> tuple[export.Exported, Any] | None:
+        """The kept trace of `key`, read from disk once (the memory check's `jax.eval_shape`
+        and the compile both use it); None where there is none or it is unreadable."""
+        if key not in self._loaded:
+            self._loaded[key] = self._read(key)
+        return self._loaded[key]
+
+    def _read(self, key: str) -> tuple[export.Exported, Any] | None:
         folder = traced_directory()
         path = folder and folder / f"{self._name}-{key}"
         if path is None or not path.exists():
