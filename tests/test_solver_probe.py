@@ -1,6 +1,6 @@
 """The solver probe (quadcos.env.solver_probe): Go1's MJCF loaded by its path (no preset applies)
-on the CPU, 4 robots for 1 s; one reference rollout and one compiled candidate rollout shared by
-every test (the probe keeps them per robot and config in the process)."""
+on the CPU, 4 robots for 1 s; one reference rollout (C MuJoCo) and one compiled candidate rollout
+(MJX-JAX) shared by every test (the probe keeps them per robot and config in the process)."""
 
 import json
 import pathlib
@@ -101,6 +101,17 @@ def test_go1_by_path_gets_faster_physics_and_stands(go1_probe):
     assert outcome.trot_forward > 0.05  # the trot walks forward
     assert "5 ms" in go1_probe.message and "2 ms" in go1_probe.message
     json.dumps(go1_probe.record(), allow_nan=False)  # config.json stays strict JSON
+
+
+def test_the_reference_runs_in_c_mujoco_and_knows_a_blown_up_robot(go1_probe):
+    standing = 0.288
+    reference = go1_probe.reference_outcome
+    assert reference.finite and reference.fell == 0
+    assert 0.85 * standing < reference.hold_height < 1.02 * standing
+    # C MuJoCo resets a simulation that went non-finite (a warning, finite numbers again).
+    config = env_lib.config.resolve(_go1_config()).to_json(sort_keys=True)
+    blown = solver_probe._rollout(config, ROBOTS, SECONDS, 0).reference(UNSTABLE)  # noqa: SLF001
+    assert not blown.finite and blown.fell == 3  # of the 4: every robot that holds or trots
 
 
 def test_no_passing_candidate_keeps_the_mjcf_options(go1_probe):

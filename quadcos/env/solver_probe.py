@@ -3,16 +3,17 @@ own do, measured (`probe`).
 
 A robot quadcos has no preset for (`quadcos.robot.presets`) keeps its MJCF's solver: a 2-ms step,
 its cone and up to 100 iterations, which trains several times slower than a preset's 5-ms step at
-4 / 8 iterations. The probe runs a few robots on flat ground with MJX-JAX (vmapped; the CPU too):
-a third hold the home pose, a third walk the fixed trot (the env's zero action,
-`QuadrupedEnv.zero_action_targets`), a third a fast gait (`_FAST`). It runs them first at the
-options the env would otherwise run (the reference), then at each candidate from the cheapest on,
-and takes the first candidate whose robots stay finite, upright and close to the reference
-(`judge`). The presets were chosen the same way (experiments/robots/physics); MJX-JAX, as there,
-whatever the training physics.
+4 / 8 iterations. The probe runs a few robots on flat ground: a third hold the home pose, a third
+walk the fixed trot (the env's zero action, `QuadrupedEnv.zero_action_targets`), a third a fast
+gait (`_FAST`). It runs them first at the options the env would otherwise run, in C MuJoCo (the
+reference: the MJCF simulated as its author did, with nothing to compile), then at each candidate
+from the cheapest on in MJX-JAX (vmapped; the CPU too), and takes the first candidate whose robots
+stay finite, upright and close to the reference (`judge`). The presets were chosen the same way
+(experiments/robots/physics); MJX-JAX, as there, whatever the training physics.
 
 One compiled rollout serves every candidate of the same cone and iteration counts: the physics
-step and the number of steps are traced values.
+step and the number of steps are traced values. Both engines follow one schedule of joint targets
+(`_Rollout.targets`) and reduce their robots' stats to an `Outcome` in one place (`_outcome`).
 """
 
 import dataclasses
@@ -26,6 +27,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import ml_collections
+import mujoco
 import numpy as np
 
 from quadcos import robot as robot_lib
@@ -232,7 +234,7 @@ def probe(
         seconds or PROBE_SECONDS,
         seed,
     )
-    reference_outcome = rollout(reference)
+    reference_outcome = rollout.reference(reference)
     standing = rollout.layout.standing_height
     trials = []
     options = candidates(config.control_dt, reference) if options is None else options
@@ -299,14 +301,21 @@ class _Rollout:
         fall_height = robot.fall_min_height
         fall_tilt = min(config.fall_max_roll, config.fall_max_pitch_error)
 
-        def step(model, role, data, stats, late):
-            fast_phase = oscillator.TWO_PI * data.time / fast_period
-            targets = jnp.select(
+        def targets(role, time):
+            fast_phase = oscillator.TWO_PI * time / fast_period
+            return jnp.select(
                 [role == _HOLD, role == _TROT],
-                [layout.home, env.zero_action_targets(data.time)],
-                env.joint_targets(fast, fast_phase, data.time),
+                [layout.home, env.zero_action_targets(time)],
+                env.joint_targets(fast, fast_phase, time),
             )
-            data = mjx.step(model, data.replace(ctrl=layout.controls(targets, data)))
+
+        self.spawn, self.fall_height, self.fall_tilt = spawn, fall_height, fall_tilt
+        # (robots, steps, J) joint targets at the given times: the C MuJoCo reference's schedule.
+        self.targets = jax.jit(jax.vmap(jax.vmap(targets, (None, 0)), (0, None)))
+
+        def step(model, role, data, stats, late):
+            control = layout.controls(targets(role, data.time), data)
+            data = mjx.step(model, data.replace(ctrl=control))
             attitude = slope.attitude(layout.orientation(data))
             tilt = jnp.maximum(jnp.abs(attitude.roll), jnp.abs(attitude.pitch))
             height = data.qpos[layout.position[2]]
@@ -335,11 +344,8 @@ class _Rollout:
 
         self._run = jax.jit(jax.vmap(one, in_axes=(None, None, 0, 0, None)))
 
-    def __call__(self, options: SolverOptions) -> Outcome:
-        if options in self.outcomes:
-            return self.outcomes[options]
-        started = time.perf_counter()
-        mj_model = robot_lib.build_model(
+    def _model(self, options: SolverOptions) -> mujoco.MjModel:
+        return robot_lib.build_model(
             _flat(),
             self.robot,
             timestep=options.physics_dt,
@@ -347,24 +353,76 @@ class _Rollout:
             ls_iterations=options.ls_iterations,
             cone=options.cone,
         )
+
+    def __call__(self, options: SolverOptions) -> Outcome:
+        """The robots under `options` in MJX-JAX (a candidate)."""
+        if options in self.outcomes:
+            return self.outcomes[options]
+        started = time.perf_counter()
+        mj_model = self._model(options)
         model = mjx.put_model(mj_model, impl="jax")
         data = mjx.make_data(mj_model, impl="jax")
         steps = jnp.asarray(round(self.seconds / options.physics_dt), jnp.int32)
         stats, forward = jax.device_get(self._run(model, data, self.joints, self.roles, steps))
-        finite = bool(stats.finite.all())  # the fast gait's robots too; they may fall
-        hold, trot = self.roles == _HOLD, self.roles == _TROT
-        judged = hold | trot
-        self.outcomes[options] = outcome = Outcome(
-            finite=finite,
-            fell=int(stats.fell[judged].sum()) if finite else int(judged.sum()),
-            hold_height=float(stats.height_sum[hold].mean()),
-            trot_height=float(stats.height_sum[trot].mean()),
-            max_tilt=float(stats.tilt[judged].max()),
-            trot_forward=float(forward[trot].mean()),
-            max_penetration=float(stats.penetration[judged].max()),
-            seconds=time.perf_counter() - started,
-        )
+        self.outcomes[options] = outcome = _outcome(stats, forward, self.roles, started)
         return outcome
+
+    def reference(self, options: SolverOptions) -> Outcome:
+        """The robots under `options` in C MuJoCo, one after another (the reference)."""
+        started = time.perf_counter()
+        mj_model = self._model(options)
+        layout = Layout.of(self.robot.description, mj_model, xp=np)
+        steps = round(self.seconds / options.physics_dt)
+        times = jnp.arange(steps, dtype=jnp.float32) * options.physics_dt
+        targets = np.asarray(self.targets(jnp.asarray(self.roles), times), np.float64)
+        late = np.arange(steps) >= steps // 2
+        rows = [
+            self._reference_robot(mj_model, layout, joints, schedule, late)
+            for joints, schedule in zip(np.asarray(self.joints), targets)
+        ]
+        stats = _Stats(*(np.array(column) for column in zip(*(row[0] for row in rows))))
+        return _outcome(stats, np.array([row[1] for row in rows]), self.roles, started)
+
+    def _reference_robot(self, mj_model, layout, joints, schedule, late) -> tuple[tuple, float]:
+        """One robot's (_Stats fields, forward displacement) in C MuJoCo."""
+        data = mujoco.MjData(mj_model)
+        data.qpos[layout.position] = np.asarray(self.spawn)
+        data.qpos[layout.quaternion] = (1.0, 0.0, 0.0, 0.0)
+        data.qpos[layout.joint_qpos] = joints
+        mujoco.mj_forward(mj_model, data)
+        heights, quaternions, depth = np.empty(len(schedule)), np.empty((len(schedule), 4)), 0.0
+        for index, targets in enumerate(schedule):
+            data.ctrl[:] = layout.controls(targets, data)
+            mujoco.mj_step(mj_model, data)
+            heights[index] = data.qpos[layout.position[2]]
+            quaternions[index] = layout.orientation(data)
+            depth = max(depth, -data.contact.dist.min(initial=0.0))
+        attitude = slope.attitude(quaternions)
+        tilt = np.maximum(np.abs(np.asarray(attitude.roll)), np.abs(np.asarray(attitude.pitch)))
+        # C MuJoCo resets a simulation that went non-finite, with a warning: count it as not finite.
+        blown = sum(data.warning[warning].number for warning in _BAD_STATE)
+        finite = blown == 0 and bool(np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all())
+        fell = bool(((heights < self.fall_height) | (tilt > self.fall_tilt)).any())
+        fields = (finite, fell, heights[late].mean(), tilt.max(), depth)
+        return fields, float(data.qpos[layout.position[0]])
+
+
+def _outcome(stats: _Stats, forward: np.ndarray, roles: np.ndarray, started: float) -> Outcome:
+    """Robots' stats (their mean late height in `height_sum`) and forward displacements → the
+    rollout's `Outcome`; the fast gait's robots count in `finite` only (they may fall)."""
+    finite = bool(np.all(stats.finite))
+    hold, trot = roles == _HOLD, roles == _TROT
+    judged = hold | trot
+    return Outcome(
+        finite=finite,
+        fell=int(np.sum(stats.fell[judged])) if finite else int(judged.sum()),
+        hold_height=float(np.mean(stats.height_sum[hold])),
+        trot_height=float(np.mean(stats.height_sum[trot])),
+        max_tilt=float(np.max(stats.tilt[judged])),
+        trot_forward=float(np.mean(forward[trot])),
+        max_penetration=float(np.max(stats.penetration[judged])),
+        seconds=time.perf_counter() - started,
+    )
 
 
 def _contact_dist(data: mjx.Data) -> jax.Array:
@@ -373,6 +431,9 @@ def _contact_dist(data: mjx.Data) -> jax.Array:
 
 
 _HOLD, _TROT = 0, 1  # the robots' roles; the others walk the fast gait
+_BAD_STATE = tuple(  # C MuJoCo's warnings of a state it reset
+    int(getattr(mujoco.mjtWarning, f"mjWARN_{name}")) for name in ("BADQPOS", "BADQVEL", "BADQACC")
+)
 # The fast gait: both amplitudes at their largest, the shortest period (the action's first three
 # values; the phases the trot's): a gait SAC's exploration reaches, to expose a solver that blows
 # up once the robot moves hard. Its robots only have to stay finite.
