@@ -184,7 +184,15 @@ def put_model(
 # function's trace per argument layout, so every env of one robot (a test's, an evaluation's after
 # training) reuses the first env's trace of MJX's physics instead of tracing it anew. XLA inlines
 # the call: the compiled program is the one a direct call gives. MJX-Warp's calls stay direct.
-_JAX_PHYSICS = {"step": jax.jit(mjx.step), "forward": jax.jit(mjx.forward)}
+def _pose(model: mjx.Model, data: mjx.Data) -> mjx.Data:
+    """MJX-JAX's position stage short of collisions and constraints: bodies, geoms, sites, the
+    actuators' transmission and the position sensors."""
+    for stage in (mjx.kinematics, mjx.com_pos, mjx.camlight, mjx.tendon, mjx.transmission):
+        data = stage(model, data)
+    return mjx.sensor_pos(model, data)
+
+
+_JAX_PHYSICS = {"step": jax.jit(mjx.step), "pose": jax.jit(_pose)}
 
 
 def step(model: mjx.Model, data: mjx.Data) -> mjx.Data:
@@ -192,9 +200,12 @@ def step(model: mjx.Model, data: mjx.Data) -> mjx.Data:
     return (_JAX_PHYSICS["step"] if model.impl == mjx.Impl.JAX else mjx.step)(model, data)
 
 
-def forward(model: mjx.Model, data: mjx.Data) -> mjx.Data:
-    """MJX's `forward` (positions and velocities to derived quantities, no integration)."""
-    return (_JAX_PHYSICS["forward"] if model.impl == mjx.Impl.JAX else mjx.forward)(model, data)
+def pose(model: mjx.Model, data: mjx.Data) -> mjx.Data:
+    """A reset's derived quantities: where its bodies, geoms and position sensors are. MJX-JAX
+    computes only that (`_pose`: a reset's program without the collision pipeline and solver that
+    `forward` adds, which the next `step` computes anyway: `forward` leaves `qacc_warmstart`, the
+    one result a step reads back, untouched); MJX-Warp runs its `forward`."""
+    return (_JAX_PHYSICS["pose"] if model.impl == mjx.Impl.JAX else mjx.forward)(model, data)
 
 
 def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Data:

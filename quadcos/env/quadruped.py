@@ -168,7 +168,7 @@ class QuadrupedEnv(base.Env):
                 draw_key, self.config.randomization, self.config.physics_dt
             )
             info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
-        data = backends.forward(self._model(info), data)
+        data = backends.pose(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
         observed = self._observe(data, phase, command)
