@@ -7,6 +7,7 @@ compiled reset and one compiled step serve them all.
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 import pytest
 
@@ -120,6 +121,28 @@ def test_reset_is_finite_and_standing(flat_env, flat_reset):
         "slope_estimate",
         "slope_truth",
     }
+
+
+def test_a_reset_poses_the_robot_as_mujoco_does_and_leaves_the_solver_to_the_step(
+    flat_env, flat_reset
+):
+    """The reset computes the position stage only (quadcos.env.backends.pose): bodies, geoms and
+    position sensors as C MuJoCo's mj_forward puts them; no warm start for the first step."""
+    data = flat_reset(jax.random.split(jax.random.PRNGKey(1), FLAT_ROBOTS)).pipeline_state
+    reference = mujoco.MjData(flat_env.mj_model)
+    reference.qpos[:] = np.asarray(data.qpos[0], np.float64)
+    mujoco.mj_forward(flat_env.mj_model, reference)
+    np.testing.assert_allclose(data.geom_xpos[0], reference.geom_xpos, atol=1e-5)
+    np.testing.assert_allclose(data.xquat[0], reference.xquat, atol=1e-5)
+    model = flat_env.mj_model
+    position = [  # the position sensors' values (velocity and acceleration ones wait for the step)
+        model.sensor_adr[i] + k
+        for i in range(model.nsensor)
+        if model.sensor_needstage[i] == mujoco.mjtStage.mjSTAGE_POS
+        for k in range(model.sensor_dim[i])
+    ]
+    np.testing.assert_allclose(data.sensordata[0, position], reference.sensordata[position], atol=1e-5)
+    np.testing.assert_array_equal(data.qacc_warmstart, 0.0)
 
 
 def test_fixed_trot_walks_forward_for_10_s(fixed_trot_run):
