@@ -122,25 +122,6 @@ def env_fingerprint(env: Any) -> str:
     return digest.hexdigest()
 
 
-def remember(name: str, env: Any, compute: Callable[[], Any]) -> Any:
-    """`compute()`, a small JSON value that follows from a quadcos env and the code alone (its
-    observation's size, say), kept beside the traced programs: a later process with the same env
-    and code reads it instead of tracing the env for it. Computed every time where the
-    compilation cache is off or the env is not quadcos's; a damaged file is computed again."""
-    folder = traced_directory()
-    if folder is None or not hasattr(env, "mj_model"):
-        return compute()
-    key = hashlib.sha256("\n".join([name, env_fingerprint(env), code_version()]).encode())
-    path = folder / f"{name}-{key.hexdigest()[:32]}.json"
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        value = compute()
-        folder.mkdir(parents=True, exist_ok=True)
-        files.atomic_write_text(path, json.dumps(value))
-        return value
-
-
 def trainer_fingerprint(
     env: Any, eval_env: Any, programs: dict[str, Any], one_device: bool
 ) -> str | None:

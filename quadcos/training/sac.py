@@ -50,9 +50,12 @@ def env_keys(num_envs: int) -> jax.ShapeDtypeStruct:
     return jax.ShapeDtypeStruct((num_envs,) + jax.random.PRNGKey(0).shape, jnp.uint32)
 
 
-def observation_size(reset_envs: Any, num_envs: int) -> int:
-    """Length of the flat observation vector of a batched env's `reset_envs` (keys → states):
-    read off the trace the trainer's init needs anyway (the same jitted function and shapes)."""
+def observation_size(env: envs.Env, reset_envs: Any, num_envs: int) -> int:
+    """Length of `env`'s flat observation vector: its own count (`QuadrupedEnv`'s: no trace), or,
+    for Brax's (a reset, run), read off the trace of the batched `reset_envs` (keys → states)."""
+    counted = type(getattr(env, "unwrapped", env)).observation_size
+    if counted is not envs.PipelineEnv.observation_size:
+        return env.observation_size
     obs = jax.eval_shape(reset_envs, env_keys(num_envs)).obs
     if not hasattr(obs, "shape") or len(obs.shape) != 2:
         raise ValueError(f"SAC needs a flat observation vector; got {obs}")
@@ -99,9 +102,7 @@ class SACTrainer:
         parallel.check_divisible(config, self.layout.shards)
         shards = self.layout.shards
         self._reset_envs, self._step_envs = self._batched_env(getattr(env, "impl", "jax"))
-        self.observation_size = caches.remember(  # traced once per env and code
-            "observation_size", env, lambda: observation_size(self._reset_envs, config.num_envs)
-        )
+        self.observation_size = observation_size(env, self._reset_envs, config.num_envs)
         self.action_size = env.action_size
         self.networks = make_networks(
             self.observation_size,
