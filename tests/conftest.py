@@ -9,8 +9,8 @@ import pathlib
 
 # The suite is compile-bound (tiny batches, few steps): XLA:CPU at -O0 with its older (non-MLIR)
 # fusion emitters, and without the HLO passes that optimise while loops (simplifier, invariant
-# code motion, constant sinking: a quarter of the HLO-pass time of the smoke trainer's programs),
-# compiles the MJX programs faster, and they run fast enough. Set before JAX's
+# code motion, constant sinking), compiles the MJX programs faster, and they run fast enough.
+# Set before JAX's
 # backend starts; the CLI subprocesses inherit it (quadcos.train only sets XLA_FLAGS where it is
 # unset), so their programs share the cache.
 os.environ.setdefault(
