@@ -105,9 +105,24 @@ def test_random_commands_are_resampled_every_period_only():
         seen.append(np.asarray(command.velocity))
     changes = [i for i in range(1, len(seen)) if not np.array_equal(seen[i], seen[i - 1])]
     assert [float(times[i]) for i in changes] == [1.0, 2.0, 3.0]
-    restarted = plan.restart(command.replace(heading=jnp.float32(0.3)), jnp.bool_(True))
+    moved = command.replace(heading=jnp.float32(0.3), speed=jnp.float32(0.4))
+    restarted = plan.restart(moved, jnp.bool_(True))
     np.testing.assert_array_equal(restarted.velocity, command.initial)
-    assert float(restarted.heading) == 0.0
+    assert float(restarted.heading) == 0.0 and float(restarted.speed) == 0.0
+
+
+def test_the_observed_speed_settles_on_the_mean_of_a_strided_walk():
+    """A gait whose progress per step alternates 0.01 / 0.04 m (0.5 m/s on average, strided):
+    the filter's output settles within a few time constants near 0.5 m/s and its ripple is a
+    fraction of the raw speed's 0.3 m/s swing."""
+    dt, tau, speed, seen = 0.05, 0.5, 0.0, []
+    for step in range(200):
+        speed = commands.low_passed_speed(speed, 0.01 if step % 2 else 0.04, dt, tau)
+        seen.append(speed)
+    late = np.asarray(seen[-20:])
+    assert abs(late.mean() - 0.5) < 0.02 and np.ptp(late) < 0.05
+    assert seen[9] < 0.5 * 0.7  # after 0.5 s (one τ): 1 − e⁻¹ of the way, not there yet
+    assert commands.low_passed_speed(0.3, 0.04, dt, 0.0) == 0.3  # τ = 0: not observed
 
 
 def test_schedule_against_numpy():
@@ -144,12 +159,15 @@ def test_heading_integrates_the_yaw_rate_on_a_leash():
 def test_yaw_rate_tracking_reads_the_steps_own_turn():
     plan = commands.Plan(commands.CommandSpec("random"), _config(tracking="yaw_rate"))
     command = plan.start(jax.random.PRNGKey(0)).replace(velocity=jnp.asarray([0.5, 0.4]))
-    tracking, after = plan.step(command, jnp.float32(3.13), jnp.float32(-3.13), 0.05, 0.0, 0.05)
+    tracking, after = plan.step(
+        command, jnp.float32(3.13), jnp.float32(-3.13), 0.05, 0.0, 0.05, jnp.float32(0.02)
+    )
     turned = 6.26 - 2 * np.pi  # across ±π: a turn of −0.023 rad, not +6.26
     assert float(tracking["yaw_rate_error"]) == pytest.approx(turned / 0.05 - 0.4, abs=1e-3)
     assert float(tracking["heading"]) == pytest.approx(-3.13)  # the heading at the step's start
     assert float(tracking["commanded_progress"]) == pytest.approx(0.025)
     assert float(after.heading) == 0.0  # no ψ* to integrate
+    assert float(after.speed) == 0.0  # observed_speed_tau 0: no speed observed
     with pytest.raises(ValueError, match="commands.tracking must be one of heading, yaw_rate"):
         commands.validate(_config(spec="random", tracking="heading_rate"))
 
@@ -311,15 +329,16 @@ SCHEDULE = "0.5,0@0.1;1.0,0.3@5"
 
 @pytest.fixture(scope="module")
 def commanded_env():
-    """quad12 (12 joints) with a schedule and the abduction turn: one compiled reset and step."""
-    return quadcos.make_env(
-        "flat", robot="quad12", turn_mode="abduction_stride", **{"commands.spec": SCHEDULE}
-    )
+    """quad12 (12 joints) with a schedule, its speed observed and the abduction turn: one
+    compiled reset and step."""
+    commanded = {"commands.spec": SCHEDULE, "commands.observed_speed_tau": 0.5}
+    return quadcos.make_env("flat", robot="quad12", turn_mode="abduction_stride", **commanded)
 
 
 def test_sizes_grow_only_with_commands_and_turning(commanded_env):
     plain = quadcos.make_env("flat", robot="quad12")
-    assert commanded_env.observation_size == plain.observation_size + 2 + 1  # command, turn filter
+    # the command, its observed speed, the turn's filtered action
+    assert commanded_env.observation_size == plain.observation_size + 2 + 1 + 1
     assert commanded_env.action_size == plain.action_size + 1
     unfiltered = dict(robot="quad12", action_filter_tau=0.0)
     assert (
@@ -347,14 +366,20 @@ def test_a_commanded_env_follows_its_schedule(commanded_env):
     reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
     state = reset(jax.random.split(jax.random.PRNGKey(0), 2))
     assert state.obs.shape == (2, env.observation_size)  # command and turn filter counted
-    np.testing.assert_allclose(state.obs[:, -2:], [[0.5, 0.0]] * 2)
+    np.testing.assert_allclose(state.obs[:, -3:], [[0.0, 0.5, 0.0]] * 2)  # speed 0 at a reset
     action = jnp.zeros((2, env.action_size)).at[:, -1].set(0.5)
     yaws, headings = [], []
     for _ in range(3):
+        last = np.asarray(state.obs[:, -3])
+        x_before = np.asarray(state.pipeline_state.qpos[:, 0])
         state = step(state, action)
         yaws.append(np.asarray(state.obs[:, 4]))
         headings.append(np.asarray(state.info["velocity_command"].heading))
         assert np.isfinite(np.asarray(state.obs)).all() and np.isfinite(state.reward).all()
+        # the observed speed: the step's progress (~ along x: the yaw stays small) low-passed
+        moved = np.asarray(state.pipeline_state.qpos[:, 0]) - x_before
+        expected = last + (1 - np.exp(-env.dt / 0.5)) * (moved / env.dt - last)
+        np.testing.assert_allclose(state.obs[:, -3], expected, atol=2e-3)
     # t = 0.05: still 0.5 m/s; from t = 0.1 on, the second segment, observed for the next step
     np.testing.assert_allclose(state.obs[:, -2:], [[1.0, 0.3]] * 2)
     np.testing.assert_allclose(headings[1], 0.0, atol=1e-7)  # ω* = 0 in the first two steps

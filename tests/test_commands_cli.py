@@ -76,9 +76,9 @@ def test_random_commands_are_drawn_in_range_and_resampled():
     follower.start(3)
     first = follower.velocity.copy()
     assert 0.2 <= first[0] <= 0.8 and abs(first[1]) <= 0.4
-    follower.track(0.0, 0.0, 0.0, 0.5, 0.5)
+    follower.track(0.0, 0.0, 0.0, 0.5, 0.5, 0.1)
     np.testing.assert_array_equal(follower.velocity, first)  # within the period: held
-    follower.track(0.0, 0.0, 0.5, 1.0, 0.5)
+    follower.track(0.0, 0.0, 0.5, 1.0, 0.5, 0.1)
     assert not np.array_equal(follower.velocity, first)  # crossed 1 s: drawn anew
     follower.start(3)
     np.testing.assert_array_equal(follower.velocity, first)  # the reset seed decides
@@ -102,6 +102,7 @@ def test_turn_twins_equal_the_oscillators(mode):
 def test_host_tracking_equals_the_envs(tracking):
     config = env_commands.default_config()
     config.update(spec="0.6,0.3@5", speed_max=1.0, yaw_rate_max=0.5, tracking=tracking)
+    config.observed_speed_tau = 0.3
     plan = env_commands.Plan(env_commands.validate(config), config)
     command = plan.start(jax.random.PRNGKey(0))
     follower = host_commands.HostCommands(config)
@@ -110,8 +111,13 @@ def test_host_tracking_equals_the_envs(tracking):
     for step, (before, yaw) in enumerate(zip(yaws[:-1], yaws[1:])):
         times = (0.05 * step, 0.05 * (step + 1))
         yaw_now, yaw_before = jnp.float32(yaw), jnp.float32(before)
-        env_tracking, command = plan.step(command, yaw_now, yaw_before, 0.05, *times)
-        host_tracking = follower.track(yaw, before, *times, 0.05)
+        moved = 0.02 + 0.01 * step
+        env_tracking, command = plan.step(
+            command, yaw_now, yaw_before, 0.05, *times, jnp.float32(moved)
+        )
+        host_tracking = follower.track(yaw, before, *times, 0.05, moved)
+        assert follower.speed == pytest.approx(float(command.speed), abs=1e-6)
+        assert follower.speed > 0
         assert set(host_tracking) == set(env_tracking)
         for key, value in host_tracking.items():
             assert value == pytest.approx(float(env_tracking[key]), abs=1e-5), (step, key)

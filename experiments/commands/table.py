@@ -130,6 +130,9 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1long_s2": "the preset (seed 2), 540 s",
     "go1utd2_s1": "the preset (seed 1), 540 s, two SAC updates per env step",
     "go1utd2_s2": "the preset (seed 2), 540 s, two SAC updates per env step",
+    "go1spd_s0": "the preset (seed 0), its speed observed (`commands.observed_speed_tau` 0.25 s),"
+    " 450 s, two runs sharing one GPU: its gait barely turns (b 6.69 m) and falls",
+    "go1spd_s1": "as `go1spd_s0`, seed 1",
     "go2long_s0": "the preset (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
     "anymal_conf_s0": "the preset, gait search `min_speed` 0.15, its 16 best confirmed on 256"
     " robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",

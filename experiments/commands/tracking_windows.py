@@ -9,7 +9,9 @@ nothing randomised.
 
 Each window: the mean forward speed along the heading against the mean commanded v*. A window
 holds whole control steps from the episode's start (the windows of an episode cut short by a fall
-end there). Per group: the RMS of the windows' errors and their share of the squared error.
+end there). Per group: the RMS of the windows' errors and their share of the squared error. Past
+each change's first window, `by_speed` splits the errors by the commanded v* (0.2-m/s bins): the
+mean error is the policy's steady bias at that speed, the RMS about it what varies.
 """
 
 import argparse
@@ -23,11 +25,14 @@ from quadcos.deploy import host_robot
 from quadcos.evaluation import rollout
 
 
+SPEED_BIN = 0.2  # m/s: the width of the commanded-speed bins of `by_speed`
+
+
 def window_errors(
     robot: host_robot.HostRobot, act, seed: int, seconds: float
-) -> list[tuple[float, float]]:
-    """(seconds since the command changed, speed error m/s) of each whole window of one
-    episode."""
+) -> list[tuple[float, float, float]]:
+    """(seconds since the command changed, commanded v* m/s, speed error m/s) of each whole
+    window of one episode."""
     obs, steps = robot.reset(seed), round(seconds / robot.dt)
     window = rollout.tracking_window_steps(robot.dt)
     period = robot.config.commands.resample_seconds
@@ -46,8 +51,28 @@ def window_errors(
         part = slice(start, start + window)
         speed = sum(progress[part]) / (window * robot.dt)
         since = round((start * robot.dt) % period, 3)
-        errors.append((since, speed - float(np.mean(commanded[part]))))
+        command = float(np.mean(commanded[part]))
+        errors.append((since, command, speed - command))
     return errors
+
+
+def by_speed(errors: list[tuple[float, float, float]]) -> list[dict]:
+    """Past each change's first window: per bin of commanded speed, the windows' mean error (the
+    bias) and their RMS about it."""
+    bins: dict[int, list[float]] = {}
+    for since, command, error in errors:
+        if since > 0:
+            bins.setdefault(int(command // SPEED_BIN), []).append(error)
+    return [
+        {
+            "commanded_from": round(index * SPEED_BIN, 3),
+            "commanded_to": round((index + 1) * SPEED_BIN, 3),
+            "windows": len(values),
+            "mean_error": float(np.mean(values)),
+            "rms_about_mean": float(np.std(values)),
+        }
+        for index, values in sorted(bins.items())
+    ]
 
 
 def main() -> None:
@@ -63,10 +88,10 @@ def main() -> None:
     errors = [
         e for seed in range(args.episodes) for e in window_errors(robot, act, seed, args.seconds)
     ]
-    total = sum(error**2 for _, error in errors)
+    total = sum(error**2 for _, _, error in errors)
     groups = []
-    for since in sorted({s for s, _ in errors}):
-        squares = [error**2 for s, error in errors if s == since]
+    for since in sorted({s for s, _, _ in errors}):
+        squares = [error**2 for s, _, error in errors if s == since]
         groups.append(
             {
                 "since_change_s": since,
@@ -81,9 +106,10 @@ def main() -> None:
         "seconds": args.seconds,
         "speed_tracking_rms": math.sqrt(total / len(errors)),
         "speed_tracking_rms_after_first_window": math.sqrt(
-            float(np.mean([error**2 for s, error in errors if s > 0]))
+            float(np.mean([error**2 for s, _, error in errors if s > 0]))
         ),
         "groups": groups,
+        "by_speed": by_speed(errors),
     }
     print(
         f"speed tracking RMS {record['speed_tracking_rms']:.3f} m/s over {len(errors)} windows;"
@@ -93,6 +119,12 @@ def main() -> None:
         print(
             f"  {group['since_change_s']:4.1f} s after a change: RMS {group['speed_rms']:.3f},"
             f" {group['share_of_squared_error']:.1%} of the squared error"
+        )
+    for row in record["by_speed"]:
+        print(
+            f"  v* {row['commanded_from']:.1f}-{row['commanded_to']:.1f} m/s: mean error"
+            f" {row['mean_error']:+.3f}, RMS about it {row['rms_about_mean']:.3f}"
+            f" ({row['windows']} windows)"
         )
     if args.out:
         Path(args.out).write_text(json.dumps(record, indent=1) + "\n")

@@ -51,23 +51,34 @@ class HostCommands:
         self._velocities = np.array([(s.speed, s.yaw_rate) for s in segments])
         self._ends = np.cumsum([s.seconds for s in segments])[:-1]
         self.velocity, self.heading, self.held = np.zeros(COMMAND_SIZE), 0.0, False
+        self.speed = 0.0  # m/s: the observed speed (`env.commands.low_passed_speed`)
         self._rng = np.random.default_rng(0)
 
     def start(self, seed: int | Sequence[int]) -> None:
         """An episode's first command (t = 0), its draws seeded by the reset seed `seed`."""
         self._rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
         self.velocity, self.heading, self.held = self._at(0.0), 0.0, False
+        self.speed = 0.0
 
     def steer(self, velocity: Sequence[float]) -> None:
         """Follow (v*, ω*) `velocity` from now until the next `start`."""
         self.velocity, self.held = np.asarray(velocity, np.float64), True
 
     def track(
-        self, yaw: float, yaw_before: float, time_before: float, time_now: float, dt: float
+        self,
+        yaw: float,
+        yaw_before: float,
+        time_before: float,
+        time_now: float,
+        dt: float,
+        moved: float,
     ) -> dict[str, float]:
         """The reward's command arguments for a control step of `dt` s from `time_before` to
-        `time_now` (s) in which the yaw went from `yaw_before` to `yaw` (rad), as the env's
-        `commands.Plan.step`; then the command moves on to the next step's."""
+        `time_now` (s) in which the yaw went from `yaw_before` to `yaw` (rad) and the robot moved
+        `moved` m along its heading at the step's start, as the env's `commands.Plan.step`; then
+        the command moves on to the next step's."""
+        tau = self.config.observed_speed_tau
+        self.speed = env_commands.low_passed_speed(self.speed, moved, dt, tau)
         progress, yaw_rate = self.velocity[0] * dt, self.velocity[1]
         if self.config.tracking == "yaw_rate":
             error = twins.wrap_angle(yaw - yaw_before) / dt - yaw_rate

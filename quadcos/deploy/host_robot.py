@@ -232,11 +232,14 @@ class HostRobot:
         if self.config.oscillator_form == "literal":
             self.phase = math.fmod(oscillator.TWO_PI * self.data.time / period, oscillator.TWO_PI)
         tracking = {}
+        x, y, _ = self.data.qpos[self.layout.position]
         if self.commands is not None:  # the env's _track: before the observation that shows it
             yaw = twins.attitude(self.layout.orientation(self.data)).yaw
-            tracking = self.commands.track(yaw, yaw_before, time_before, self.data.time, self.dt)
+            moved = (x - x_last) * math.cos(yaw_before) + (y - y_last) * math.sin(yaw_before)
+            tracking = self.commands.track(
+                yaw, yaw_before, time_before, self.data.time, self.dt, moved
+            )
         obs, body, slope_estimate = self._observe()
-        x, y, _ = self.data.qpos[self.layout.position]
         slope_truth = float(twins.slope_at(self.terrain, x, y))
         fell = bool(blown_up(self.data.qpos, self.data.qvel, np)) or self._fell(body, slope_truth)
         forward_speed = (x - x_last) / self.dt
@@ -314,6 +317,8 @@ class HostRobot:
         if self.config.action_filter_tau > 0:
             parts.append(self.command)
         if self.commands is not None:
+            if self.config.commands.observed_speed_tau > 0:
+                parts.append([self.commands.speed])
             parts.append(self.commands.velocity)
         return np.concatenate(parts), body, slope_estimate
 

@@ -62,6 +62,10 @@ def default_config() -> ml_collections.ConfigDict:
     config.resample_seconds = 5.0  # s: a random command is drawn anew this often in an episode
     config.heading_leash = 0.5  # rad: the most the commanded heading ψ* may lead or trail the yaw
     config.tracking = "heading"  # or "yaw_rate" (TRACKING; the module docstring)
+    # s: > 0 observes the robot's speed along its own heading, low-passed over this time constant
+    # (`Command.speed`), before (v*, ω*); 0: not observed (the policy sees the torso's velocity
+    # in the world frame only, as the paper's state has it)
+    config.observed_speed_tau = 0.0
     # The command's feed-forward (beyond the paper), off by default: each side's hip swing scaled
     # by its commanded speed, a differential drive (`drive_scales`), before the policy acts.
     config.feed_forward = False
@@ -174,6 +178,11 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}"
         )
+    if not 0 <= config.observed_speed_tau < math.inf:
+        raise ValueError(
+            f"commands.observed_speed_tau must be finite and >= 0 s; got"
+            f" {config.observed_speed_tau}"
+        )
     if config.tracking not in TRACKING:
         raise ValueError(
             f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
@@ -251,6 +260,9 @@ class Command:
     # state (observation included) and keeps `info`: its episodes all start with this command, so
     # that the first observation tells the truth (`restart`); later draws differ.
     initial: jax.Array
+    # () m/s: the robot's progress along its heading per second, low-passed over
+    # `observed_speed_tau` (`low_passed_speed`); 0 at a reset
+    speed: jax.Array
 
 
 class Plan:
@@ -270,14 +282,16 @@ class Plan:
         """The command at an episode's start (t = 0)."""
         rng, draw_key = jax.random.split(rng)
         velocity = self.at(draw_key, jnp.zeros(()))
-        return Command(velocity=velocity, heading=jnp.zeros(()), rng=rng, initial=velocity)
+        zero = jnp.zeros(())
+        return Command(velocity=velocity, heading=zero, rng=rng, initial=velocity, speed=zero)
 
     def restart(self, command: Command, just_reset: jax.Array) -> Command:
         """`command`, or where `just_reset` (an auto-reset restored the first state) its first
-        one again, the heading back at 0."""
+        one again, the heading and the observed speed back at 0."""
         return command.replace(
             velocity=jnp.where(just_reset, command.initial, command.velocity),
             heading=jnp.where(just_reset, 0.0, command.heading),
+            speed=jnp.where(just_reset, 0.0, command.speed),
         )
 
     def at(self, key: jax.Array, time: jax.Array) -> jax.Array:
@@ -295,12 +309,16 @@ class Plan:
         dt: float,
         time_before: jax.Array,
         time_now: jax.Array,
+        progress: jax.Array,
     ) -> tuple[dict[str, jax.Array], Command]:
         """The reward's command arguments for a control step of `dt` s from `time_before` to
-        `time_now` in which the robot's yaw went from `yaw_before` to `yaw` (rad): the commanded
-        progress v*·dt (m) and the heading ψ* advanced on its leash, or with `tracking="yaw_rate"`
-        the heading at the step's start and the yaw-rate error ω − ω* (rad/s); and the command
-        after the step (`advance`)."""
+        `time_now` in which the robot's yaw went from `yaw_before` to `yaw` (rad) and it moved
+        `progress` m along its heading at the step's start: the commanded progress v*·dt (m) and
+        the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
+        step's start and the yaw-rate error ω − ω* (rad/s); and the command after the step
+        (`advance`), its observed speed low-passed (`low_passed_speed`)."""
+        speed = low_passed_speed(command.speed, progress, dt, self.config.observed_speed_tau)
+        command = command.replace(speed=speed)
         yaw_rate, progress = command.velocity[1], command.velocity[0] * dt
         if self.config.tracking == "yaw_rate":
             error = wrap_angle(yaw - yaw_before) / dt - yaw_rate
@@ -333,6 +351,16 @@ def sample(key: jax.Array, config: ml_collections.ConfigDict) -> jax.Array:
     yaw_rate = jax.random.uniform(yaw_key, (), minval=-bound, maxval=bound)
     straight = jax.random.uniform(straight_key) < config.zero_yaw_rate_probability
     return jnp.stack([speed, jnp.where(straight, 0.0, yaw_rate)])
+
+
+def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
+    """The observed speed (m/s) after a control step of `dt` s that moved the robot `progress` m
+    along its heading: `speed` moved towards progress / dt by 1 − exp(−dt / τ), a first-order
+    filter of time constant `tau` s that smooths a gait's speed over its strides; `speed` as it
+    was for τ = 0 (not observed). NumPy or JAX alike."""
+    if tau <= 0:
+        return speed
+    return speed + (1.0 - math.exp(-dt / tau)) * (progress / dt - speed)
 
 
 def schedule_at(velocities: jax.Array, ends: jax.Array, time: jax.Array) -> jax.Array:

@@ -106,7 +106,8 @@ class QuadrupedEnv(base.Env):
         c = self.config
         filtered = self.action_size if c.action_filter_tau > 0 else 0
         joints = len(self.layout.joint_qpos)
-        return 6 + joints + c.observe_slope + 2 * c.observe_phase + filtered + 2 * self.commanded
+        command = (2 + (c.commands.observed_speed_tau > 0)) * self.commanded
+        return 6 + joints + c.observe_slope + 2 * c.observe_phase + filtered + command
 
     @property
     def action_size(self) -> int:
@@ -218,7 +219,7 @@ class QuadrupedEnv(base.Env):
         last = before.qpos[self.layout.position]
         forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
-        tracking, info = self._track(info, observed.attitude.yaw, before, data.time)
+        tracking, info = self._track(info, observed.attitude.yaw, before, data)
         terms = reward.reward_terms(
             x_now=position[0],
             x_last=last[0],
@@ -448,15 +449,18 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
-    def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, now: jax.Array):
-        """The reward's command arguments for a step from state `before` to time `now` (s), at
-        whose end the yaw is `yaw` (rad; none without commands: Eqs. 8–13), and `info` with the
-        command advanced (`commands.Plan`)."""
+    def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, data: mjx.Data):
+        """The reward's command arguments for a step from state `before` to `data`, at whose end
+        the yaw is `yaw` (rad; none without commands: Eqs. 8–13), and `info` with the command
+        advanced (`commands.Plan`)."""
         if not self.commanded:
             return {}, info
         yaw_before = slope.attitude(self.layout.orientation(before)).yaw
+        position = self.layout.position
+        dx, dy = data.qpos[position][:2] - before.qpos[position][:2]
+        progress = dx * jnp.cos(yaw_before) + dy * jnp.sin(yaw_before)
         tracking, following = self.commands.step(
-            info["velocity_command"], yaw, yaw_before, self.dt, before.time, now
+            info["velocity_command"], yaw, yaw_before, self.dt, before.time, data.time, progress
         )
         return tracking, {**info, "velocity_command": following}
 
@@ -499,10 +503,14 @@ class QuadrupedEnv(base.Env):
         return _Observed(obs=jnp.concatenate(parts), attitude=body, slope_estimate=slope_estimate)
 
     def _with_command(self, obs: jax.Array, info: dict[str, Any]) -> jax.Array:
-        """The observation with the velocity command (v*, ω*) last, where there are commands."""
+        """The observation with the velocity command (v*, ω*) last, where there are commands;
+        before it the observed speed (`commands.observed_speed_tau`)."""
         if not self.commanded:
             return obs
-        return jnp.concatenate([obs, info["velocity_command"].velocity])
+        command = info["velocity_command"]
+        if self.config.commands.observed_speed_tau > 0:
+            return jnp.concatenate([obs, command.speed[None], command.velocity])
+        return jnp.concatenate([obs, command.velocity])
 
 
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
