@@ -329,9 +329,11 @@ class _Rollout:
             )
 
         def one(model, data, joints, role, steps):
+            # No forward first: a step computes everything it uses from qpos (the warm start it
+            # reads back is one a forward never writes), as the env's reset leaves it to the step.
             qpos = data.qpos.at[layout.position].set(spawn)
             qpos = qpos.at[layout.quaternion].set(jnp.array([1.0, 0.0, 0.0, 0.0]))
-            data = mjx.forward(model, data.replace(qpos=qpos.at[layout.joint_qpos].set(joints)))
+            data = data.replace(qpos=qpos.at[layout.joint_qpos].set(joints))
             zero = jnp.zeros(())
             stats = _Stats(jnp.array(True), jnp.array(False), zero, zero, zero)
 
