@@ -418,3 +418,25 @@ def test_the_host_robot_lets_the_rhythm_in_as_the_env_does():
         robot.data.time = 0.25
     halfway = ramped._joint_targets(ramped.rhythm_parameters()) - home
     np.testing.assert_allclose(halfway, full / 2, atol=1e-12)
+
+
+def test_the_host_robot_observes_its_low_passed_speed_before_the_command():
+    """`commands.observed_speed_tau`: the robot's progress along its heading at each step's start,
+    low-passed, sits before (v*, ω*) — as `QuadrupedEnv._with_command` puts it."""
+    config = evaluation.env_config(
+        {"commands.spec": "0.5,0.2@5", "commands.observed_speed_tau": 0.3}
+    )
+    host = host_robot.HostRobot("flat", config)
+    obs = host.reset(0)
+    assert obs.size == 19 + 1 + 2  # the paper's state and the filtered command, speed, (v*, ω*)
+    np.testing.assert_allclose(obs[-3:], [0.0, 0.5, 0.2])
+    speed, blend, moving = 0.0, 1 - math.exp(-host.dt / 0.3), False
+    for _ in range(8):
+        (x, y) = host.data.qpos[:2].copy()
+        yaw = twins.attitude(host.layout.orientation(host.data)).yaw
+        obs = host.step(np.full(host.action_size, 0.3)).obs
+        dx, dy = host.data.qpos[:2] - (x, y)
+        speed += blend * ((dx * math.cos(yaw) + dy * math.sin(yaw)) / host.dt - speed)
+        assert obs[-3] == pytest.approx(speed, abs=1e-9)
+        moving |= abs(speed) > 1e-3
+    assert moving  # the robot moved: the filter saw something
