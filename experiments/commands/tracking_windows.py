@@ -11,7 +11,9 @@ Each window: the mean forward speed along the heading against the mean commanded
 holds whole control steps from the episode's start (the windows of an episode cut short by a fall
 end there). Per group: the RMS of the windows' errors and their share of the squared error. Past
 each change's first window, `by_speed` splits the errors by the commanded v* (0.2-m/s bins): the
-mean error is the policy's steady bias at that speed, the RMS about it what varies.
+mean error is the policy's steady bias at that speed, the RMS about it what varies;
+`feed_forward_by_speed` is the same for the zero action (the searched gait under the command's
+feed-forward alone, without what SAC learned), on the same episodes.
 """
 
 import argparse
@@ -88,6 +90,12 @@ def main() -> None:
     errors = [
         e for seed in range(args.episodes) for e in window_errors(robot, act, seed, args.seconds)
     ]
+    zero = np.zeros(robot.action_size)
+    alone = [
+        e
+        for seed in range(args.episodes)
+        for e in window_errors(robot, lambda obs: zero, seed, args.seconds)
+    ]
     total = sum(error**2 for _, _, error in errors)
     groups = []
     for since in sorted({s for s, _, _ in errors}):
@@ -110,6 +118,10 @@ def main() -> None:
         ),
         "groups": groups,
         "by_speed": by_speed(errors),
+        "feed_forward_speed_tracking_rms": math.sqrt(
+            float(np.mean([error**2 for _, _, error in alone]))
+        ),
+        "feed_forward_by_speed": by_speed(alone),
     }
     print(
         f"speed tracking RMS {record['speed_tracking_rms']:.3f} m/s over {len(errors)} windows;"
@@ -120,11 +132,15 @@ def main() -> None:
             f"  {group['since_change_s']:4.1f} s after a change: RMS {group['speed_rms']:.3f},"
             f" {group['share_of_squared_error']:.1%} of the squared error"
         )
+    alone_bias = {
+        row["commanded_from"]: row["mean_error"] for row in record["feed_forward_by_speed"]
+    }
     for row in record["by_speed"]:
         print(
             f"  v* {row['commanded_from']:.1f}-{row['commanded_to']:.1f} m/s: mean error"
             f" {row['mean_error']:+.3f}, RMS about it {row['rms_about_mean']:.3f}"
-            f" ({row['windows']} windows)"
+            f" ({row['windows']} windows); the feed-forward alone"
+            f" {alone_bias.get(row['commanded_from'], math.nan):+.3f}"
         )
     if args.out:
         Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
