@@ -105,10 +105,13 @@ def test_random_commands_are_resampled_every_period_only():
         seen.append(np.asarray(command.velocity))
     changes = [i for i in range(1, len(seen)) if not np.array_equal(seen[i], seen[i - 1])]
     assert [float(times[i]) for i in changes] == [1.0, 2.0, 3.0]
-    moved = command.replace(heading=jnp.float32(0.3), speed=jnp.float32(0.4))
+    moved = command.replace(
+        heading=jnp.float32(0.3), speed=jnp.float32(0.4), gain=jnp.float32(0.7)
+    )
     restarted = plan.restart(moved, jnp.bool_(True))
     np.testing.assert_array_equal(restarted.velocity, command.initial)
     assert float(restarted.heading) == 0.0 and float(restarted.speed) == 0.0
+    assert float(restarted.gain) == 1.0
 
 
 def test_the_observed_speed_settles_on_the_mean_of_a_strided_walk():
@@ -123,6 +126,26 @@ def test_the_observed_speed_settles_on_the_mean_of_a_strided_walk():
     assert abs(late.mean() - 0.5) < 0.02 and np.ptp(late) < 0.05
     assert seen[9] < 0.5 * 0.7  # after 0.5 s (one τ): 1 − e⁻¹ of the way, not there yet
     assert commands.low_passed_speed(0.3, 0.04, dt, 0.0) == 0.3  # τ = 0: not observed
+
+
+def test_the_drives_gain_settles_where_the_robot_walks_its_command():
+    """A robot whose strides walk 1.3× what the drive asks (speed = 1.3 · g · v*, strided): the
+    gain integrates the relative error to 1 / 1.3; it holds below GAIN_MIN_SPEED, stays within
+    GAIN_RANGE, and is 1 for ever at rate 0. NumPy and JAX give the same numbers."""
+    dt, gain, gains = 0.05, 1.0, []
+    for step in range(400):
+        speed = 1.3 * gain * 0.6 * (0.5 if step % 2 else 1.5)  # strided about 1.3 g v*
+        gain = commands.corrected_gain(gain, 0.6, speed * dt, dt, 1.0, np)
+        gains.append(gain)
+    assert abs(np.mean(gains[-20:]) - 1 / 1.3) < 0.02
+    assert commands.corrected_gain(1.2, 0.05, 0.0, dt, 1.0, np) == 1.2  # v* too slow: held
+    assert commands.corrected_gain(0.51, 0.6, 0.06, dt, 50.0, np) == commands.GAIN_RANGE[0]
+    assert commands.corrected_gain(1.0, 0.6, 0.0, dt, 0.0, np) == 1.0
+    jax_gain = commands.corrected_gain(jnp.float32(0.9), 0.6, 0.02, dt, 2.0, jnp)
+    assert float(jax_gain) == pytest.approx(commands.corrected_gain(0.9, 0.6, 0.02, dt, 2.0, np))
+    np.testing.assert_allclose(
+        commands.driven(jnp.asarray([[0.5, 0.2]]), jnp.asarray([0.8])), [[0.4, 0.2]]
+    )
 
 
 def test_schedule_against_numpy():

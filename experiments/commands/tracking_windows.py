@@ -21,11 +21,11 @@ import json
 import math
 from pathlib import Path
 
+import ml_collections
 import numpy as np
 
 from quadcos.deploy import host_robot
 from quadcos.evaluation import rollout
-
 
 SPEED_BIN = 0.2  # m/s: the width of the commanded-speed bins of `by_speed`
 
@@ -82,10 +82,19 @@ def main() -> None:
     parser.add_argument("--policy", required=True)
     parser.add_argument("--episodes", type=int, default=32)
     parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument(
+        "--speed_gain_rate",
+        type=float,
+        help="the drive's speed-gain rate (1/s, env.commands.speed_gain_rate); default: the policy's",
+    )
     parser.add_argument("--out")
     args = parser.parse_args()
     pilot = host_robot.Pilot.load(args.policy)
-    robot = host_robot.HostRobot("flat", pilot.config, physics="training", commands="random")
+    config = pilot.config
+    if args.speed_gain_rate is not None:
+        config = ml_collections.ConfigDict(config.to_dict())
+        config.commands.speed_gain_rate = args.speed_gain_rate
+    robot = host_robot.HostRobot("flat", config, physics="training", commands="random")
     act = pilot.actor()
     errors = [
         e for seed in range(args.episodes) for e in window_errors(robot, act, seed, args.seconds)
@@ -110,6 +119,7 @@ def main() -> None:
         )
     record = {
         "policy": args.policy,
+        "speed_gain_rate": config.commands.speed_gain_rate,
         "episodes": args.episodes,
         "seconds": args.seconds,
         "speed_tracking_rms": math.sqrt(total / len(errors)),

@@ -52,13 +52,14 @@ class HostCommands:
         self._ends = np.cumsum([s.seconds for s in segments])[:-1]
         self.velocity, self.heading, self.held = np.zeros(COMMAND_SIZE), 0.0, False
         self.speed = 0.0  # m/s: the observed speed (`env.commands.low_passed_speed`)
+        self.gain = 1.0  # the drive's speed gain (`env.commands.corrected_gain`)
         self._rng = np.random.default_rng(0)
 
     def start(self, seed: int | Sequence[int]) -> None:
         """An episode's first command (t = 0), its draws seeded by the reset seed `seed`."""
         self._rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
         self.velocity, self.heading, self.held = self._at(0.0), 0.0, False
-        self.speed = 0.0
+        self.speed, self.gain = 0.0, 1.0
 
     def steer(self, velocity: Sequence[float]) -> None:
         """Follow (v*, ω*) `velocity` from now until the next `start`."""
@@ -77,8 +78,11 @@ class HostCommands:
         `time_now` (s) in which the yaw went from `yaw_before` to `yaw` (rad) and the robot moved
         `moved` m along its heading at the step's start, as the env's `commands.Plan.step`; then
         the command moves on to the next step's."""
-        tau = self.config.observed_speed_tau
+        tau, rate = self.config.observed_speed_tau, self.config.speed_gain_rate
         self.speed = env_commands.low_passed_speed(self.speed, moved, dt, tau)
+        self.gain = float(
+            env_commands.corrected_gain(self.gain, self.velocity[0], moved, dt, rate, np)
+        )
         progress, yaw_rate = self.velocity[0] * dt, self.velocity[1]
         if self.config.tracking == "yaw_rate":
             error = twins.wrap_angle(yaw - yaw_before) / dt - yaw_rate
@@ -97,6 +101,10 @@ class HostCommands:
             if np.floor(time_now / period) > np.floor(time_before / period):
                 self.velocity = self._at(time_now)
         return tracking
+
+    def driven(self) -> np.ndarray:
+        """(2,) the velocity the drive is asked for: (g·v*, ω*) (`env.commands.driven`)."""
+        return env_commands.driven(self.velocity, self.gain, np)
 
     def _at(self, time: float) -> np.ndarray:
         """(2,) a fresh draw ("random") or the schedule's segment at `time` (s)."""

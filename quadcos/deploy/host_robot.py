@@ -285,7 +285,7 @@ class HostRobot:
         if self.commands is not None and config.commands.feed_forward:
             drive = config.commands
             scales = twins.drive_scales(
-                self.commands.velocity,
+                self.commands.driven(),
                 env_commands.speed_map(drive),
                 drive.half_track,
                 drive.scale_max,

@@ -47,6 +47,9 @@ DEFAULT_FROUDE = 0.25
 DEFAULT_TURN_RADIUS = 2.0
 # The hip-swing scales at which the feed-forward's speed map is measured (`speed_map`).
 SPEED_MAP_SCALES = (0.25, 0.5, 0.75, 1.0)
+# The drive's speed gain (`corrected_gain`): its range, and the least v* (m/s) it is corrected at.
+GAIN_RANGE = (0.5, 2.0)
+GAIN_MIN_SPEED = 0.1
 
 
 def default_config() -> ml_collections.ConfigDict:
@@ -77,6 +80,9 @@ def default_config() -> ml_collections.ConfigDict:
     # 0 = the robot's (mean |hip y|)
     config.half_track = 0.0
     config.scale_max = 1.5  # the largest |scale| of a side's hip swing
+    # 1/s: > 0 closes the feed-forward's loop on speed: the drive asks for g·v*, the gain g moved
+    # each control step by this rate × the relative speed error (`corrected_gain`); 0: g = 1
+    config.speed_gain_rate = 0.0
     return config
 
 
@@ -187,7 +193,7 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
         )
-    for key in ("reference_speed", "scale_max"):
+    for key in ("reference_speed", "scale_max", "speed_gain_rate"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     if not math.isfinite(config.half_track):
@@ -263,6 +269,8 @@ class Command:
     # () m/s: the robot's progress along its heading per second, low-passed over
     # `observed_speed_tau` (`low_passed_speed`); 0 at a reset
     speed: jax.Array
+    # () the drive's speed gain g (`corrected_gain`): the feed-forward walks g·v*; 1 at a reset
+    gain: jax.Array
 
 
 class Plan:
@@ -282,16 +290,19 @@ class Plan:
         """The command at an episode's start (t = 0)."""
         rng, draw_key = jax.random.split(rng)
         velocity = self.at(draw_key, jnp.zeros(()))
-        zero = jnp.zeros(())
-        return Command(velocity=velocity, heading=zero, rng=rng, initial=velocity, speed=zero)
+        zero, one = jnp.zeros(()), jnp.ones(())
+        return Command(
+            velocity=velocity, heading=zero, rng=rng, initial=velocity, speed=zero, gain=one
+        )
 
     def restart(self, command: Command, just_reset: jax.Array) -> Command:
         """`command`, or where `just_reset` (an auto-reset restored the first state) its first
-        one again, the heading and the observed speed back at 0."""
+        one again, the heading and the observed speed back at 0, the drive's gain at 1."""
         return command.replace(
             velocity=jnp.where(just_reset, command.initial, command.velocity),
             heading=jnp.where(just_reset, 0.0, command.heading),
             speed=jnp.where(just_reset, 0.0, command.speed),
+            gain=jnp.where(just_reset, 1.0, command.gain),
         )
 
     def at(self, key: jax.Array, time: jax.Array) -> jax.Array:
@@ -316,9 +327,12 @@ class Plan:
         `progress` m along its heading at the step's start: the commanded progress v*·dt (m) and
         the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
         step's start and the yaw-rate error ω − ω* (rad/s); and the command after the step
-        (`advance`), its observed speed low-passed (`low_passed_speed`)."""
+        (`advance`), its observed speed low-passed (`low_passed_speed`) and its drive's gain
+        corrected (`corrected_gain`)."""
         speed = low_passed_speed(command.speed, progress, dt, self.config.observed_speed_tau)
-        command = command.replace(speed=speed)
+        rate = self.config.speed_gain_rate
+        gain = corrected_gain(command.gain, command.velocity[0], progress, dt, rate, jnp)
+        command = command.replace(speed=speed, gain=gain)
         yaw_rate, progress = command.velocity[1], command.velocity[0] * dt
         if self.config.tracking == "yaw_rate":
             error = wrap_angle(yaw - yaw_before) / dt - yaw_rate
@@ -361,6 +375,28 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
     if tau <= 0:
         return speed
     return speed + (1.0 - math.exp(-dt / tau)) * (progress / dt - speed)
+
+
+def corrected_gain(
+    gain: Any, commanded: Any, progress: Any, dt: float, rate: float, xp: Any = jnp
+) -> Any:
+    """The drive's speed gain g after a control step of `dt` s in which the robot, asked for v* =
+    `commanded` m/s, moved `progress` m along its heading: g + rate·dt·(v* − progress/dt) / v*,
+    an integral controller on the relative speed error (a robot that walks its strides faster
+    than the speed map says gets shorter ones), held where v* < GAIN_MIN_SPEED (trotting in
+    place has no speed to correct) and kept within GAIN_RANGE; `gain` itself for rate 0. With
+    `xp` numpy or jax.numpy."""
+    if rate <= 0:
+        return gain
+    moving = commanded >= GAIN_MIN_SPEED
+    error = (commanded - progress / dt) / xp.maximum(commanded, GAIN_MIN_SPEED)
+    return xp.clip(gain + xp.where(moving, rate * dt * error, 0.0), *GAIN_RANGE)
+
+
+def driven(velocity: Any, gain: Any, xp: Any = jnp) -> Any:
+    """(..., 2) the velocity the drive is asked for: (g·v*, ω*) for commands (..., 2) (v*, ω*)
+    and the drive's speed gain g (`corrected_gain`); with `xp` numpy or jax.numpy."""
+    return xp.stack([gain * velocity[..., 0], velocity[..., 1]], axis=-1)
 
 
 def schedule_at(velocities: jax.Array, ends: jax.Array, time: jax.Array) -> jax.Array:

@@ -401,7 +401,10 @@ class QuadrupedEnv(base.Env):
             # into the substep loop, where each splat one is a broadcast kernel every substep;
             # behind a barrier they are built once a control step (docs/benchmarks.md).
             model = jax.lax.optimization_barrier(model)
-        drive = self.drive_for(info["velocity_command"].velocity) if self.commanded else None
+        drive = None
+        if self.commanded:
+            command_now = info["velocity_command"]
+            drive = self.drive_for(commands.driven(command_now.velocity, command_now.gain))
 
         def substep(carry, index):
             data, phase, command = carry
