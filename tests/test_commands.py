@@ -144,7 +144,7 @@ def test_the_drives_gain_settles_where_the_robot_walks_its_command():
     jax_gain = commands.corrected_gain(jnp.float32(0.9), 0.6, 0.02, dt, 2.0, jnp)
     assert float(jax_gain) == pytest.approx(commands.corrected_gain(0.9, 0.6, 0.02, dt, 2.0, np))
     np.testing.assert_allclose(
-        commands.driven(jnp.asarray([[0.5, 0.2]]), jnp.asarray([0.8])), [[0.4, 0.2]]
+        commands.driven(jnp.asarray([[0.5, 0.2]]), jnp.asarray([0.8])), [[0.4, 0.16]]
     )
 
 

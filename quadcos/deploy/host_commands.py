@@ -103,7 +103,7 @@ class HostCommands:
         return tracking
 
     def driven(self) -> np.ndarray:
-        """(2,) the velocity the drive is asked for: (g·v*, ω*) (`env.commands.driven`)."""
+        """(2,) the velocity the drive is asked for: g·(v*, ω*) (`env.commands.driven`)."""
         return env_commands.driven(self.velocity, self.gain, np)
 
     def _at(self, time: float) -> np.ndarray:

@@ -47,7 +47,7 @@ DEFAULT_FROUDE = 0.25
 DEFAULT_TURN_RADIUS = 2.0
 # The hip-swing scales at which the feed-forward's speed map is measured (`speed_map`).
 SPEED_MAP_SCALES = (0.25, 0.5, 0.75, 1.0)
-# The drive's speed gain (`corrected_gain`): its range, and the least v* (m/s) it is corrected at.
+# The drive's gain (`corrected_gain`): its range, and the least v* (m/s) it is corrected at.
 GAIN_RANGE = (0.5, 2.0)
 GAIN_MIN_SPEED = 0.1
 
@@ -80,8 +80,8 @@ def default_config() -> ml_collections.ConfigDict:
     # 0 = the robot's (mean |hip y|)
     config.half_track = 0.0
     config.scale_max = 1.5  # the largest |scale| of a side's hip swing
-    # 1/s: > 0 closes the feed-forward's loop on speed: the drive asks for g·v*, the gain g moved
-    # each control step by this rate × the relative speed error (`corrected_gain`); 0: g = 1
+    # 1/s: > 0 closes the feed-forward's loop on speed: the drive asks for g·(v*, ω*), the gain g
+    # moved each control step by this rate × the relative speed error (`corrected_gain`); 0: g = 1
     config.speed_gain_rate = 0.0
     return config
 
@@ -380,7 +380,7 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
 def corrected_gain(
     gain: Any, commanded: Any, progress: Any, dt: float, rate: float, xp: Any = jnp
 ) -> Any:
-    """The drive's speed gain g after a control step of `dt` s in which the robot, asked for v* =
+    """The drive's gain g after a control step of `dt` s in which the robot, asked for v* =
     `commanded` m/s, moved `progress` m along its heading: g + rate·dt·(v* − progress/dt) / v*,
     an integral controller on the relative speed error (a robot that walks its strides faster
     than the speed map says gets shorter ones), held where v* < GAIN_MIN_SPEED (trotting in
@@ -394,9 +394,10 @@ def corrected_gain(
 
 
 def driven(velocity: Any, gain: Any, xp: Any = jnp) -> Any:
-    """(..., 2) the velocity the drive is asked for: (g·v*, ω*) for commands (..., 2) (v*, ω*)
-    and the drive's speed gain g (`corrected_gain`); with `xp` numpy or jax.numpy."""
-    return xp.stack([gain * velocity[..., 0], velocity[..., 1]], axis=-1)
+    """(..., 2) the velocity the drive is asked for: g·(v*, ω*) for commands (..., 2) (v*, ω*)
+    and the drive's speed gain g (`corrected_gain`): a robot whose strides walk faster than the
+    speed map says turns faster by its side differences too; with `xp` numpy or jax.numpy."""
+    return velocity * xp.asarray(gain)[..., None]
 
 
 def schedule_at(velocities: jax.Array, ends: jax.Array, time: jax.Array) -> jax.Array:
