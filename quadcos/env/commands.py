@@ -320,18 +320,18 @@ class Plan:
         dt: float,
         time_before: jax.Array,
         time_now: jax.Array,
-        progress: jax.Array,
+        moved: jax.Array,
     ) -> tuple[dict[str, jax.Array], Command]:
         """The reward's command arguments for a control step of `dt` s from `time_before` to
         `time_now` in which the robot's yaw went from `yaw_before` to `yaw` (rad) and it moved
-        `progress` m along its heading at the step's start: the commanded progress v*·dt (m) and
+        `moved` m along its heading at the step's start: the commanded progress v*·dt (m) and
         the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
         step's start and the yaw-rate error ω − ω* (rad/s); and the command after the step
         (`advance`), its observed speed low-passed (`low_passed_speed`) and its drive's gain
         corrected (`corrected_gain`)."""
-        speed = low_passed_speed(command.speed, progress, dt, self.config.observed_speed_tau)
+        speed = low_passed_speed(command.speed, moved, dt, self.config.observed_speed_tau)
         rate = self.config.speed_gain_rate
-        gain = corrected_gain(command.gain, command.velocity[0], progress, dt, rate, jnp)
+        gain = corrected_gain(command.gain, command.velocity[0], moved, dt, rate, jnp)
         command = command.replace(speed=speed, gain=gain)
         yaw_rate, progress = command.velocity[1], command.velocity[0] * dt
         if self.config.tracking == "yaw_rate":

@@ -219,7 +219,8 @@ class QuadrupedEnv(base.Env):
         last = before.qpos[self.layout.position]
         forward_speed = (position[0] - last[0]) / self.dt
         mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
-        tracking, info = self._track(info, observed.attitude.yaw, before, data)
+        moved = position - last
+        tracking, info = self._track(info, observed.attitude.yaw, before, data.time, moved)
         terms = reward.reward_terms(
             x_now=position[0],
             x_last=last[0],
@@ -346,10 +347,13 @@ class QuadrupedEnv(base.Env):
             targets = oscillator.side_scaled(targets, drive)
         return targets
 
-    def drive_for(self, velocity: jax.Array) -> jax.Array | None:
-        """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set
-        (`commands.drive`), or None without commands or the feed-forward."""
-        return commands.drive(self.config.commands, velocity) if self.commanded else None
+    def drive_for(self, velocity: jax.Array, gain: jax.Array | float = 1.0) -> jax.Array | None:
+        """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set under
+        the drive's gain (`commands.driven`, `commands.drive`), or None without commands or the
+        feed-forward."""
+        if not self.commanded:
+            return None
+        return commands.drive(self.config.commands, commands.driven(velocity, jnp.asarray(gain)))
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -401,10 +405,8 @@ class QuadrupedEnv(base.Env):
             # into the substep loop, where each splat one is a broadcast kernel every substep;
             # behind a barrier they are built once a control step (docs/benchmarks.md).
             model = jax.lax.optimization_barrier(model)
-        drive = None
-        if self.commanded:
-            command_now = info["velocity_command"]
-            drive = self.drive_for(commands.driven(command_now.velocity, command_now.gain))
+        following = info.get("velocity_command")
+        drive = self.drive_for(following.velocity, following.gain) if self.commanded else None
 
         def substep(carry, index):
             data, phase, command = carry
@@ -452,18 +454,16 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
-    def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, data: mjx.Data):
-        """The reward's command arguments for a step from state `before` to `data`, at whose end
-        the yaw is `yaw` (rad; none without commands: Eqs. 8–13), and `info` with the command
-        advanced (`commands.Plan`)."""
+    def _track(self, info: dict[str, Any], yaw, before: mjx.Data, now, moved: jax.Array):
+        """The reward's command arguments for a step from state `before` to time `now` (s), at
+        whose end the yaw is `yaw` (rad; none without commands: Eqs. 8–13) and the torso has moved
+        by `moved` (x, y, z; m), and `info` with the command advanced (`commands.Plan`)."""
         if not self.commanded:
             return {}, info
         yaw_before = slope.attitude(self.layout.orientation(before)).yaw
-        position = self.layout.position
-        dx, dy = data.qpos[position][:2] - before.qpos[position][:2]
-        progress = dx * jnp.cos(yaw_before) + dy * jnp.sin(yaw_before)
+        progress = moved[0] * jnp.cos(yaw_before) + moved[1] * jnp.sin(yaw_before)
         tracking, following = self.commands.step(
-            info["velocity_command"], yaw, yaw_before, self.dt, before.time, data.time, progress
+            info["velocity_command"], yaw, yaw_before, self.dt, before.time, now, progress
         )
         return tracking, {**info, "velocity_command": following}
 

@@ -15,7 +15,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from quadcos import env as env_lib
-from quadcos.env import commands as env_commands
 from quadcos.env import episodes
 from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import sources
@@ -114,9 +113,7 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
     drive = None
     if env.commanded:
         following = state.info["velocity_command"]
-        drive = env.drive_for(
-            env_commands.driven(following.velocity[index], following.gain[index])
-        )
+        drive = env.drive_for(following.velocity[index], following.gain[index])
     snapshot = {
         "time": time_now,
         "cog_x": qpos[0],
