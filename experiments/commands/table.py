@@ -133,6 +133,10 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1spd_s0": "the preset (seed 0), its speed observed (`commands.observed_speed_tau` 0.25 s),"
     " 450 s, two runs sharing one GPU: its gait barely turns (b 6.69 m) and falls",
     "go1spd_s1": "as `go1spd_s0`, seed 1",
+    "go1gain_s0": "the preset (seed 0) with the drive's gain (`commands.speed_gain_rate` 1), 300 s:"
+    " its feed-forward measured under the gain (map 0.25 … 1.01 m/s, v_ref 1.01)",
+    "go1gain_s1": "as `go1gain_s0`, seed 1",
+    "go1gain_s2": "as `go1gain_s0`, seed 2",
     "go2long_s0": "the preset (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
     "anymal_conf_s0": "the preset, gait search `min_speed` 0.15, its 16 best confirmed on 256"
     " robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
