@@ -282,13 +282,19 @@ def no_preset() -> str:
 
 
 ENGINES = ("MJX (JAX)", "C MuJoCo", "C MuJoCo, ONNX policy")
-ENGINE_POLICIES = ("unitree_go1_command", "unitree_go2_command")  # NAME_engines.json each
+# NAME_engines.json -> (the policy, the flags every engine runs it with)
+ENGINE_RUNS = {
+    "unitree_go1_command": ("unitree_go1_command", ()),
+    "unitree_go2_command": ("unitree_go2_command", ()),
+    # the drive's gain closed at evaluation (docs/env.md), the policy trained without it
+    "unitree_go1_command_gain": ("unitree_go1_command", ("--env.commands.speed_gain_rate=1",)),
+}
 
 
 def engines() -> str:
     """The rows of the sim-to-sim table: each command policy on SCHEDULE in each engine."""
     rows = []
-    for name in ENGINE_POLICIES:
+    for name in ENGINE_RUNS:
         record = _load(f"{name}_engines.json")
         for label in ENGINES:
             e = record["engines"][label]
@@ -302,11 +308,12 @@ def engines() -> str:
 
 
 def measure_engines(name: str, episodes: int = 64) -> None:
-    """NAME_engines.json: the policy `../policies/NAME` on SCHEDULE, nominal physics, `episodes`
-    episodes of 20 s in MJX (quadcos.evaluate), C MuJoCo (quadcos.sim2sim) and C MuJoCo with its
-    ONNX export; each engine's evaluation summary without its per-episode data."""
-    policy = POLICIES / name
-    common = [f"--commands={SCHEDULE}", "--seconds=20", "--no_progress"]
+    """NAME_engines.json: the policy of ENGINE_RUNS[NAME] on SCHEDULE with its flags, nominal
+    physics, `episodes` episodes of 20 s in MJX (quadcos.evaluate), C MuJoCo (quadcos.sim2sim) and
+    C MuJoCo with its ONNX export; each engine's evaluation summary without its per-episode data."""
+    policy_name, flags = ENGINE_RUNS[name]
+    policy = POLICIES / policy_name
+    common = [f"--commands={SCHEDULE}", "--seconds=20", "--no_progress", *flags]
     summaries = {}
     with tempfile.TemporaryDirectory() as scratch:
         onnx = Path(scratch) / f"{name}.onnx"
@@ -325,7 +332,8 @@ def measure_engines(name: str, episodes: int = 64) -> None:
             summary = json.loads(out.read_text())
             summary.pop("episodes", None)
             summaries[label] = summary
-    record = {"policy": f"experiments/policies/{name}", "commands": SCHEDULE, "engines": summaries}
+    record = {"policy": f"experiments/policies/{policy_name}", "flags": list(flags),
+              "commands": SCHEDULE, "engines": summaries}
     (HERE / f"{name}_engines.json").write_text(json.dumps(record, indent=1) + "\n")
 
 
@@ -369,8 +377,8 @@ if __name__ == "__main__":
     if sys.argv[1:] == ["--figure"]:
         figure()
     elif sys.argv[1:2] == ["--engines"]:
-        for policy_name in sys.argv[2:] or ENGINE_POLICIES:
-            measure_engines(policy_name)
+        for record_name in sys.argv[2:] or ENGINE_RUNS:
+            measure_engines(record_name)
     else:
         print(table())
         print()
