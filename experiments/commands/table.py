@@ -107,6 +107,34 @@ def levers() -> str:
     return "\n".join(rows)
 
 
+GAIN_RECORD = HERE.parent.parent / "results" / "commands_speed_gain_1024.json"
+
+
+def gain() -> str:
+    """The rows of the drive's-gain table: each shipped policy without the gain (its evaluation
+    and robustness JSONs here) and with it at 1/s (the record's sources), 1024 episodes each."""
+    sources = {
+        Path(source["path"]).stem: source["summary"]
+        for source in json.loads(GAIN_RECORD.read_text())["sources"]
+    }
+    rows = []
+    for robot in ("go1", "go2"):
+        runs = {
+            "off": (_load(f"unitree_{robot}_eval.json"), _load(f"unitree_{robot}_robustness.json")),
+            "1/s": (sources[f"{robot}_gain_rate1_eval"], sources[f"{robot}_gain_rate1_robustness"]),
+        }
+        for rate, (evaluation, robust) in runs.items():
+            nominal = robust["conditions"]["nominal"]
+            rows.append(
+                f"| `unitree_{robot}_command` | {rate} | {evaluation['success_rate']:.3f} |"
+                f" {evaluation['speed_tracking_rms']:.3f}, {evaluation['yaw_rate_tracking_rms']:.3f} |"
+                f" {evaluation['mean_max_abs_pitch_error']:.3f},"
+                f" {evaluation['mean_max_abs_roll']:.3f} | {_survival(robust)} |"
+                f" {nominal['speed_tracking_rms']:.3f}, {nominal['yaw_rate_tracking_rms']:.3f} |"
+            )
+    return "\n".join(rows)
+
+
 CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1_s0": "v_ref",
     "go2_s0": "v_ref",
@@ -362,7 +390,7 @@ def check() -> list[str]:
     """The generated table rows that README.md lacks (none: its tables are the records')."""
     readme = set((HERE / "README.md").read_text().splitlines())
     blocks = (
-        table(), seeds(), seeds(SEEDS_540), campaign(), anymal(), sac_levers(), engines(), levers(),
+        table(), seeds(), seeds(SEEDS_540), gain(), campaign(), anymal(), sac_levers(), engines(), levers(),
         no_preset(),
     )
     return [line for block in blocks for line in block.splitlines() if line not in readme]
@@ -385,6 +413,8 @@ if __name__ == "__main__":
         print(seeds())
         print()
         print(seeds(SEEDS_540))
+        print()
+        print(gain())
         print()
         print(campaign())
         print()
