@@ -55,6 +55,11 @@ def _rates(conditions) -> str:
     return " / ".join(f"{c['success_rate']:.3f}" for c in conditions)
 
 
+def _tracking(values: dict) -> str:
+    """A tracking cell: "speed RMS, yaw-rate RMS" of an evaluation or a condition."""
+    return f"{values['speed_tracking_rms']:.3f}, {values['yaw_rate_tracking_rms']:.3f}"
+
+
 def table() -> str:
     evals = {r: _load(f"{r}_eval.json") for r in RUNS}
     robust = {r: _load(f"{r}_robustness.json") for r in RUNS}
@@ -124,13 +129,11 @@ def gain() -> str:
             "1/s": (sources[f"{robot}_gain_rate1_eval"], sources[f"{robot}_gain_rate1_robustness"]),
         }
         for rate, (evaluation, robust) in runs.items():
-            nominal = robust["conditions"]["nominal"]
             rows.append(
                 f"| `unitree_{robot}_command` | {rate} | {evaluation['success_rate']:.3f} |"
-                f" {evaluation['speed_tracking_rms']:.3f}, {evaluation['yaw_rate_tracking_rms']:.3f} |"
-                f" {evaluation['mean_max_abs_pitch_error']:.3f},"
+                f" {_tracking(evaluation)} | {evaluation['mean_max_abs_pitch_error']:.3f},"
                 f" {evaluation['mean_max_abs_roll']:.3f} | {_survival(robust)} |"
-                f" {nominal['speed_tracking_rms']:.3f}, {nominal['yaw_rate_tracking_rms']:.3f} |"
+                f" {_tracking(robust['conditions']['nominal'])} |"
             )
     return "\n".join(rows)
 
@@ -213,8 +216,8 @@ def seeds(names: tuple[str, ...] = SEEDS) -> str:
         rows.append(
             f"| {_flag(run['argv'], '--seed')} | {kept['policy_env_steps'] / 1e6:.1f} M | "
             + _rates(conditions.values())
-            + f" | {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f} |"
-            f" {nominal['speed_tracking_rms']:.3f}, {nominal['yaw_rate_tracking_rms']:.3f} |"
+            + f" | {_tracking(kept)} |"
+            f" {_tracking(nominal)} |"
             f" {kept['mean_max_abs_pitch_error']:.3f}, {kept['mean_max_abs_roll']:.3f} |"
         )
     return "\n".join(rows)
@@ -244,7 +247,7 @@ def sac_levers() -> str:
             f" ({last['env_steps'] / 1e6:.1f} M) | {run['kept']['policy_env_steps'] / 1e6:.1f} M | "
             + _rates(conditions) + " | "
             + " | ".join(
-                f"{c['speed_tracking_rms']:.3f}, {c['yaw_rate_tracking_rms']:.3f}"
+                f"{_tracking(c)}"
                 for c in conditions
             ) + " |"
         )
@@ -258,12 +261,11 @@ def campaign() -> str:
     for name, drive in CAMPAIGN.items():
         run, kept, last = runs[name], runs[name]["kept"], runs[name]["last"]
         survival = _rates((run["robustness"] or {}).values()) or "not measured"
-        tracking = "{speed_tracking_rms:.3f}, {yaw_rate_tracking_rms:.3f}"
         rows.append(
             f"| `{name}` | {drive} | {kept['policy_env_steps'] / 1e6:.1f} M | {survival} |"
-            f" {tracking.format(**kept)} | {kept['mean_max_abs_pitch_error']:.3f},"
+            f" {_tracking(kept)} | {kept['mean_max_abs_pitch_error']:.3f},"
             f" {kept['mean_max_abs_roll']:.3f} |"
-            + (f" {last['policy_env_steps'] / 1e6:.1f} M: {tracking.format(**last)} |" if last
+            + (f" {last['policy_env_steps'] / 1e6:.1f} M: {_tracking(last)} |" if last
                else f" stopped: {run['stopped'].split(' in the chunk')[0]} |")
         )
     return "\n".join(rows)
@@ -284,7 +286,7 @@ def anymal() -> str:
             f" {kept['policy_env_steps'] / 1e6:.1f} M | "
             + _rates(conditions.values())
             + f" | {conditions['nominal']['mean_max_abs_pitch_error']:.2f} |"
-            f" {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f} |"
+            f" {_tracking(kept)} |"
         )
     return "\n".join(rows)
 
@@ -302,7 +304,7 @@ def no_preset() -> str:
         if kept:
             policy = (
                 f"{kept['policy_env_steps'] / 1e6:.1f} M | {_rates(run['robustness'].values())} |"
-                f" {kept['speed_tracking_rms']:.3f}, {kept['yaw_rate_tracking_rms']:.3f}"
+                f" {_tracking(kept)}"
             )
         whole = run["env_steps_per_s"] / 1e3
         rows.append(f"| `{name}` | {loads} | {physics} | {first:.1f} k / {whole:.1f} k | {policy} |")

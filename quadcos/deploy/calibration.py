@@ -3,16 +3,16 @@
 The feed-forward sets each side's hip swing to the scale that walks its commanded speed, the sides
 apart by ω*·b (`quadcos.env.commands.drive_scales`): a differential drive. Neither the scale that
 walks a speed nor the effective half track b is known before the gait is: a stride's speed is not
-proportional to its scale and depends on the ground (on Go1's searched gait at scale 1: 1.34 m/s
-at friction 0.4, 0.65 m/s at 1.5), a legged robot's feet slip and its diagonal pairs couple the
-sides, so b is several times the hips' half track. Both are measured here on the found gait,
-walking in C MuJoCo (with the training solver) for a few seconds on flat ground without
-randomisation or the drive's gain (`commands.speed_gain_rate`, which corrects what the map
-misses; with it on, every scale would walk its own command): straight at each of `commands.SPEED_MAP_SCALES`, averaged over the low end, the
-middle and the high end of the run's friction range, those at which it stays up (the speed
-map, `commands.speed_map`, which the drive inverts); straight at scale 1 on the MJCF's ground
-(v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v'/ω, v' the map's speed per
-unit of scale, its speed at scale 1, or v_ref without a map; b < 0 where the gait's phases make
+proportional to its scale and depends on the ground (on Go1's searched gait at scale 1: 1.34 m/s at
+friction 0.4, 0.65 m/s at 1.5), a legged robot's feet slip and its diagonal pairs couple the sides,
+so b is several times the hips' half track. Both are measured here on the found gait, walking in C
+MuJoCo (with the training solver) for a few seconds on flat ground without randomisation or the
+drive's gain (`commands.speed_gain_rate`, which corrects what the map misses; with it on, every
+scale would walk its own command): straight at each of `commands.SPEED_MAP_SCALES`, averaged over
+the low end, the middle and the high end of the run's friction range, those at which it stays up
+(the speed map, `commands.speed_map`, which the drive inverts); straight at scale 1 on the MJCF's
+ground (v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v'/ω, v' the map's speed
+per unit of scale, its speed at scale 1, or v_ref without a map; b < 0 where the gait's phases make
 the longer strides of the right side turn it right). A fresh policy then walks near v* and turns
 near ω*, and SAC learns what the drive misses.
 

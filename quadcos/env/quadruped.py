@@ -454,7 +454,8 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
-    def _track(self, info: dict[str, Any], yaw, before: mjx.Data, now, moved: jax.Array):
+    def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, now: jax.Array,
+               moved: jax.Array):
         """The reward's command arguments for a step from state `before` to time `now` (s), at
         whose end the yaw is `yaw` (rad; none without commands: Eqs. 8–13) and the torso has moved
         by `moved` (x, y, z; m), and `info` with the command advanced (`commands.Plan`)."""
