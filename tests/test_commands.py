@@ -148,6 +148,29 @@ def test_the_drives_gain_settles_where_the_robot_walks_its_command():
     )
 
 
+def test_the_heading_loop_turns_a_lagging_robot_towards_the_commanded_heading():
+    """k·(ψ* − yaw), wrapped: a robot 0.2 rad behind ψ* is turned faster (2 rad/s·0.2 = 0.4
+    rad/s onto ω*), one ahead slower, one across ±π the short way; none at k = 0. The env's
+    command after a step holds the correction the next step's drive adds to ω*."""
+    assert float(commands.steering(0.3, 0.1, 2.0, np)) == pytest.approx(0.4)
+    assert float(commands.steering(-0.1, 0.1, 2.0, np)) == pytest.approx(-0.4)
+    assert float(commands.steering(3.1, -3.1, 1.0, np)) == pytest.approx(6.2 - 2 * np.pi)
+    assert float(commands.steering(0.3, 0.1, 0.0, np)) == 0.0
+    np.testing.assert_allclose(
+        commands.driven(np.asarray([0.5, 0.2]), 0.8, np, 0.1), [0.4, 0.24], rtol=1e-6
+    )
+    config = commands.default_config()
+    config.update(spec="0.5,0.4@5", speed_max=1.0, yaw_rate_max=0.5, tracking="yaw_rate")
+    config.heading_gain = 2.0
+    plan = commands.Plan(commands.validate(config), config)
+    command = plan.start(jax.random.PRNGKey(0))
+    _, command = plan.step(
+        command, jnp.float32(0.0), jnp.float32(0.0), 0.05, 0.0, 0.05, jnp.float32(0.02)
+    )
+    assert float(command.heading) == pytest.approx(0.02)  # ψ* = ω*·dt, the robot did not turn
+    assert float(command.correction) == pytest.approx(0.04)
+
+
 def test_schedule_against_numpy():
     spec = commands.parse_commands("0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5")
     plan = commands.Plan(spec, _config())

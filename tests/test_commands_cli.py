@@ -102,7 +102,7 @@ def test_turn_twins_equal_the_oscillators(mode):
 def test_host_tracking_equals_the_envs(tracking):
     config = env_commands.default_config()
     config.update(spec="0.6,0.3@5", speed_max=1.0, yaw_rate_max=0.5, tracking=tracking)
-    config.observed_speed_tau, config.speed_gain_rate = 0.3, 1.5
+    config.observed_speed_tau, config.speed_gain_rate, config.heading_gain = 0.3, 1.5, 2.0
     plan = env_commands.Plan(env_commands.validate(config), config)
     command = plan.start(jax.random.PRNGKey(0))
     follower = host_commands.HostCommands(config)
@@ -118,6 +118,7 @@ def test_host_tracking_equals_the_envs(tracking):
         host_tracking = follower.track(yaw, before, *times, 0.05, moved)
         assert follower.speed == pytest.approx(float(command.speed), abs=1e-6)
         assert follower.gain == pytest.approx(float(command.gain), abs=1e-6)
+        assert follower.correction == pytest.approx(float(command.correction), abs=1e-5)
         assert follower.speed > 0 and follower.gain != 1.0
         assert set(host_tracking) == set(env_tracking)
         for key, value in host_tracking.items():

@@ -168,6 +168,10 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " its feed-forward measured under the gain (map 0.25 … 1.01 m/s, v_ref 1.01)",
     "go1gain_s1": "as `go1gain_s0`, seed 1",
     "go1gain_s2": "as `go1gain_s0`, seed 2",
+    "go1gain2_s0": "the preset (seed 0) with the drive's gain, 300 s, its feed-forward measured"
+    " with the gain off",
+    "go1gain2_s1": "as `go1gain2_s0`, seed 1",
+    "go1gain2_s2": "as `go1gain2_s0`, seed 2",
     "go2long_s0": "the preset (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
     "anymal_conf_s0": "the preset, gait search `min_speed` 0.15, its 16 best confirmed on 256"
     " robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
@@ -197,6 +201,7 @@ NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path a
 }
 SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
 SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")  # the same, --config.sac.max_seconds=540
+SEEDS_GAIN = ("go1gain2_s0", "go1gain2_s1", "go1gain2_s2")  # the same, 300 s, the drive's gain
 
 
 def _flag(argv: list[str], name: str) -> str:
@@ -392,8 +397,8 @@ def check() -> list[str]:
     """The generated table rows that README.md lacks (none: its tables are the records')."""
     readme = set((HERE / "README.md").read_text().splitlines())
     blocks = (
-        table(), seeds(), seeds(SEEDS_540), gain(), campaign(), anymal(), sac_levers(), engines(), levers(),
-        no_preset(),
+        table(), seeds(), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(), campaign(), anymal(),
+        sac_levers(), engines(), levers(), no_preset(),
     )
     return [line for block in blocks for line in block.splitlines() if line not in readme]
 
@@ -415,6 +420,8 @@ if __name__ == "__main__":
         print(seeds())
         print()
         print(seeds(SEEDS_540))
+        print()
+        print(seeds(SEEDS_GAIN))
         print()
         print(gain())
         print()

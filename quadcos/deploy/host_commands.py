@@ -53,13 +53,14 @@ class HostCommands:
         self.velocity, self.heading, self.held = np.zeros(COMMAND_SIZE), 0.0, False
         self.speed = 0.0  # m/s: the observed speed (`env.commands.low_passed_speed`)
         self.gain = 1.0  # the drive's speed gain (`env.commands.corrected_gain`)
+        self.correction = 0.0  # rad/s: the drive's heading correction (`env.commands.steering`)
         self._rng = np.random.default_rng(0)
 
     def start(self, seed: int | Sequence[int]) -> None:
         """An episode's first command (t = 0), its draws seeded by the reset seed `seed`."""
         self._rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
         self.velocity, self.heading, self.held = self._at(0.0), 0.0, False
-        self.speed, self.gain = 0.0, 1.0
+        self.speed, self.gain, self.correction = 0.0, 1.0, 0.0
 
     def steer(self, velocity: Sequence[float]) -> None:
         """Follow (v*, ω*) `velocity` from now until the next `start`."""
@@ -84,14 +85,16 @@ class HostCommands:
             env_commands.corrected_gain(self.gain, self.velocity[0], moved, dt, rate, np)
         )
         progress, yaw_rate = self.velocity[0] * dt, self.velocity[1]
-        if self.config.tracking == "yaw_rate":
-            error = twins.wrap_angle(yaw - yaw_before) / dt - yaw_rate
-            tracking = {"heading": yaw_before, "commanded_progress": progress}
-            tracking["yaw_rate_error"] = error
-        else:
+        if self.config.tracking == "heading" or self.config.heading_gain > 0:
             leash = self.config.heading_leash
             self.heading = twins.advance_heading(self.heading, yaw_rate, yaw, dt, leash)
-            tracking = {"heading": self.heading, "commanded_progress": progress}
+        self.correction = float(
+            env_commands.steering(self.heading, yaw, self.config.heading_gain, np)
+        )
+        tracking = {"heading": self.heading, "commanded_progress": progress}
+        if self.config.tracking == "yaw_rate":
+            tracking["heading"] = yaw_before
+            tracking["yaw_rate_error"] = twins.wrap_angle(yaw - yaw_before) / dt - yaw_rate
         if self.held:
             return tracking
         if self.spec.mode != env_commands.RANDOM:
@@ -103,8 +106,8 @@ class HostCommands:
         return tracking
 
     def driven(self) -> np.ndarray:
-        """(2,) the velocity the drive is asked for: g·(v*, ω*) (`env.commands.driven`)."""
-        return env_commands.driven(self.velocity, self.gain, np)
+        """(2,) the velocity the drive is asked for: g·(v*, ω* + s) (`env.commands.driven`)."""
+        return env_commands.driven(self.velocity, self.gain, np, self.correction)
 
     def _at(self, time: float) -> np.ndarray:
         """(2,) a fresh draw ("random") or the schedule's segment at `time` (s)."""

@@ -83,6 +83,9 @@ def default_config() -> ml_collections.ConfigDict:
     # 1/s: > 0 closes the feed-forward's loop on speed: the drive asks for g·(v*, ω*), the gain g
     # moved each control step by this rate × the relative speed error (`corrected_gain`); 0: g = 1
     config.speed_gain_rate = 0.0
+    # 1/s: > 0 closes the drive's loop on heading: it turns at ω* + k·(ψ* − yaw) for this k, ψ* the
+    # integrated ω* on its leash (`steering`); 0: it turns at ω*
+    config.heading_gain = 0.0
     return config
 
 
@@ -193,7 +196,7 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
         )
-    for key in ("reference_speed", "scale_max", "speed_gain_rate"):
+    for key in ("reference_speed", "scale_max", "speed_gain_rate", "heading_gain"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     if not math.isfinite(config.half_track):
@@ -271,6 +274,8 @@ class Command:
     speed: jax.Array
     # () the drive's speed gain g (`corrected_gain`): the feed-forward walks g·v*; 1 at a reset
     gain: jax.Array
+    # () rad/s: the drive's heading correction (`steering`), added to ω*; 0 at a reset
+    correction: jax.Array
 
 
 class Plan:
@@ -292,17 +297,25 @@ class Plan:
         velocity = self.at(draw_key, jnp.zeros(()))
         zero, one = jnp.zeros(()), jnp.ones(())
         return Command(
-            velocity=velocity, heading=zero, rng=rng, initial=velocity, speed=zero, gain=one
+            velocity=velocity,
+            heading=zero,
+            rng=rng,
+            initial=velocity,
+            speed=zero,
+            gain=one,
+            correction=zero,
         )
 
     def restart(self, command: Command, just_reset: jax.Array) -> Command:
         """`command`, or where `just_reset` (an auto-reset restored the first state) its first
-        one again, the heading and the observed speed back at 0, the drive's gain at 1."""
+        one again, the heading, the observed speed and the drive's correction back at 0, its gain
+        at 1."""
         return command.replace(
             velocity=jnp.where(just_reset, command.initial, command.velocity),
             heading=jnp.where(just_reset, 0.0, command.heading),
             speed=jnp.where(just_reset, 0.0, command.speed),
             gain=jnp.where(just_reset, 1.0, command.gain),
+            correction=jnp.where(just_reset, 0.0, command.correction),
         )
 
     def at(self, key: jax.Array, time: jax.Array) -> jax.Array:
@@ -327,21 +340,23 @@ class Plan:
         `moved` m along its heading at the step's start: the commanded progress v*·dt (m) and
         the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
         step's start and the yaw-rate error ω − ω* (rad/s); and the command after the step
-        (`advance`), its observed speed low-passed (`low_passed_speed`) and its drive's gain
-        corrected (`corrected_gain`)."""
+        (`advance`), its observed speed low-passed (`low_passed_speed`), its drive's gain
+        corrected (`corrected_gain`) and its heading correction set (`steering`)."""
         speed = low_passed_speed(command.speed, moved, dt, self.config.observed_speed_tau)
         rate = self.config.speed_gain_rate
         gain = corrected_gain(command.gain, command.velocity[0], moved, dt, rate, jnp)
         command = command.replace(speed=speed, gain=gain)
         yaw_rate, progress = command.velocity[1], command.velocity[0] * dt
-        if self.config.tracking == "yaw_rate":
-            error = wrap_angle(yaw - yaw_before) / dt - yaw_rate
-            tracking = {"heading": yaw_before, "commanded_progress": progress}
-            tracking["yaw_rate_error"] = error
-            return tracking, self.advance(command, time_before, time_now)
-        heading = advance_heading(command.heading, yaw_rate, yaw, dt, self.config.heading_leash)
+        heading = command.heading
+        if self.config.tracking == "heading" or self.config.heading_gain > 0:
+            heading = advance_heading(heading, yaw_rate, yaw, dt, self.config.heading_leash)
+        correction = steering(heading, yaw, self.config.heading_gain, jnp)
+        command = command.replace(heading=heading, correction=correction)
         tracking = {"heading": heading, "commanded_progress": progress}
-        return tracking, self.advance(command.replace(heading=heading), time_before, time_now)
+        if self.config.tracking == "yaw_rate":
+            tracking["heading"] = yaw_before
+            tracking["yaw_rate_error"] = wrap_angle(yaw - yaw_before) / dt - yaw_rate
+        return tracking, self.advance(command, time_before, time_now)
 
     def advance(self, command: Command, time_before: jax.Array, time_now: jax.Array) -> Command:
         """The command after a control step from `time_before` to `time_now` (s): a random
@@ -393,11 +408,26 @@ def corrected_gain(
     return xp.clip(gain + xp.where(moving, rate * dt * error, 0.0), *GAIN_RANGE)
 
 
-def driven(velocity: Any, gain: Any, xp: Any = jnp) -> Any:
-    """(..., 2) the velocity the drive is asked for: g·(v*, ω*) for commands (..., 2) (v*, ω*)
-    and the drive's speed gain g (`corrected_gain`): a robot whose strides walk faster than the
-    speed map says turns faster by its side differences too; with `xp` numpy or jax.numpy."""
-    return velocity * xp.asarray(gain)[..., None]
+def steering(heading: Any, yaw: Any, gain: float, xp: Any = jnp) -> Any:
+    """rad/s: the drive's heading correction k·(ψ* − yaw) for the commanded heading ψ* `heading`
+    and the robot's `yaw` (rad; the difference wrapped to [−π, π], at most the leash) and the
+    heading gain k = `gain` (1/s): a proportional loop on the heading, which turns a slow wobble
+    of the yaw rate about ω* back onto the commanded course; 0 for k = 0. With `xp` numpy or
+    jax.numpy."""
+    if gain <= 0:
+        return xp.zeros_like(xp.asarray(heading))
+    error = xp.mod(xp.asarray(heading) - yaw + math.pi, 2 * math.pi) - math.pi
+    return gain * error
+
+
+def driven(velocity: Any, gain: Any, xp: Any = jnp, correction: Any = 0.0) -> Any:
+    """(..., 2) the velocity the drive is asked for: g·(v*, ω* + s) for commands (..., 2) (v*,
+    ω*), the drive's speed gain g (`corrected_gain`) and heading correction s (rad/s,
+    `steering`): a robot whose strides walk faster than the speed map says turns faster by its
+    side differences too; with `xp` numpy or jax.numpy."""
+    correction = xp.asarray(correction)
+    corrected = xp.stack([velocity[..., 0], velocity[..., 1] + correction], axis=-1)
+    return corrected * xp.asarray(gain)[..., None]
 
 
 def schedule_at(velocities: jax.Array, ends: jax.Array, time: jax.Array) -> jax.Array:

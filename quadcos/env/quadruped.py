@@ -347,13 +347,19 @@ class QuadrupedEnv(base.Env):
             targets = oscillator.side_scaled(targets, drive)
         return targets
 
-    def drive_for(self, velocity: jax.Array, gain: jax.Array | float = 1.0) -> jax.Array | None:
+    def drive_for(
+        self,
+        velocity: jax.Array,
+        gain: jax.Array | float = 1.0,
+        correction: jax.Array | float = 0.0,
+    ) -> jax.Array | None:
         """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set under
-        the drive's gain (`commands.driven`, `commands.drive`), or None without commands or the
-        feed-forward."""
+        the drive's gain and heading correction (`commands.driven`, `commands.drive`), or None
+        without commands or the feed-forward."""
         if not self.commanded:
             return None
-        return commands.drive(self.config.commands, commands.driven(velocity, jnp.asarray(gain)))
+        driven = commands.driven(velocity, jnp.asarray(gain), jnp, correction)
+        return commands.drive(self.config.commands, driven)
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -406,7 +412,9 @@ class QuadrupedEnv(base.Env):
             # behind a barrier they are built once a control step (docs/benchmarks.md).
             model = jax.lax.optimization_barrier(model)
         following = info.get("velocity_command")
-        drive = self.drive_for(following.velocity, following.gain) if self.commanded else None
+        drive = None
+        if self.commanded:
+            drive = self.drive_for(following.velocity, following.gain, following.correction)
 
         def substep(carry, index):
             data, phase, command = carry

@@ -113,7 +113,9 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
     drive = None
     if env.commanded:
         following = state.info["velocity_command"]
-        drive = env.drive_for(following.velocity[index], following.gain[index])
+        drive = env.drive_for(
+            following.velocity[index], following.gain[index], following.correction[index]
+        )
     snapshot = {
         "time": time_now,
         "cog_x": qpos[0],
