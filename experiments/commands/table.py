@@ -112,15 +112,20 @@ def levers() -> str:
     return "\n".join(rows)
 
 
-GAIN_RECORD = HERE.parent.parent / "results" / "commands_speed_gain_1024.json"
+GAIN_RECORDS = tuple(  # the drive's gain, and with it its heading loop, 1024 episodes each
+    HERE.parent.parent / "results" / f"{name}.json"
+    for name in ("commands_speed_gain_1024", "commands_heading_loop_1024")
+)
 
 
 def gain() -> str:
-    """The rows of the drive's-gain table: each shipped policy without the gain (its evaluation
-    and robustness JSONs here) and with it at 1/s (the record's sources), 1024 episodes each."""
+    """The rows of the drive's-gain table: each shipped policy without the drive's loops (its
+    evaluation and robustness JSONs here), with the gain at 1/s and, for Go1, with the heading
+    loop at 2/s too (the records' sources), 1024 episodes each."""
     sources = {
         Path(source["path"]).stem: source["summary"]
-        for source in json.loads(GAIN_RECORD.read_text())["sources"]
+        for record in GAIN_RECORDS
+        for source in json.loads(record.read_text())["sources"]
     }
     rows = []
     for robot in ("go1", "go2"):
@@ -128,6 +133,11 @@ def gain() -> str:
             "off": (_load(f"unitree_{robot}_eval.json"), _load(f"unitree_{robot}_robustness.json")),
             "1/s": (sources[f"{robot}_gain_rate1_eval"], sources[f"{robot}_gain_rate1_robustness"]),
         }
+        if f"{robot}_gain_heading_eval" in sources:
+            runs["1/s, heading loop 2/s"] = (
+                sources[f"{robot}_gain_heading_eval"],
+                sources[f"{robot}_gain_heading_robustness"],
+            )
         for rate, (evaluation, robust) in runs.items():
             rows.append(
                 f"| `unitree_{robot}_command` | {rate} | {evaluation['success_rate']:.3f} |"
