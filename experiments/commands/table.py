@@ -333,6 +333,11 @@ ENGINE_RUNS = {
     "unitree_go2_command": ("unitree_go2_command", ()),
     # the drive's gain closed at evaluation (docs/env.md), the policy trained without it
     "unitree_go1_command_gain": ("unitree_go1_command", ("--env.commands.speed_gain_rate=1",)),
+    # and the drive's heading loop (docs/env.md)
+    "unitree_go1_command_loops": (
+        "unitree_go1_command",
+        ("--env.commands.speed_gain_rate=1", "--env.commands.heading_gain=2"),
+    ),
 }
 
 
