@@ -323,8 +323,9 @@ def test_the_feed_forward_leaves_out_the_walks_that_fall(monkeypatch):
     assert math.isnan(calibration.standing_mean([math.nan, math.nan, 0.3], 2))
 
     def walk(config, schedule, seed, robots, friction=None):  # falls on ice with long strides
-        # the open-loop gait is walked: a drive's gain would make every scale walk its command
-        assert config.commands.speed_gain_rate == 0.0
+        # the open-loop gait is walked: a drive's gain would make every scale walk its command,
+        # its heading loop the side difference turn at ω*
+        assert config.commands.speed_gain_rate == 0.0 and config.commands.heading_gain == 0.0
         scale = float(schedule.split(",")[0])
         if friction == 0.4 and scale > 0.5:
             return math.nan, math.nan
@@ -338,6 +339,7 @@ def test_the_feed_forward_leaves_out_the_walks_that_fall(monkeypatch):
             "randomization.enabled": True,
             "randomization.friction": (0.4, 1.5),
             "commands.speed_gain_rate": 1.0,
+            "commands.heading_gain": 2.0,
         }
     )
     measured = calibration.measure(config)

@@ -7,8 +7,9 @@ proportional to its scale and depends on the ground (on Go1's searched gait at s
 friction 0.4, 0.65 m/s at 1.5), a legged robot's feet slip and its diagonal pairs couple the sides,
 so b is several times the hips' half track. Both are measured here on the found gait, walking in C
 MuJoCo (with the training solver) for a few seconds on flat ground without randomisation or the
-drive's gain (`commands.speed_gain_rate`, which corrects what the map misses; with it on, every
-scale would walk its own command): straight at each of `commands.SPEED_MAP_SCALES`, averaged over
+drive's loops (`commands.speed_gain_rate`, which corrects what the map misses: with it on, every
+scale would walk its own command; `commands.heading_gain`: the sides' difference would turn at
+the command's ω*): straight at each of `commands.SPEED_MAP_SCALES`, averaged over
 the low end, the middle and the high end of the run's friction range, those at which it stays up
 (the speed map, `commands.speed_map`, which the drive inverts); straight at scale 1 on the MJCF's
 ground (v_ref), then with the sides at 1 ∓ δ (its yaw rate ω gives b = δ·v'/ω, v' the map's speed
@@ -70,6 +71,7 @@ def measure(
         frictions = [low, (low + high) / 2, high]
     config.randomization.enabled = False
     config.commands.speed_gain_rate = 0.0  # the open-loop gait: the gain corrects this map's miss
+    config.commands.heading_gain = 0.0  # and the heading loop would turn the walk at its ω*
     config.commands.reference_speed = 1.0  # the command (1, ω*) is then the scales themselves
     config.commands.half_track = 1.0
     config.commands.speed_map = ()
