@@ -277,6 +277,10 @@ class Command:
     # () rad/s: the drive's heading correction (`steering`), added to ω*; 0 at a reset
     correction: jax.Array
 
+    def driven(self) -> jax.Array:
+        """(..., 2) the velocity the drive is asked for: g·(v*, ω* + s) (`driven`)."""
+        return driven(self.velocity, self.gain, jnp, self.correction)
+
 
 class Plan:
     """A parsed spec made into arrays for the env's step (fixed data, like the env)."""

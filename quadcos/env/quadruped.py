@@ -347,19 +347,11 @@ class QuadrupedEnv(base.Env):
             targets = oscillator.side_scaled(targets, drive)
         return targets
 
-    def drive_for(
-        self,
-        velocity: jax.Array,
-        gain: jax.Array | float = 1.0,
-        correction: jax.Array | float = 0.0,
-    ) -> jax.Array | None:
-        """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set under
-        the drive's gain and heading correction (`commands.driven`, `commands.drive`), or None
-        without commands or the feed-forward."""
-        if not self.commanded:
-            return None
-        driven = commands.driven(velocity, jnp.asarray(gain), jnp, correction)
-        return commands.drive(self.config.commands, driven)
+    def drive_for(self, velocity: jax.Array) -> jax.Array | None:
+        """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set
+        (`commands.drive`; a command's loops closed: `commands.Command.driven`), or None without
+        commands or the feed-forward."""
+        return commands.drive(self.config.commands, velocity) if self.commanded else None
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -411,10 +403,7 @@ class QuadrupedEnv(base.Env):
             # into the substep loop, where each splat one is a broadcast kernel every substep;
             # behind a barrier they are built once a control step (docs/benchmarks.md).
             model = jax.lax.optimization_barrier(model)
-        following = info.get("velocity_command")
-        drive = None
-        if self.commanded:
-            drive = self.drive_for(following.velocity, following.gain, following.correction)
+        drive = self.drive_for(info["velocity_command"].driven()) if self.commanded else None
 
         def substep(carry, index):
             data, phase, command = carry

@@ -112,10 +112,7 @@ def _snapshot(env: env_lib.QuadrupedEnv, state: Any, index: jax.Array) -> dict[s
     command, phase = state.info["command"][index], state.info["phase"][index]
     drive = None
     if env.commanded:
-        following = state.info["velocity_command"]
-        drive = env.drive_for(
-            following.velocity[index], following.gain[index], following.correction[index]
-        )
+        drive = env.drive_for(state.info["velocity_command"].driven()[index])
     snapshot = {
         "time": time_now,
         "cog_x": qpos[0],
