@@ -16,6 +16,7 @@ from quadcos.env import commands
 from quadcos.equations import oscillator, reward
 from quadcos.evaluation import metrics, rollout
 from quadcos.robot import presets
+from quadcos.training import presets as training_presets
 
 # --- the spec ---------------------------------------------------------------------------------
 
@@ -169,6 +170,14 @@ def test_the_heading_loop_turns_a_lagging_robot_towards_the_commanded_heading():
     )
     assert float(command.heading) == pytest.approx(0.02)  # ψ* = ω*·dt, the robot did not turn
     assert float(command.correction) == pytest.approx(0.04)
+
+
+def test_the_command_preset_closes_both_loops_and_the_papers_presets_leave_them_open():
+    closed = training_presets.build_config(training_presets.PRESETS["command"], {}).env.commands
+    assert (closed.speed_gain_rate, closed.heading_gain) == (1.0, 2.0)
+    for name in ("gpu", "any_slope", "robust"):
+        opened = training_presets.build_config(training_presets.PRESETS[name], {}).env.commands
+        assert (opened.speed_gain_rate, opened.heading_gain) == (0.0, 0.0)
 
 
 def test_schedule_against_numpy():

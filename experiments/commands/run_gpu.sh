@@ -29,6 +29,8 @@ split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops 
     echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
 }
 case $verb in levers|anymal) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
+# the levers were measured with the drive's loops open (the command preset closes them)
+loops_open="--config.env.commands.speed_gain_rate=0 --config.env.commands.heading_gain=0"
 
 case $verb in
 train)
@@ -99,7 +101,7 @@ levers)  # SAC's levers (issue 58, item 4) on one fixed start: Go2 seed 0 from t
   gait="--config.env.action_centre=0.231045,0.298314,0.177211,-5.65389,-2.5123"
   gait+=" --config.env.commands.reference_speed=1.3913 --config.env.commands.half_track=0.5838"
   gait+=" --config.env.commands.speed_map=0.2614,0.5511,0.8493,1.1565"
-  gait+=" --config.sac.max_seconds=270"
+  gait+=" --config.sac.max_seconds=270 $loops_open"
   rate="--config.env.commands.tracking=yaw_rate" ln="--config.sac.critic_layer_norm=True"
   fw3="--config.env.reward.forward=450" heading="--config.env.commands.tracking=heading"
   declare -A lever=(  # against the preset before these levers: heading tracking, Brax's SAC
@@ -127,7 +129,7 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
   # with its gait search floored at 0.15 m/s, 16 gaits confirmed on 256 robots each, 20 / 20 solver
   # iterations, and the lever's flags; runs share the GPUs (MJX-Warp where warp-lang is installed).
   base="--config.sac.gait_search.min_speed=0.15 --config.sac.gait_search.confirm_robots=256"
-  base+=" --config.env.solver_iterations=20 --config.env.ls_iterations=20"
+  base+=" --config.env.solver_iterations=20 --config.env.ls_iterations=20 $loops_open"
   ref="--config.env.commands.reference_speed=0.4 --config.env.commands.scale_max=1.0"
   trot="--config.env.action_centre=0.459,-0.246,0.264,-3.14159,0.0"  # anybotics_anymal_c_open_loop
   # that trot's feed-forward, measured as a search's would be (README, "ANYmal C levers")

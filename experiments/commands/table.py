@@ -114,38 +114,43 @@ def levers() -> str:
 
 GAIN_RECORDS = tuple(  # the drive's gain, and with it its heading loop, 1024 episodes each
     HERE.parent.parent / "results" / f"{name}.json"
-    for name in ("commands_speed_gain_1024", "commands_heading_loop_1024")
+    for name in (
+        "commands_speed_gain_1024", "commands_heading_loop_1024", "commands_go2_loops_1024"
+    )
 )
+LOOPS_POLICIES = {  # robot -> its run trained with the loops open, that run's JSONs' stem here
+    "go1": ("go1_rate_s0", "unitree_go1_no_loops"),
+    "go2": ("go2long_s0", "unitree_go2"),
+}
 
 
 def gain() -> str:
-    """The rows of the drive's-gain table: each shipped policy without the drive's loops (its
-    evaluation and robustness JSONs here), with the gain at 1/s and, for Go1, with the heading
-    loop at 2/s too (the records' sources), 1024 episodes each."""
+    """The rows of the drive's-loops table: each policy trained without the loops (its evaluation
+    and robustness JSONs here) with them open, with the gain at 1/s and with the heading loop at
+    2/s too (the records' sources); then Go1's policy trained with both. 1024 episodes each."""
     sources = {
         Path(source["path"]).stem: source["summary"]
         for record in GAIN_RECORDS
         for source in json.loads(record.read_text())["sources"]
     }
-    rows = []
-    for robot in ("go1", "go2"):
-        runs = {
-            "off": (_load(f"unitree_{robot}_eval.json"), _load(f"unitree_{robot}_robustness.json")),
-            "1/s": (sources[f"{robot}_gain_rate1_eval"], sources[f"{robot}_gain_rate1_robustness"]),
-        }
-        if f"{robot}_gain_heading_eval" in sources:
-            runs["1/s, heading loop 2/s"] = (
-                sources[f"{robot}_gain_heading_eval"],
-                sources[f"{robot}_gain_heading_robustness"],
-            )
-        for rate, (evaluation, robust) in runs.items():
-            rows.append(
-                f"| `unitree_{robot}_command` | {rate} | {evaluation['success_rate']:.3f} |"
-                f" {_tracking(evaluation)} | {evaluation['mean_max_abs_pitch_error']:.3f},"
-                f" {evaluation['mean_max_abs_roll']:.3f} | {_survival(robust)} |"
-                f" {_tracking(robust['conditions']['nominal'])} |"
-            )
-    return "\n".join(rows)
+    runs = []
+    for robot, (policy, stem) in LOOPS_POLICIES.items():
+        runs += [
+            (policy, "off", _load(f"{stem}_eval.json"), _load(f"{stem}_robustness.json")),
+            (policy, "1/s", sources[f"{robot}_gain_rate1_eval"],
+             sources[f"{robot}_gain_rate1_robustness"]),
+            (policy, "1/s, heading loop 2/s", sources[f"{robot}_gain_heading_eval"],
+             sources[f"{robot}_gain_heading_robustness"]),
+        ]
+    runs.append(("go1loops_s1", "1/s, heading loop 2/s, in training too",
+                 _load("unitree_go1_eval.json"), _load("unitree_go1_robustness.json")))
+    return "\n".join(
+        f"| `{policy}` | {loops} | {evaluation['success_rate']:.3f} |"
+        f" {_tracking(evaluation)} | {evaluation['mean_max_abs_pitch_error']:.3f},"
+        f" {evaluation['mean_max_abs_roll']:.3f} | {_survival(robust)} |"
+        f" {_tracking(robust['conditions']['nominal'])} |"
+        for policy, loops, evaluation, robust in runs
+    )
 
 
 CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
@@ -157,34 +162,40 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1_map2_s1": "map",
     "go2_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
     "go1_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
-    "go1_rate_s1": "the preset (seed 1)",
-    "go1_rate_s2": "the preset (seed 2)",
-    "anymal_rate_s0": "the preset (ANYmal C): its gait stands, v_ref 0.80 kept",
-    "anymal_ms_s0": "the preset, gait search `min_speed` 0.15 (ANYmal C): its gait falls, v_ref"
-    " 0.80 kept",
+    "go1_rate_s1": "the preset, loops open (seed 1)",
+    "go1_rate_s2": "the preset, loops open (seed 2)",
+    "anymal_rate_s0": "the preset, loops open (ANYmal C): its gait stands, v_ref 0.80 kept",
+    "anymal_ms_s0": "the preset, loops open, gait search `min_speed` 0.15 (ANYmal C): its gait"
+    " falls, v_ref 0.80 kept",
     "go1path_s0": "Go1's MJCF by its path (no preset): the probe chose a 10-ms step; its gait falls"
     " in C MuJoCo, v_ref 1.00 kept",
     "go1path5_s0": "Go1's MJCF by its path, the probe's 5 ms (the preset's physics), 225 s: v_ref"
     " 0.68, no map (its gait falls in C MuJoCo at one of three frictions)",
-    "go1long_s0": "the preset (seed 0), 540 s: the ten minutes of the targets",
-    "go1long_s1": "the preset (seed 1), 540 s",
-    "go1long_s2": "the preset (seed 2), 540 s",
-    "go1utd2_s1": "the preset (seed 1), 540 s, two SAC updates per env step",
-    "go1utd2_s2": "the preset (seed 2), 540 s, two SAC updates per env step",
-    "go1spd_s0": "the preset (seed 0), its speed observed (`commands.observed_speed_tau` 0.25 s),"
-    " 450 s, two runs sharing one GPU: its gait barely turns (b 6.69 m) and falls",
+    "go1long_s0": "the preset, loops open (seed 0), 540 s: the ten minutes of the targets",
+    "go1long_s1": "the preset, loops open (seed 1), 540 s",
+    "go1long_s2": "the preset, loops open (seed 2), 540 s",
+    "go1utd2_s1": "the preset, loops open (seed 1), 540 s, two SAC updates per env step",
+    "go1utd2_s2": "the preset, loops open (seed 2), 540 s, two SAC updates per env step",
+    "go1spd_s0": "the preset, loops open (seed 0), its speed observed"
+    " (`commands.observed_speed_tau` 0.25 s), 450 s, two runs sharing one GPU: its gait barely"
+    " turns (b 6.69 m) and falls",
     "go1spd_s1": "as `go1spd_s0`, seed 1",
-    "go1gain_s0": "the preset (seed 0) with the drive's gain (`commands.speed_gain_rate` 1), 300 s:"
-    " its feed-forward measured under the gain (map 0.25 … 1.01 m/s, v_ref 1.01)",
+    "go1gain_s0": "the preset, heading loop open (seed 0), with the drive's gain"
+    " (`commands.speed_gain_rate` 1), 300 s: its feed-forward measured under the gain (map 0.25"
+    " … 1.01 m/s, v_ref 1.01)",
     "go1gain_s1": "as `go1gain_s0`, seed 1",
     "go1gain_s2": "as `go1gain_s0`, seed 2",
-    "go1gain2_s0": "the preset (seed 0) with the drive's gain, 300 s, its feed-forward measured"
-    " with the gain off",
+    "go1gain2_s0": "the preset, heading loop open (seed 0), with the drive's gain, 300 s, its"
+    " feed-forward measured with the gain off",
     "go1gain2_s1": "as `go1gain2_s0`, seed 1",
     "go1gain2_s2": "as `go1gain2_s0`, seed 2",
-    "go2long_s0": "the preset (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
-    "anymal_conf_s0": "the preset, gait search `min_speed` 0.15, its 16 best confirmed on 256"
-    " robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
+    "go1loops_s0": "the preset (seed 0): the drive's gain (1/s) and heading loop (2/s) closed,"
+    " 300 s",
+    "go1loops_s1": "as `go1loops_s0`, seed 1: `../policies/unitree_go1_command`",
+    "go1loops_s2": "as `go1loops_s0`, seed 2",
+    "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
+    "anymal_conf_s0": "the preset, loops open, gait search `min_speed` 0.15, its 16 best confirmed"
+    " on 256 robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
     "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
     " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
 }
@@ -209,9 +220,11 @@ NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path a
     "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics",
     "go1ref200_s0": "`menagerie:unitree_go1`: the preset's physics (rate only, 200 s)",
 }
-SEEDS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")  # Go1 from nothing, --preset=command
-SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")  # the same, --config.sac.max_seconds=540
-SEEDS_GAIN = ("go1gain2_s0", "go1gain2_s1", "go1gain2_s2")  # the same, 300 s, the drive's gain
+SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
+# the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
+SEEDS_NO_LOOPS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")
+SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")
+SEEDS_GAIN = ("go1gain2_s0", "go1gain2_s1", "go1gain2_s2")
 
 
 def _flag(argv: list[str], name: str) -> str:
@@ -328,16 +341,9 @@ def no_preset() -> str:
 
 ENGINES = ("MJX (JAX)", "C MuJoCo", "C MuJoCo, ONNX policy")
 # NAME_engines.json -> (the policy, the flags every engine runs it with)
-ENGINE_RUNS = {
+ENGINE_RUNS = {  # Go1's policy closes the drive's loops as it was trained (its config); Go2's not
     "unitree_go1_command": ("unitree_go1_command", ()),
     "unitree_go2_command": ("unitree_go2_command", ()),
-    # the drive's gain closed at evaluation (docs/env.md), the policy trained without it
-    "unitree_go1_command_gain": ("unitree_go1_command", ("--env.commands.speed_gain_rate=1",)),
-    # and the drive's heading loop (docs/env.md)
-    "unitree_go1_command_loops": (
-        "unitree_go1_command",
-        ("--env.commands.speed_gain_rate=1", "--env.commands.heading_gain=2"),
-    ),
 }
 
 
@@ -412,7 +418,8 @@ def check() -> list[str]:
     """The generated table rows that README.md lacks (none: its tables are the records')."""
     readme = set((HERE / "README.md").read_text().splitlines())
     blocks = (
-        table(), seeds(), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(), campaign(), anymal(),
+        table(), seeds(), seeds(SEEDS_NO_LOOPS), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(),
+        campaign(), anymal(),
         sac_levers(), engines(), levers(), no_preset(),
     )
     return [line for block in blocks for line in block.splitlines() if line not in readme]
@@ -433,6 +440,8 @@ if __name__ == "__main__":
         print(table())
         print()
         print(seeds())
+        print()
+        print(seeds(SEEDS_NO_LOOPS))
         print()
         print(seeds(SEEDS_540))
         print()

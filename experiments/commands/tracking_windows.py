@@ -4,8 +4,8 @@ start included), in C MuJoCo under random commands (resampled every `commands.re
 nothing randomised.
 
     MENAGERIE_ROOT=DIR python experiments/commands/tracking_windows.py \
-        --policy=experiments/policies/unitree_go1_command --episodes=32 \
-        --out=experiments/commands/unitree_go1_tracking_windows.json
+        --policy=experiments/policies/unitree_go2_command --episodes=32 \
+        --out=experiments/commands/unitree_go2_tracking_windows.json
 
 Each window: the mean forward speed along the heading against the mean commanded v*. A window
 holds whole control steps from the episode's start (the windows of an episode cut short by a fall

@@ -104,6 +104,8 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from quadcos.viz import plots
+
     curves = {**RUNS, **ABLATIONS, **TROT_START}
     summary = {}
     fig, axes = plt.subplots(2, 3, figsize=(15, 8), constrained_layout=True)
@@ -150,7 +152,7 @@ def main() -> None:
         "trot start (dotted): H200, JAX physics, clock from its training loop's start; ablations"
         " (dashed): clock from the search's start, DRL-only runs shared the GPU"
     )
-    fig.savefig(HERE / "fig7_from_scratch.png", dpi=110)
+    plots.save(fig, HERE / "fig7_from_scratch.png", dpi=110)
     (HERE / "fig7_summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     print(json.dumps(summary, indent=1))
     print(evaluation_table())

@@ -124,6 +124,8 @@ def figure(found: list[dict], folder: pathlib.Path, out: pathlib.Path) -> None:
     """Forward position against time of each robot's traced flat episode."""
     from matplotlib.figure import Figure
 
+    from quadcos.viz import plots
+
     traces = {row["run"]: _read(folder / f"trace_{row['run']}_flat.json") for row in found}
     traces = {run: trace for run, trace in traces.items() if trace is not None}
     if not traces:  # keep the figure there is rather than draw an empty one
@@ -138,7 +140,7 @@ def figure(found: list[dict], folder: pathlib.Path, out: pathlib.Path) -> None:
     ax.set_title("policy_best on flat ground, one deterministic episode each")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    plots.save(fig, out)
 
 
 def main() -> None:

@@ -64,6 +64,8 @@ def _figure(out: Path) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from quadcos.viz import plots
+
     fig, axes = plt.subplots(len(CASES), 2, figsize=(10, 6), constrained_layout=True)
     for row, policy in enumerate(CASES):
         for impl, style in zip(IMPLS, ("-", "--")):
@@ -74,7 +76,7 @@ def _figure(out: Path) -> None:
         axes[row, 0].set(title=f"{policy}: CoG x", xlabel="t (s)", ylabel="x (m)")
         axes[row, 1].set(title=f"{policy}: pitch", xlabel="t (s)", ylabel="rad")
         axes[row, 0].legend()
-    fig.savefig(out / "parity.png", dpi=120)
+    plots.save(fig, out / "parity.png")
 
 
 if __name__ == "__main__":
