@@ -93,6 +93,8 @@ class QuadrupedEnv(base.Env):
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         self.commands = commands.Plan(commands.validate(config.commands), config.commands)
         self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
+        # (3, 5): the action map around the centre; a trainer puts it in the state (`MAP_KEY`)
+        self.action_map = oscillator.action_map(config.period_min, self.action_centre)
         self.layout = Layout.of(self.robot.description, self.mj_model)
         self._torso_body = self.mj_model.body(self.robot.description.root_body).id
 
@@ -187,7 +189,13 @@ class QuadrupedEnv(base.Env):
         )
 
     def step(self, state: base.State, action: jax.Array) -> base.State:
-        """One control period: `substeps` MJX steps under the controller, then reward and fall."""
+        """One control period: `substeps` MJX steps under the controller, then reward and fall;
+        through the action map in `state.info[MAP_KEY]` where a trainer put one there (a searched
+        gait as data: its compiled programs serve every gait), else this env's."""
+        env = self if MAP_KEY not in state.info else self.with_action_map(state.info[MAP_KEY])
+        return env._step(state, action)
+
+    def _step(self, state: base.State, action: jax.Array) -> base.State:
         before = state.pipeline_state
         # Brax's AutoResetWrapper restores the physics state but not `info`: a robot whose clock
         # reads 0 was just reset, so its oscillator restarts at ψ = 0 and its filter at the
@@ -265,11 +273,8 @@ class QuadrupedEnv(base.Env):
 
     def rhythm_parameters(self, action: jax.Array) -> oscillator.RhythmParameters:
         """The rhythm parameters (§3.3) that the oscillator controller's `action` sets."""
-        return oscillator.action_to_parameters(
-            action[..., : oscillator.RHYTHM_SIZE],
-            self.config.period_min,
-            self.action_centre,
-            self.config.action_scale,
+        return oscillator.mapped_parameters(
+            action[..., : oscillator.RHYTHM_SIZE], self.action_map, self.config.action_scale
         )
 
     def zero_action_targets(self, time: jax.Array) -> jax.Array:
@@ -451,6 +456,13 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
+    def with_action_map(self, mapping: jax.Array) -> "QuadrupedEnv":
+        """This env (a shallow copy sharing its models) mapping actions through `mapping` ((3, 5):
+        `oscillator.action_map`, the centre of another gait; traced where a trainer passes it)."""
+        copy = object.__new__(type(self))
+        copy.__dict__.update(self.__dict__, action_map=mapping)
+        return copy
+
     def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, now: jax.Array,
                moved: jax.Array):
         """The reward's command arguments for a step from state `before` to time `now` (s), at
@@ -514,6 +526,7 @@ class QuadrupedEnv(base.Env):
         return jnp.concatenate([obs, command.velocity])
 
 
+MAP_KEY = "action_map"  # state.info: the action map (3, 5) a trainer passes as data
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")

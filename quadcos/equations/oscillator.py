@@ -166,7 +166,28 @@ def action_to_parameters(
     Args:
       action: (..., 5).
     """
-    mid, above, below = _centre_and_spans(period_min, centre)
+    return mapped_parameters(action, action_map(period_min, centre), scale)
+
+
+def action_map(
+    period_min: float = PERIOD_MIN, centre: RhythmParameters | None = None
+) -> np.ndarray:
+    """(3, 5) float32: the centre of `action_to_parameters`'s map and its spans above and below it,
+    one column per parameter. As data (`mapped_parameters`) rather than constants, a compiled
+    program serves every centre: a searched gait's run reuses a cached one.
+
+    Raises:
+      ValueError: a centre not strictly inside the bounds.
+    """
+    return np.stack(_centre_and_spans(period_min, centre)).astype(np.float32)
+
+
+def mapped_parameters(
+    action: jnp.ndarray, mapping: jnp.ndarray, scale: float = 1.0
+) -> RhythmParameters:
+    """`action_to_parameters` through the map `mapping` (`action_map`: centre, span above, span
+    below; (..., 3, 5) with the action's batch axes)."""
+    mid, above, below = mapping[..., 0, :], mapping[..., 1, :], mapping[..., 2, :]
     action = scale * jnp.clip(action, -1.0, 1.0)
     values = mid + jnp.where(action >= 0, action * above, action * below)
     return RhythmParameters(*(values[..., i] for i in range(5)))

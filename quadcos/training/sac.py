@@ -17,6 +17,7 @@ other, so the GPU may run them side by side.
 """
 
 import concurrent.futures
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -96,6 +97,10 @@ class SACTrainer:
         self.config = config.copy_and_resolve_references()
         self.env = curriculum.wrap(env, config.episode_length, config.curriculum)
         self.eval_env = training_wrappers.VmapWrapper(eval_env or env)
+        # A quadcos env's action map (its centre: a searched gait) goes into the env states as
+        # data, an argument of init and the evaluation: their programs serve every gait.
+        self._action_map = state_lib.action_map_of(env)
+        self._eval_action_map = state_lib.action_map_of(eval_env or env)
         # Jitted once and called inside init, prefill and the chunk: tracing the MJX reset and
         # step is most of a small run's start-up, and a nested jit is traced once for all three.
         self.layout = parallel.make_layout(config.num_devices)
@@ -184,13 +189,14 @@ class SACTrainer:
             self._evaluate_compiled = caches.Program(self._evaluate, "evaluate", fingerprint)
             return
         self._init = jax.jit(self._init_state)
-        if self.layout.mesh is not None:
+        if self.layout.mesh is not None:  # a one-argument program: the map a constant of it
+            init = functools.partial(self._init_state, action_map=self._action_map)
             self._specs = parallel.state_specs(
-                jax.eval_shape(self._init, self._key_init),
+                jax.eval_shape(init, self._key_init),
                 ("env_state", "exploration_noise", "replay"),
                 config.num_envs,
             )
-            self._init = parallel.jit(self._init_state, self.layout, None, self._specs)
+            self._init = parallel.jit(init, self.layout, None, self._specs)
         self.prefill = parallel.jit(
             self._prefill, self.layout, self._specs, self._specs, True, options
         )
@@ -207,7 +213,7 @@ class SACTrainer:
                 parallel.per_device(
                     lambda *args: jax.lax.pmean(self._evaluate(*args), parallel.AXIS),
                     self.layout,
-                    (replicated, replicated, split),
+                    (replicated, replicated, split, replicated),
                     replicated,
                 )
             )
@@ -219,10 +225,13 @@ class SACTrainer:
         if self.layout.mesh is None or impl != "warp":
             return jax.jit(self.env.reset), jax.jit(self.env.step)
         num_envs = self.config.num_envs
-        specs = parallel.env_specs(jax.eval_shape(self.env.reset, env_keys(num_envs)), num_envs)
+        fresh = jax.eval_shape(self.env.reset, env_keys(num_envs))
+        specs = parallel.env_specs(fresh, num_envs)
+        mapped = jax.eval_shape(state_lib.with_action_map, fresh, self._action_map)
+        step_specs = parallel.env_specs(mapped, num_envs)  # the states the trainer steps
         envs_axis = PartitionSpec(parallel.AXIS)
         reset = parallel.per_device(self.env.reset, self.layout, envs_axis, specs)
-        step = parallel.per_device(self.env.step, self.layout, (specs, envs_axis), specs)
+        step = parallel.per_device(self.env.step, self.layout, (step_specs, envs_axis), step_specs)
         return jax.jit(reset), jax.jit(step)
 
     def init(self) -> TrainingState:
@@ -231,7 +240,7 @@ class SACTrainer:
         functions with the same signature and share the persistent compilation cache. On
         several devices, built where it lives (every process builds its devices' part)."""
         if self.layout.mesh is None:
-            return jax.device_put(self._init(self._key_init), jax.devices()[0])
+            return jax.device_put(self._init(self._key_init, self._action_map), jax.devices()[0])
         return self._init(self._key_init)
 
     def compile_ahead(self, state: TrainingState, *, prefill: bool) -> None:
@@ -257,7 +266,7 @@ class SACTrainer:
             lambda x: jax.ShapeDtypeStruct(
                 x.shape, x.dtype, sharding=x.sharding if x.committed else None
             ),
-            (state.normalizer_params, state.policy_params, self._eval_keys),
+            (state.normalizer_params, state.policy_params, self._eval_keys, self._eval_action_map),
         )
         self._evaluate_compiled = _Compiling(pool.submit(lambda: evaluate.lower(*args).compile()))
         pool.shutdown(wait=False)
@@ -266,7 +275,7 @@ class SACTrainer:
         """Transitions in the replay buffer, over all devices."""
         return int(jnp.sum(state.replay.size))
 
-    def _init_state(self, key: jax.Array) -> TrainingState:
+    def _init_state(self, key: jax.Array, action_map: jax.Array | None) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
         key_noise = jax.random.fold_in(key, 1)
         policy_params = networks.initial_output_layer(
@@ -288,7 +297,9 @@ class SACTrainer:
             normalizer_params=running_statistics.init_state(
                 specs.Array((self.observation_size,), jnp.dtype("float32"))
             ),
-            env_state=self._reset_envs(jax.random.split(key_env, self.config.num_envs)),
+            env_state=state_lib.with_action_map(
+                self._reset_envs(jax.random.split(key_env, self.config.num_envs)), action_map
+            ),
             replay=self.replay.init(),
             key=key_train,
             env_steps=types.UInt64(hi=0, lo=0),
@@ -384,6 +395,7 @@ class SACTrainer:
 
         def reset_masked() -> envs.State:
             fresh = self._reset_envs(jax.random.split(key, self.config.num_envs))
+            fresh = state_lib.carry_action_map(fresh, env_state)
             fresh = fresh.replace(done=jnp.ones_like(fresh.done))
             return jax.tree.map(
                 lambda new, old: state_lib.where_per_env(mask, new, old),
@@ -485,19 +497,23 @@ class SACTrainer:
         policy_params: types.Params,
     ) -> Metrics:
         """The training-time evaluation: the same episodes (initial states) every call."""
-        return self._evaluate_compiled(normalizer_params, policy_params, self._eval_keys)
+        return self._evaluate_compiled(
+            normalizer_params, policy_params, self._eval_keys, self._eval_action_map
+        )
 
     def _evaluate(
         self,
         normalizer_params: running_statistics.RunningStatisticsState,
         policy_params: types.Params,
         keys: jax.Array,
+        action_map: jax.Array | None,
     ) -> Metrics:
         """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean) from
-        the initial states `keys` draw, one episode each."""
+        the initial states `keys` draw, one episode each, through `action_map` (a quadcos env's)."""
         policy = self._make_policy((normalizer_params, policy_params), deterministic=True)
+        env = self.eval_env if action_map is None else state_lib.MappedEnv(self.eval_env, action_map)
         return periodic_eval.evaluate(
-            self.eval_env,
+            env,
             lambda obs: policy(obs, keys[0])[0],  # deterministic: the key is not used
             keys,
             episode_length=self.config.eval_episode_length,

@@ -10,6 +10,7 @@ from brax import envs
 from brax.training import types
 from brax.training.acme import running_statistics
 
+from quadcos.env.quadruped import MAP_KEY
 from quadcos.training import replay as replay_lib
 
 
@@ -128,3 +129,38 @@ def restart_where(mask: jax.Array, env_state: envs.State) -> envs.State:
         done=jnp.where(mask, jnp.ones_like(env_state.done), env_state.done),
         info=jax.tree.map(finite, info),
     )
+
+
+def action_map_of(env: envs.Env) -> jax.Array | None:
+    """The (3, 5) action map of a quadcos env (`QuadrupedEnv.action_map`) under any wrappers;
+    None for another env."""
+    mapping = getattr(getattr(env, "unwrapped", env), "action_map", None)
+    return None if mapping is None else jnp.asarray(mapping)
+
+
+def with_action_map(env_state: envs.State, mapping: jax.Array | None) -> envs.State:
+    """The batched `env_state` with the action map `mapping` (3, 5) in every env's
+    `info[MAP_KEY]` (the env steps through it: quadcos.env.quadruped), or as it is for None."""
+    if mapping is None:
+        return env_state
+    batch = env_state.done.shape
+    info = {**env_state.info, MAP_KEY: jnp.broadcast_to(mapping, batch + mapping.shape[-2:])}
+    return env_state.replace(info=info)
+
+
+def carry_action_map(fresh: envs.State, env_state: envs.State) -> envs.State:
+    """`fresh` (a reset) with the action map `env_state` steps through, where it has one."""
+    if MAP_KEY not in env_state.info:
+        return fresh
+    return fresh.replace(info={**fresh.info, MAP_KEY: env_state.info[MAP_KEY]})
+
+
+class MappedEnv(envs.Wrapper):
+    """A batched env whose resets carry the action map `mapping` (`with_action_map`)."""
+
+    def __init__(self, env: envs.Env, mapping: jax.Array):
+        super().__init__(env)
+        self.mapping = mapping
+
+    def reset(self, rng: jax.Array) -> envs.State:
+        return with_action_map(self.env.reset(rng), self.mapping)
