@@ -57,7 +57,7 @@ def eval_collectives(trainer: training.SACTrainer) -> list[str]:
     state = trainer.init()
     keys = jax.random.split(jax.random.PRNGKey(0), trainer.config.num_eval_envs)
     lowered = trainer._evaluate_compiled.lower(
-        state.normalizer_params, state.policy_params, keys, trainer._eval_action_map
+        state.normalizer_params, state.policy_params, keys, trainer._eval_gait
     )
     return _collectives(lowered)
 

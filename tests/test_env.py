@@ -13,7 +13,7 @@ import pytest
 
 import quadcos
 from quadcos import terrain as terrain_lib
-from quadcos.env.quadruped import MAP_KEY
+from quadcos.env.quadruped import GAIT_KEY
 from quadcos.equations import oscillator
 from quadcos.robot import constants
 
@@ -74,21 +74,22 @@ def test_zero_action_is_the_fixed_trot_by_default(flat_env):
     )
 
 
-def test_a_state_carrying_an_action_map_steps_through_it(flat_env, flat_reset):
-    """A trainer puts the action map in the env states (`MAP_KEY`): an env maps actions through
+def test_a_state_carrying_a_gait_steps_with_it(flat_env):
+    """A trainer puts the gait's maps in the env states (`GAIT_KEY`): an env maps actions through
     another gait's map as that gait's env does, and its step's program is the same whichever the
     centre (a searched gait's run reuses the compiled programs of another's)."""
     other = quadcos.make_env("flat", action_centre="0.31,0.25,0.45,2.0,0.5")
     action = jnp.linspace(-0.9, 0.9, 5)
-    mapped = flat_env.with_action_map(jnp.asarray(other.action_map))
+    gait = {name: jnp.asarray(value) for name, value in other.gait.items()}
     np.testing.assert_allclose(
-        jnp.stack(mapped.rhythm_parameters(action)), jnp.stack(other.rhythm_parameters(action))
+        jnp.stack(flat_env.with_gait(gait).rhythm_parameters(action)),
+        jnp.stack(other.rhythm_parameters(action)),
     )
     assert not np.allclose(
         jnp.stack(flat_env.rhythm_parameters(action)), jnp.stack(other.rhythm_parameters(action))
     )
     state = jax.eval_shape(flat_env.reset, jax.random.PRNGKey(0))
-    state = state.replace(info={**state.info, MAP_KEY: jax.ShapeDtypeStruct((3, 5), jnp.float32)})
+    state = state.replace(info={**state.info, GAIT_KEY: jax.eval_shape(lambda: gait)})
     programs = {jax.jit(env.step).lower(state, action).as_text() for env in (flat_env, other)}
     assert len(programs) == 1
 

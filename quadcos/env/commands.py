@@ -32,6 +32,7 @@ import flax.struct
 import jax
 import jax.numpy as jnp
 import ml_collections
+import numpy as np
 
 from quadcos.equations.reward import wrap_angle
 
@@ -224,12 +225,18 @@ def speed_map(config: ml_collections.ConfigDict) -> tuple[float, ...]:
     return speeds
 
 
-def drive(config: ml_collections.ConfigDict, velocity: jax.Array) -> jax.Array | None:
-    """(..., 2) `drive_scales` for velocity commands (..., 2) under a `commands` config: its speed
-    map, half track and clip; None with its feed-forward off."""
+def drive_map(config: ml_collections.ConfigDict) -> np.ndarray | None:
+    """(5,) float32: a `commands` config's speed map (m/s at SPEED_MAP_SCALES) and half track b
+    (m), what its feed-forward reads of the searched gait; None with the feed-forward off."""
     if not config.feed_forward:
         return None
-    return drive_scales(velocity, speed_map(config), config.half_track, config.scale_max)
+    return np.asarray([*speed_map(config), config.half_track], np.float32)
+
+
+def drive(config: ml_collections.ConfigDict, velocity: jax.Array, mapping: jax.Array) -> jax.Array:
+    """(..., 2) `drive_scales` for velocity commands (..., 2) through a drive map `mapping`
+    (`drive_map`: traced where a trainer passes it) and a `commands` config's clip."""
+    return drive_scales(velocity, tuple(mapping[:-1]), mapping[-1], config.scale_max)
 
 
 def drive_scales(

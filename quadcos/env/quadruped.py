@@ -13,6 +13,7 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 import ml_collections
+import numpy as np
 
 from quadcos import robot
 from quadcos import terrain as terrain_lib
@@ -93,8 +94,10 @@ class QuadrupedEnv(base.Env):
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         self.commands = commands.Plan(commands.validate(config.commands), config.commands)
         self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
-        # (3, 5): the action map around the centre; a trainer puts it in the state (`MAP_KEY`)
+        # What a searched gait sets, as data a trainer puts in the state (`GAIT_KEY`, `gait`): the
+        # action map around the centre and the feed-forward's speed map and half track.
         self.action_map = oscillator.action_map(config.period_min, self.action_centre)
+        self.drive_map = commands.drive_map(config.commands) if self.commanded else None
         self.layout = Layout.of(self.robot.description, self.mj_model)
         self._torso_body = self.mj_model.body(self.robot.description.root_body).id
 
@@ -190,9 +193,9 @@ class QuadrupedEnv(base.Env):
 
     def step(self, state: base.State, action: jax.Array) -> base.State:
         """One control period: `substeps` MJX steps under the controller, then reward and fall;
-        through the action map in `state.info[MAP_KEY]` where a trainer put one there (a searched
-        gait as data: its compiled programs serve every gait), else this env's."""
-        env = self if MAP_KEY not in state.info else self.with_action_map(state.info[MAP_KEY])
+        with the gait in `state.info[GAIT_KEY]` where a trainer put one there (a searched gait as
+        data: its compiled programs serve every gait), else this env's."""
+        env = self if GAIT_KEY not in state.info else self.with_gait(state.info[GAIT_KEY])
         return env._step(state, action)
 
     def _step(self, state: base.State, action: jax.Array) -> base.State:
@@ -356,7 +359,9 @@ class QuadrupedEnv(base.Env):
         """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set
         (`commands.drive`; a command's loops closed: `commands.Command.driven`), or None without
         commands or the feed-forward."""
-        return commands.drive(self.config.commands, velocity) if self.commanded else None
+        if self.drive_map is None:
+            return None
+        return commands.drive(self.config.commands, velocity, self.drive_map)
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -456,11 +461,18 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
-    def with_action_map(self, mapping: jax.Array) -> "QuadrupedEnv":
-        """This env (a shallow copy sharing its models) mapping actions through `mapping` ((3, 5):
-        `oscillator.action_map`, the centre of another gait; traced where a trainer passes it)."""
+    @property
+    def gait(self) -> dict[str, np.ndarray]:
+        """What the searched gait sets in this env's programs: its action map (`action_map`,
+        (3, 5)) and, with the feed-forward, its drive map (`drive_map`, (5,))."""
+        maps = {"action_map": self.action_map, "drive_map": self.drive_map}
+        return {name: value for name, value in maps.items() if value is not None}
+
+    def with_gait(self, gait: dict[str, jax.Array]) -> "QuadrupedEnv":
+        """This env (a shallow copy sharing its models) with another gait's maps (`gait`'s
+        keys; traced where a trainer passes them)."""
         copy = object.__new__(type(self))
-        copy.__dict__.update(self.__dict__, action_map=mapping)
+        copy.__dict__.update(self.__dict__, **gait)
         return copy
 
     def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, now: jax.Array,
@@ -526,7 +538,7 @@ class QuadrupedEnv(base.Env):
         return jnp.concatenate([obs, command.velocity])
 
 
-MAP_KEY = "action_map"  # state.info: the action map (3, 5) a trainer passes as data
+GAIT_KEY = "gait"  # state.info: the gait's maps (`QuadrupedEnv.gait`) a trainer passes as data
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
 _STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")

@@ -97,10 +97,11 @@ class SACTrainer:
         self.config = config.copy_and_resolve_references()
         self.env = curriculum.wrap(env, config.episode_length, config.curriculum)
         self.eval_env = training_wrappers.VmapWrapper(eval_env or env)
-        # A quadcos env's action map (its centre: a searched gait) goes into the env states as
-        # data, an argument of init and the evaluation: their programs serve every gait.
-        self._action_map = state_lib.action_map_of(env)
-        self._eval_action_map = state_lib.action_map_of(eval_env or env)
+        # A quadcos env's gait (what a gait search sets: the action map's centre, the drive's
+        # map) goes into the env states as data, an argument of init and the evaluation: their
+        # programs serve every gait.
+        self._gait = state_lib.gait_of(env)
+        self._eval_gait = state_lib.gait_of(eval_env or env)
         # Jitted once and called inside init, prefill and the chunk: tracing the MJX reset and
         # step is most of a small run's start-up, and a nested jit is traced once for all three.
         self.layout = parallel.make_layout(config.num_devices)
@@ -190,7 +191,7 @@ class SACTrainer:
             return
         self._init = jax.jit(self._init_state)
         if self.layout.mesh is not None:  # a one-argument program: the map a constant of it
-            init = functools.partial(self._init_state, action_map=self._action_map)
+            init = functools.partial(self._init_state, gait=self._gait)
             self._specs = parallel.state_specs(
                 jax.eval_shape(init, self._key_init),
                 ("env_state", "exploration_noise", "replay"),
@@ -227,7 +228,7 @@ class SACTrainer:
         num_envs = self.config.num_envs
         fresh = jax.eval_shape(self.env.reset, env_keys(num_envs))
         specs = parallel.env_specs(fresh, num_envs)
-        mapped = jax.eval_shape(state_lib.with_action_map, fresh, self._action_map)
+        mapped = jax.eval_shape(state_lib.with_gait, fresh, self._gait)
         step_specs = parallel.env_specs(mapped, num_envs)  # the states the trainer steps
         envs_axis = PartitionSpec(parallel.AXIS)
         reset = parallel.per_device(self.env.reset, self.layout, envs_axis, specs)
@@ -240,7 +241,7 @@ class SACTrainer:
         functions with the same signature and share the persistent compilation cache. On
         several devices, built where it lives (every process builds its devices' part)."""
         if self.layout.mesh is None:
-            return jax.device_put(self._init(self._key_init, self._action_map), jax.devices()[0])
+            return jax.device_put(self._init(self._key_init, self._gait), jax.devices()[0])
         return self._init(self._key_init)
 
     def compile_ahead(self, state: TrainingState, *, prefill: bool) -> None:
@@ -266,7 +267,7 @@ class SACTrainer:
             lambda x: jax.ShapeDtypeStruct(
                 x.shape, x.dtype, sharding=x.sharding if x.committed else None
             ),
-            (state.normalizer_params, state.policy_params, self._eval_keys, self._eval_action_map),
+            (state.normalizer_params, state.policy_params, self._eval_keys, self._eval_gait),
         )
         self._evaluate_compiled = _Compiling(pool.submit(lambda: evaluate.lower(*args).compile()))
         pool.shutdown(wait=False)
@@ -275,7 +276,7 @@ class SACTrainer:
         """Transitions in the replay buffer, over all devices."""
         return int(jnp.sum(state.replay.size))
 
-    def _init_state(self, key: jax.Array, action_map: jax.Array | None) -> TrainingState:
+    def _init_state(self, key: jax.Array, gait: dict[str, jax.Array] | None) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
         key_noise = jax.random.fold_in(key, 1)
         policy_params = networks.initial_output_layer(
@@ -297,8 +298,8 @@ class SACTrainer:
             normalizer_params=running_statistics.init_state(
                 specs.Array((self.observation_size,), jnp.dtype("float32"))
             ),
-            env_state=state_lib.with_action_map(
-                self._reset_envs(jax.random.split(key_env, self.config.num_envs)), action_map
+            env_state=state_lib.with_gait(
+                self._reset_envs(jax.random.split(key_env, self.config.num_envs)), gait
             ),
             replay=self.replay.init(),
             key=key_train,
@@ -395,7 +396,7 @@ class SACTrainer:
 
         def reset_masked() -> envs.State:
             fresh = self._reset_envs(jax.random.split(key, self.config.num_envs))
-            fresh = state_lib.carry_action_map(fresh, env_state)
+            fresh = state_lib.carry_gait(fresh, env_state)
             fresh = fresh.replace(done=jnp.ones_like(fresh.done))
             return jax.tree.map(
                 lambda new, old: state_lib.where_per_env(mask, new, old),
@@ -498,7 +499,7 @@ class SACTrainer:
     ) -> Metrics:
         """The training-time evaluation: the same episodes (initial states) every call."""
         return self._evaluate_compiled(
-            normalizer_params, policy_params, self._eval_keys, self._eval_action_map
+            normalizer_params, policy_params, self._eval_keys, self._eval_gait
         )
 
     def _evaluate(
@@ -506,12 +507,12 @@ class SACTrainer:
         normalizer_params: running_statistics.RunningStatisticsState,
         policy_params: types.Params,
         keys: jax.Array,
-        action_map: jax.Array | None,
+        gait: dict[str, jax.Array] | None,
     ) -> Metrics:
         """`periodic_eval.evaluate` of the deterministic policy (tanh of the Gaussian mean) from
-        the initial states `keys` draw, one episode each, through `action_map` (a quadcos env's)."""
+        the initial states `keys` draw, one episode each, with `gait` (a quadcos env's)."""
         policy = self._make_policy((normalizer_params, policy_params), deterministic=True)
-        env = self.eval_env if action_map is None else state_lib.MappedEnv(self.eval_env, action_map)
+        env = self.eval_env if gait is None else state_lib.GaitEnv(self.eval_env, gait)
         return periodic_eval.evaluate(
             env,
             lambda obs: policy(obs, keys[0])[0],  # deterministic: the key is not used

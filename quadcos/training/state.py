@@ -10,7 +10,7 @@ from brax import envs
 from brax.training import types
 from brax.training.acme import running_statistics
 
-from quadcos.env.quadruped import MAP_KEY
+from quadcos.env.quadruped import GAIT_KEY
 from quadcos.training import replay as replay_lib
 
 
@@ -131,36 +131,36 @@ def restart_where(mask: jax.Array, env_state: envs.State) -> envs.State:
     )
 
 
-def action_map_of(env: envs.Env) -> jax.Array | None:
-    """The (3, 5) action map of a quadcos env (`QuadrupedEnv.action_map`) under any wrappers;
-    None for another env."""
-    mapping = getattr(getattr(env, "unwrapped", env), "action_map", None)
-    return None if mapping is None else jnp.asarray(mapping)
+def gait_of(env: envs.Env) -> dict[str, jax.Array] | None:
+    """The gait's maps of a quadcos env (`QuadrupedEnv.gait`) under any wrappers; None for
+    another env."""
+    gait = getattr(getattr(env, "unwrapped", env), "gait", None)
+    return None if gait is None else {name: jnp.asarray(value) for name, value in gait.items()}
 
 
-def with_action_map(env_state: envs.State, mapping: jax.Array | None) -> envs.State:
-    """The batched `env_state` with the action map `mapping` (3, 5) in every env's
-    `info[MAP_KEY]` (the env steps through it: quadcos.env.quadruped), or as it is for None."""
-    if mapping is None:
+def with_gait(env_state: envs.State, gait: dict[str, jax.Array] | None) -> envs.State:
+    """The batched `env_state` with the gait's maps `gait` in every env's `info[GAIT_KEY]` (the
+    env steps through them: quadcos.env.quadruped), or as it is for None."""
+    if gait is None:
         return env_state
     batch = env_state.done.shape
-    info = {**env_state.info, MAP_KEY: jnp.broadcast_to(mapping, batch + mapping.shape[-2:])}
-    return env_state.replace(info=info)
+    batched = {name: jnp.broadcast_to(value, batch + value.shape) for name, value in gait.items()}
+    return env_state.replace(info={**env_state.info, GAIT_KEY: batched})
 
 
-def carry_action_map(fresh: envs.State, env_state: envs.State) -> envs.State:
-    """`fresh` (a reset) with the action map `env_state` steps through, where it has one."""
-    if MAP_KEY not in env_state.info:
+def carry_gait(fresh: envs.State, env_state: envs.State) -> envs.State:
+    """`fresh` (a reset) with the gait `env_state` steps through, where it has one."""
+    if GAIT_KEY not in env_state.info:
         return fresh
-    return fresh.replace(info={**fresh.info, MAP_KEY: env_state.info[MAP_KEY]})
+    return fresh.replace(info={**fresh.info, GAIT_KEY: env_state.info[GAIT_KEY]})
 
 
-class MappedEnv(envs.Wrapper):
-    """A batched env whose resets carry the action map `mapping` (`with_action_map`)."""
+class GaitEnv(envs.Wrapper):
+    """A batched env whose resets carry the gait's maps `gait` (`with_gait`)."""
 
-    def __init__(self, env: envs.Env, mapping: jax.Array):
+    def __init__(self, env: envs.Env, gait: dict[str, jax.Array]):
         super().__init__(env)
-        self.mapping = mapping
+        self.gait = gait
 
     def reset(self, rng: jax.Array) -> envs.State:
-        return with_action_map(self.env.reset(rng), self.mapping)
+        return with_gait(self.env.reset(rng), self.gait)
