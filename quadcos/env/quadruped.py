@@ -8,7 +8,7 @@ oscillator by joint targets straight from the (filtered) action (the "DRL-only" 
 
 import functools
 import math
-from typing import Any, NamedTuple
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -18,7 +18,7 @@ import numpy as np
 from quadcos import robot
 from quadcos import terrain as terrain_lib
 from quadcos._util.quiet import warp_absence_unprinted
-from quadcos.env import backends, commands, randomization
+from quadcos.env import backends, commands, observation, randomization
 from quadcos.env.config import (
     action_size,
     default_config,
@@ -27,7 +27,7 @@ from quadcos.env.config import (
     validate_config,
 )
 from quadcos.env.layout import Layout, blown_up, fallen
-from quadcos.equations import kinematics, oscillator, reward, slope
+from quadcos.equations import oscillator, reward, slope
 
 # The first import of MJX in a quadcos process (brax imports it too).
 with warp_absence_unprinted():
@@ -35,14 +35,6 @@ with warp_absence_unprinted():
     from mujoco import mjx
 
 JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
-
-
-class _Observed(NamedTuple):
-    """What one look at the robot yields: the policy's observation and the estimator's outputs."""
-
-    obs: jax.Array
-    attitude: slope.Attitude
-    slope_estimate: jax.Array
 
 
 class QuadrupedEnv(base.Env):
@@ -105,14 +97,8 @@ class QuadrupedEnv(base.Env):
 
     @functools.cached_property
     def observation_size(self) -> int:
-        """`_observe`'s parts in order (torso velocity, pitch / yaw / roll, joints, slope, cos ψ /
-        sin ψ, the filtered action), then `_with_command`'s (v*, ω*): counted, as tracing a
-        reset for its shape would cost seconds of every env's start."""
-        c = self.config
-        filtered = self.action_size if c.action_filter_tau > 0 else 0
-        joints = len(self.layout.joint_qpos)
-        command = (2 + (c.commands.observed_speed_tau > 0)) * self.commanded
-        return 6 + joints + c.observe_slope + 2 * c.observe_phase + filtered + command
+        """The observation's length (`quadcos.env.observation`)."""
+        return observation.size(self.config, self.layout, self.action_size, self.commanded)
 
     @property
     def action_size(self) -> int:
@@ -507,35 +493,14 @@ class QuadrupedEnv(base.Env):
             return jnp.asarray(oscillator.FIXED_TROT.period, jnp.float32)
         return self.rhythm_parameters(command).period
 
-    def _observe(self, data: mjx.Data, phase: jax.Array, command: jax.Array) -> _Observed:
-        layout = self.layout
-        quaternion = layout.orientation(data)
-        body = slope.attitude(quaternion)
-        joints = data.qpos[layout.joint_qpos]
-        feet = kinematics.foot_positions(layout.chains, joints)
-        slope_estimate = slope.estimate_slope(feet, quaternion)
-        parts = [
-            data.qvel[layout.linear_velocity],
-            jnp.stack([body.pitch, body.yaw, body.roll]),
-            joints,
-        ]
-        if self.config.observe_slope:
-            parts.append(slope_estimate[None])
-        if self.config.observe_phase:
-            parts.append(jnp.stack([jnp.cos(phase), jnp.sin(phase)]))
-        if self.config.action_filter_tau > 0:
-            parts.append(command)
-        return _Observed(obs=jnp.concatenate(parts), attitude=body, slope_estimate=slope_estimate)
+    def _observe(
+        self, data: mjx.Data, phase: jax.Array, command: jax.Array
+    ) -> observation.Observed:
+        return observation.observe(self.config, self.layout, data, phase, command)
 
     def _with_command(self, obs: jax.Array, info: dict[str, Any]) -> jax.Array:
-        """The observation with the velocity command (v*, ω*) last, where there are commands;
-        before it the observed speed (`commands.observed_speed_tau`)."""
-        if not self.commanded:
-            return obs
-        command = info["velocity_command"]
-        if self.config.commands.observed_speed_tau > 0:
-            return jnp.concatenate([obs, command.speed[None], command.velocity])
-        return jnp.concatenate([obs, command.velocity])
+        """The observation with the velocity command last, where there are commands."""
+        return observation.with_command(self.config, obs, info) if self.commanded else obs
 
 
 GAIT_KEY = "gait"  # state.info: the gait's maps (`QuadrupedEnv.gait`) a trainer passes as data
