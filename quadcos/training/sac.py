@@ -190,7 +190,7 @@ class SACTrainer:
             self._evaluate_compiled = caches.Program(self._evaluate, "evaluate", fingerprint)
             return
         self._init = jax.jit(self._init_state)
-        if self.layout.mesh is not None:  # a one-argument program: the map a constant of it
+        if self.layout.mesh is not None:  # a one-argument program: the gait a constant of it
             init = functools.partial(self._init_state, gait=self._gait)
             self._specs = parallel.state_specs(
                 jax.eval_shape(init, self._key_init),
