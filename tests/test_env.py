@@ -13,6 +13,7 @@ import pytest
 
 import quadcos
 from quadcos import terrain as terrain_lib
+from quadcos._util import caches
 from quadcos.env.quadruped import GAIT_KEY
 from quadcos.equations import oscillator
 from quadcos.robot import constants
@@ -92,6 +93,23 @@ def test_a_state_carrying_a_gait_steps_with_it(flat_env):
     state = state.replace(info={**state.info, GAIT_KEY: jax.eval_shape(lambda: gait)})
     programs = {jax.jit(env.step).lower(state, action).as_text() for env in (flat_env, other)}
     assert len(programs) == 1
+
+
+def test_the_trainers_programs_are_kept_for_every_gait(tmp_path, monkeypatch):
+    """The trainer passes the gait as data, so its traced programs' key leaves the gait's config
+    fields out (`QuadrupedEnv.gait_fields`) and keeps every other."""
+    monkeypatch.setattr(caches, "traced_directory", lambda: tmp_path)
+
+    def key(**overrides) -> str | None:
+        env = quadcos.make_env("flat", **overrides)
+        return caches.trainer_fingerprint(env, None, {}, one_device=True)
+
+    gait = {"commands.spec": "random", "commands.feed_forward": True}
+    searched = key(action_centre="0.3,0.2,0.4,3.0,0.0", **gait, **{"commands.half_track": 0.4})
+    assert searched is not None
+    other = {"commands.speed_map": (0.2, 0.4, 0.6, 0.8), "commands.half_track": 0.5}
+    assert key(action_centre="0.31,0.25,0.45,2.0,0.5", **gait, **other) == searched
+    assert key(action_centre="0.3,0.2,0.4,3.0,0.0", observe_slope=True, **gait) != searched
 
 
 def test_sizes(flat_env):

@@ -102,10 +102,15 @@ def code_version() -> str:
     return digest.hexdigest()
 
 
-def env_fingerprint(env: Any) -> str:
-    """A digest of what an env's programs close over: its resolved config, its compiled MuJoCo
-    model (robot, ground, solver) and its terrain (class, source file, fields)."""
-    digest = hashlib.sha256(env.config.to_json(sort_keys=True).encode())
+def env_fingerprint(env: Any, data: tuple[str, ...] = ()) -> str:
+    """A digest of what an env's programs close over: its resolved config but for the dotted
+    fields `data` (what its programs take as data), its compiled MuJoCo model (robot, ground,
+    solver) and its terrain (class, source file, fields)."""
+    config = env.config.to_dict()
+    for name in data:
+        *parents, leaf = name.split(".")
+        functools.reduce(lambda node, key: node[key], parents, config).pop(leaf, None)
+    digest = hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode())
     model = np.zeros(mujoco.mj_sizeModel(env.mj_model), np.uint8)
     mujoco.mj_saveModel(env.mj_model, None, model)
     digest.update(model.tobytes())
@@ -125,7 +130,8 @@ def env_fingerprint(env: Any) -> str:
 def trainer_fingerprint(
     env: Any, eval_env: Any, programs: dict[str, Any], one_device: bool
 ) -> str | None:
-    """What a trainer's programs close over: its envs' fingerprints and `programs`, the trainer
+    """What a trainer's programs close over: its envs' fingerprints (but for the config fields
+    of an env's `gait_fields`, which the trainer passes as data) and `programs`, the trainer
     config's fields its programs read (`training.config.program_fields`); None where
     they are traced in every process: an env not quadcos's, several devices, MJX-Warp (its
     kernels load as a program is traced) or the compilation cache off."""
@@ -134,7 +140,8 @@ def trainer_fingerprint(
         return None
     if not all(hasattr(e, "mj_model") and getattr(e, "impl", None) == "jax" for e in envs):
         return None
-    parts = [*map(env_fingerprint, envs), json.dumps(programs, sort_keys=True, default=str)]
+    parts = [env_fingerprint(e, getattr(e, "gait_fields", ())) for e in envs]
+    parts.append(json.dumps(programs, sort_keys=True, default=str))
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 

@@ -447,6 +447,10 @@ class QuadrupedEnv(base.Env):
         copy.commands = commands.Plan(parsed, config.commands)
         return copy
 
+    # The config fields `gait` holds: a trainer's programs take them as data (caches.py)
+    gait_fields = ("action_centre", "commands.reference_speed", "commands.half_track",
+                   "commands.speed_map")
+
     @property
     def gait(self) -> dict[str, np.ndarray]:
         """What the searched gait sets in this env's programs: its action map (`action_map`,
