@@ -86,6 +86,8 @@ def test_a_state_carrying_a_gait_steps_with_it(flat_env):
         jnp.stack(flat_env.with_gait(gait).rhythm_parameters(action)),
         jnp.stack(other.rhythm_parameters(action)),
     )
+    back = flat_env.with_gait(gait).action_for(other.rhythm_parameters(action))
+    np.testing.assert_allclose(back, action, atol=1e-5)  # and back, the inverse through it too
     assert not np.allclose(
         jnp.stack(flat_env.rhythm_parameters(action)), jnp.stack(other.rhythm_parameters(action))
     )

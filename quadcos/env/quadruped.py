@@ -254,9 +254,7 @@ class QuadrupedEnv(base.Env):
     def action_for(self, params: oscillator.RhythmParameters) -> jax.Array:
         """The (..., action_size) action that commands rhythm parameters `params` in this env (no
         posture offset)."""
-        action = oscillator.parameters_to_action(
-            params, self.config.period_min, self.action_centre, self.config.action_scale
-        )
+        action = oscillator.mapped_action(params, self.action_map, self.config.action_scale)
         padding = [(0, 0)] * (action.ndim - 1) + [(0, self.action_size - oscillator.RHYTHM_SIZE)]
         return jnp.pad(action, padding)
 

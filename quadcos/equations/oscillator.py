@@ -201,7 +201,14 @@ def parameters_to_action(
 ) -> jnp.ndarray:
     """Inverse of `action_to_parameters` (for fixed-parameter baselines and tests). Returns
     (..., 5), beyond ±1 for parameters that `scale` puts out of reach."""
-    mid, above, below = _centre_and_spans(period_min, centre)
+    return mapped_action(params, action_map(period_min, centre), scale)
+
+
+def mapped_action(
+    params: RhythmParameters, mapping: jnp.ndarray, scale: float = 1.0
+) -> jnp.ndarray:
+    """`parameters_to_action` through the map `mapping` (`action_map`)."""
+    mid, above, below = mapping[..., 0, :], mapping[..., 1, :], mapping[..., 2, :]
     values = jnp.stack(
         jnp.broadcast_arrays(*(jnp.asarray(p, jnp.float32) for p in params)), axis=-1
     )
