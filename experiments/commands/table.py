@@ -194,6 +194,7 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1loops_s1": "as `go1loops_s0`, seed 1: `../policies/unitree_go1_command`",
     "go1loops_s2": "as `go1loops_s0`, seed 2",
     "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
+    "go2loops_s0": "the preset (Go2, seed 0): the drive's loops closed, 300 s",
     "anymal_conf_s0": "the preset, loops open, gait search `min_speed` 0.15, its 16 best confirmed"
     " on 256 robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
     "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
@@ -217,8 +218,9 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     "anymal_trot_as10_s0": "as `anymal_trot_s0`, action bounds 0.1",
 }
 NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
-    "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics",
+    "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics, loops open",
     "go1ref200_s0": "`menagerie:unitree_go1`: the preset's physics (rate only, 200 s)",
+    "go1pathloops_s0": "Go1's MJCF by its path, the drive's loops closed (the preset)",
 }
 SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
 # the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
