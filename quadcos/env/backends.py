@@ -46,17 +46,18 @@ def cuda_available() -> bool:
         return False
 
 
-def resolve_impl(impl: str, gpu_physics: str = "warp") -> str:
+def resolve_impl(impl: str, gpu_physics: str = "warp", *, warn: bool = True) -> str:
     """"jax" or "warp" for a configured `impl`: "auto" = `gpu_physics` (the robot's faster
     physics on a GPU, measured: quadcos.robot.presets) where a CUDA GPU is present (and
-    warp-lang, for Warp), else JAX; an explicit "warp" also runs on the CPU, slowly, as MJX
-    allows. Raises ValueError for an unknown name or "warp" without warp-lang."""
+    warp-lang, for Warp), else JAX (with `warn`, a warning where Warp is missing); an explicit
+    "warp" also runs on the CPU, slowly, as MJX allows. Raises ValueError for an unknown name or
+    "warp" without warp-lang."""
     if impl not in IMPLS:
         raise ValueError(f"unknown impl {impl!r}; known: {', '.join(IMPLS)}")
     if impl == "auto":
         on_gpu = cuda_available()
         runnable = gpu_physics == "jax" or warp_installed()
-        if on_gpu and not runnable:
+        if on_gpu and not runnable and warn:
             logger.warning(
                 "impl 'auto' runs MJX-JAX: this robot's GPU physics is MJX-Warp, and warp-lang is"
                 " not installed (%s)",

@@ -140,6 +140,8 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
     # confirm_robots: after the rounds, the best distinct candidates run once more on that many
     # robots each (as many as the batch holds; 0: none) and the gait kept is the best of that
     # run — the clean ones by reward, else the one that fell least.
+    # compile_trainer: while the search runs, a thread compiles the trainer's programs on a
+    # placeholder gait into the compilation caches (quadcos.training.ahead; MJX-JAX, one process).
     config.gait_search = ml_collections.ConfigDict(
         dict(
             num_candidates=2048,
@@ -151,6 +153,7 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
             min_speed=0.0,
             min_speed_of="mean",
             confirm_robots=0,
+            compile_trainer=True,
         )
     )
 

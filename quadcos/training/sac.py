@@ -244,16 +244,19 @@ class SACTrainer:
             return jax.device_put(self._init(self._key_init, self._gait), jax.devices()[0])
         return self._init(self._key_init)
 
-    def compile_ahead(self, state: TrainingState, *, prefill: bool) -> None:
+    def compile_ahead(
+        self, state: TrainingState, *, prefill: bool
+    ) -> list[concurrent.futures.Future[Any]]:
         """Traces `train_chunk` (and `prefill`, if it will run) for `state` now and compiles them
         (or loads them from the persistent cache) at once, each in a thread of its own, with
         `evaluate` traced and compiled in a third: XLA compiles without holding the GIL, so a
         cold start waits for the longest program, not for their sum, and the evaluation is
         traced while the host waits for the others. A later call of either waits for its
         program and runs it; `state`'s shapes and placement must not change after this (they do
-        not: a chunk returns the state as it took it). A second call does nothing."""
+        not: a chunk returns the state as it took it). Returns the compilations (futures); a
+        second call does nothing and returns none."""
         if isinstance(self.train_chunk, _Compiling):
-            return
+            return []
         lowered = {"train_chunk": self.train_chunk.lower(state)}
         if prefill:
             lowered["prefill"] = self.prefill.lower(state)
@@ -271,6 +274,9 @@ class SACTrainer:
         )
         self._evaluate_compiled = _Compiling(pool.submit(lambda: evaluate.lower(*args).compile()))
         pool.shutdown(wait=False)
+        return [program.compiled for program in (self.train_chunk, self.prefill,
+                                                 self._evaluate_compiled)
+                if isinstance(program, _Compiling)]
 
     def replay_size(self, state: TrainingState) -> int:
         """Transitions in the replay buffer, over all devices."""
@@ -526,7 +532,7 @@ class _Compiling:
     then runs it."""
 
     def __init__(self, compiled: concurrent.futures.Future[Callable[..., Any]]):
-        self._compiled = compiled
+        self.compiled = compiled
 
     def __call__(self, *args: Any) -> Any:
-        return self._compiled.result()(*args)
+        return self.compiled.result()(*args)

@@ -21,7 +21,7 @@ from quadcos import env as env_lib
 from quadcos._util import files
 from quadcos.env import solver_probe
 from quadcos.equations import oscillator
-from quadcos.training import host, loop, reuse
+from quadcos.training import ahead, host, loop, reuse
 from quadcos.training.checks import ConfigError
 
 SEARCH_FILE = "gait_search.json"
@@ -58,7 +58,8 @@ def run(
     cheapest stable physics (`quadcos.env.solver_probe`), logs it in one line and puts it in
     `config.env` (so config.json holds it: a resumed or evaluated run probes nothing). With
     `env.action_centre="search"`, first runs `find_gait` on the run's terrain and trains from
-    the gait it found (in `config.env.action_centre`, and `run_dir`/gait_search.json).
+    the gait it found (in `config.env.action_centre`, and `run_dir`/gait_search.json), its
+    trainer compiled meanwhile where `quadcos.training.ahead` applies.
     Then builds the envs, or takes them and their compiled trainer from `trainers` when it holds
     a run of the same programs (`reuse.program_key`), trains with `loop.train` and keeps the envs
     and trainer in `trainers`.
@@ -95,7 +96,8 @@ def run(
     probed = _probe_physics(config.env)
     if probed is not None:
         startup.mark("solver_probe")
-    search = _resolve_centre(config, run_dir, find_gait)
+    with ahead.during_search(config, _envs):
+        search = _resolve_centre(config, run_dir, find_gait)
     if search is not None:
         startup.mark("gait_search")
     key = reuse.program_key(config.env, config.sac)

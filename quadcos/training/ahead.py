@@ -1,0 +1,103 @@
+"""A from-scratch run's trainer compiled while its gait search runs (`during_search`).
+
+The trainer's programs take the searched gait as data (`QuadrupedEnv.gait`) and are keyed in
+the caches without it (`quadcos._util.caches`), so a trainer built on any gait traces and
+compiles the very programs the run's own trainer loads once the search has found its gait.
+`during_search` builds one on a placeholder gait in a thread and compiles its programs into the
+caches while the search runs: on a GPU XLA compiles on the host while the search's robots step
+on the device. It applies to a run on MJX-JAX in one process with the compilation cache on:
+Warp's modules loaded from two threads at once, and two threads issuing programs that span
+several processes, are not known to be safe.
+"""
+
+import contextlib
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import jax
+import ml_collections
+
+from quadcos import robot
+from quadcos.env import backends
+from quadcos.equations import oscillator
+from quadcos.training import sac
+
+PLACEHOLDER_CENTRE = "midpoint"  # valid for any period floor; its values reach no program
+logger = logging.getLogger(__name__)
+
+# env config -> (training env, evaluation env), as the run builds them
+BuildEnvs = Callable[[ml_collections.ConfigDict], tuple[Any, Any]]
+
+
+def applies(config: ml_collections.ConfigDict) -> bool:
+    """Whether the run `config` ({"env", "sac"}) compiles its trainer during its gait search:
+    it searches, `sac.gait_search.compile_trainer` is on, its physics is MJX-JAX, it runs in one
+    process and the persistent compilation cache is on (the thread's programs reach the run's
+    trainer through it)."""
+    return (
+        config.env.action_centre == oscillator.SEARCH_CENTRE
+        and bool(config.sac.gait_search.compile_trainer)
+        and jax.process_count() == 1
+        and bool(jax.config.jax_compilation_cache_dir)
+        and _impl(config.env) == "jax"
+    )
+
+
+@contextlib.contextmanager
+def during_search(config: ml_collections.ConfigDict, build_envs: BuildEnvs) -> Iterator[None]:
+    """Where `applies(config)`: compiles the run's trainer on a placeholder gait in a thread while
+    the body (the gait search) runs, and on leaving waits for it, so that the run's trainer
+    loads those programs rather than compiling them a second time. A compilation that fails is
+    logged in one line and the run compiles its trainer itself; a body that raises leaves the
+    thread (a daemon) to finish or end with the process."""
+    if not applies(config):
+        yield
+        return
+    env_config = ml_collections.ConfigDict(config.env.to_dict())
+    env_config.action_centre = PLACEHOLDER_CENTRE
+    thread = threading.Thread(
+        target=_compile,
+        args=(env_config, config.sac.copy_and_resolve_references(), build_envs),
+        name="quadcos-compile-during-search",
+        daemon=True,
+    )
+    thread.start()
+    yield
+    thread.join()
+
+
+def _compile(
+    env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict, build_envs: BuildEnvs
+) -> None:
+    """Builds the trainer of `config` on the envs of `env_config` and compiles the programs a
+    fresh run compiles: init (by calling it), the prefill (with a `min_replay_size`), the
+    training chunk and the evaluation."""
+    start = time.monotonic()
+    try:
+        env, eval_env = build_envs(env_config)
+        trainer = sac.SACTrainer(env, config, eval_env=eval_env)
+        state = trainer.init()
+        for compiled in trainer.compile_ahead(state, prefill=config.min_replay_size > 0):
+            compiled.result()
+    except Exception as error:  # noqa: BLE001 - the run compiles its own trainer instead
+        logger.warning(
+            "compiling the trainer during the gait search failed (%s: %s); the run compiles it"
+            " after the search",
+            type(error).__name__,
+            error,
+        )
+        return
+    logger.info("trainer compiled during the gait search (%.0f s)", time.monotonic() - start)
+
+
+def _impl(env_config: ml_collections.ConfigDict) -> str:
+    """The physics the run's envs will resolve to ("jax" or "warp"; no warning: the envs give
+    it), or the configured name where it does not resolve (the envs' error says why)."""
+    gpu_physics = robot.load(env_config.robot).preset.gpu_physics
+    try:
+        return backends.resolve_impl(env_config.impl, gpu_physics, warn=False)
+    except ValueError:
+        return env_config.impl

@@ -1,0 +1,53 @@
+"""A from-scratch run's trainer compiled during its gait search (`quadcos.training.ahead`); the
+run that uses it end to end: tests/test_gait_search.py."""
+
+import logging
+import threading
+
+import pytest
+
+from quadcos import train
+from quadcos.training import ahead
+
+
+def _config(**overrides: str):
+    flags = {"env.action_centre": "search", **overrides}
+    return train.build_config(train.PRESETS["smoke"], flags)
+
+
+@pytest.mark.parametrize(
+    "overrides, applies",
+    [
+        ({}, True),  # the tests' compilation cache is on
+        ({"sac.gait_search.compile_trainer": False}, False),
+        ({"env.action_centre": "trot"}, False),  # no search to overlap
+        ({"env.impl": "warp"}, False),  # MJX-Warp (here: not installed, the env says so)
+    ],
+)
+def test_a_searching_run_on_mjx_jax_compiles_its_trainer_during_the_search(overrides, applies):
+    assert ahead.applies(_config(**overrides)) is applies
+
+
+def test_the_trainer_compiles_on_a_placeholder_gait_beside_the_search_and_is_waited_for():
+    built, searched = [], threading.Event()
+
+    def build_envs(env_config):
+        built.append(env_config.action_centre)
+        assert searched.wait(10)  # runs while the body (the search) runs
+        raise RuntimeError("no envs in this test")
+
+    with ahead.during_search(_config(), build_envs):
+        searched.set()
+    assert built == [ahead.PLACEHOLDER_CENTRE]  # the thread ran, and was joined on leaving
+
+
+def test_a_failed_compilation_is_one_warning_and_the_run_goes_on(caplog):
+    def build_envs(env_config):
+        raise RuntimeError("boom")
+
+    with caplog.at_level(logging.WARNING, logger=ahead.__name__):
+        with ahead.during_search(_config(), build_envs):
+            pass
+    (record,) = caplog.records
+    assert "RuntimeError: boom" in record.getMessage()
+    assert "the run compiles it after the search" in record.getMessage()
