@@ -45,9 +45,11 @@ def test_a_failed_compilation_is_one_warning_and_the_run_goes_on(caplog):
     def build_envs(env_config):
         raise RuntimeError("boom")
 
-    with caplog.at_level(logging.WARNING, logger=ahead.__name__):
-        with ahead.during_search(_config(), build_envs):
-            pass
+    with (
+        caplog.at_level(logging.WARNING, logger=ahead.__name__),
+        ahead.during_search(_config(), build_envs),
+    ):
+        pass
     (record,) = caplog.records
     assert "RuntimeError: boom" in record.getMessage()
     assert "the run compiles it after the search" in record.getMessage()
