@@ -24,12 +24,10 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import ml_collections
-import optax
 from brax import envs
 from brax.envs.wrappers import training as training_wrappers
 from brax.training import types
 from brax.training.acme import running_statistics, specs
-from brax.training.agents.sac import losses as sac_losses
 from brax.training.agents.sac import networks as sac_networks
 from jax.sharding import PartitionSpec
 
@@ -61,13 +59,6 @@ def observation_size(env: envs.Env, reset_envs: Any, num_envs: int) -> int:
     if not hasattr(obs, "shape") or len(obs.shape) != 2:
         raise ValueError(f"SAC needs a flat observation vector; got {obs}")
     return obs.shape[1]
-
-
-def _optimizer(learning_rate: float, max_grad_norm: float | None) -> optax.GradientTransformation:
-    adam = optax.adam(learning_rate)
-    if max_grad_norm is None:
-        return adam
-    return optax.chain(optax.clip_by_global_norm(max_grad_norm), adam)
 
 
 class SACTrainer:
@@ -119,7 +110,7 @@ class SACTrainer:
             config.critic_layer_norm,
         )
         self._make_policy = sac_networks.make_inference_fn(self.networks)
-        self._sgd_step = self._sac_update(config)
+        self._sgd_step = updates.SACUpdate.from_config(config, self.networks, self.action_size)
         self.replay = self._replay(config, shards)
         self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
@@ -127,33 +118,6 @@ class SACTrainer:
         programs = config_lib.program_fields(config)
         fingerprint = caches.trainer_fingerprint(env, eval_env, programs, self.layout.mesh is None)
         self._compile(config, getattr(env, "compiler_options", None) or None, fingerprint)
-
-    def _sac_update(self, config: ml_collections.ConfigDict) -> updates.SACUpdate:
-        """The losses (Brax's) and optimizers of one SAC gradient update."""
-        self._policy_optimizer = _optimizer(config.learning_rate.actor, config.max_grad_norm)
-        self._q_optimizer = _optimizer(config.learning_rate.critic, config.max_grad_norm)
-        self._alpha_optimizer = optax.adam(config.learning_rate.alpha)
-        alpha_loss, critic_loss, actor_loss = sac_losses.make_losses(
-            sac_network=self.networks,
-            reward_scaling=config.reward_scaling,
-            discounting=config.discount,
-            # Brax's losses use action_size only for the temperature's target entropy,
-            # −0.5·action_size; passing −2·target_entropy sets that target.
-            action_size=self.action_size
-            if config.target_entropy is None
-            else -2.0 * config.target_entropy,
-        )
-        return updates.SACUpdate(
-            alpha_loss=alpha_loss,
-            critic_loss=critic_loss,
-            actor_loss=actor_loss,
-            alpha_optimizer=self._alpha_optimizer,
-            q_optimizer=self._q_optimizer,
-            policy_optimizer=self._policy_optimizer,
-            tau=config.tau,
-            actor_warmup_steps=config.actor_warmup_steps,
-            policy_delay=config.policy_delay,
-        )
 
     def _replay(self, config: ml_collections.ConfigDict, shards: int) -> Any:
         """The replay buffer: one ring per device, filled by that device's envs and sampled
@@ -274,9 +238,11 @@ class SACTrainer:
         )
         self._evaluate_compiled = _Compiling(pool.submit(lambda: evaluate.lower(*args).compile()))
         pool.shutdown(wait=False)
-        return [program.compiled for program in (self.train_chunk, self.prefill,
-                                                 self._evaluate_compiled)
-                if isinstance(program, _Compiling)]
+        return [
+            program.compiled
+            for program in (self.train_chunk, self.prefill, self._evaluate_compiled)
+            if isinstance(program, _Compiling)
+        ]
 
     def replay_size(self, state: TrainingState) -> int:
         """Transitions in the replay buffer, over all devices."""
@@ -295,12 +261,12 @@ class SACTrainer:
         log_alpha = jnp.log(jnp.asarray(self.config.init_alpha, jnp.float32))
         state = TrainingState(
             policy_params=policy_params,
-            policy_optimizer_state=self._policy_optimizer.init(policy_params),
+            policy_optimizer_state=self._sgd_step.policy_optimizer.init(policy_params),
             q_params=q_params,
-            q_optimizer_state=self._q_optimizer.init(q_params),
+            q_optimizer_state=self._sgd_step.q_optimizer.init(q_params),
             target_q_params=q_params,
             log_alpha=log_alpha,
-            alpha_optimizer_state=self._alpha_optimizer.init(log_alpha),
+            alpha_optimizer_state=self._sgd_step.alpha_optimizer.init(log_alpha),
             normalizer_params=running_statistics.init_state(
                 specs.Array((self.observation_size,), jnp.dtype("float32"))
             ),

@@ -11,8 +11,10 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import ml_collections
 import optax
 from brax.training import types
+from brax.training.agents.sac import losses as sac_losses
 
 Metrics = dict[str, jax.Array]
 
@@ -40,7 +42,38 @@ class SACUpdate:
     actor_warmup_steps: int
     policy_delay: int = 1
 
-    def __call__(self, state: Any, batch: tuple[types.Transition, jax.Array]) -> tuple[Any, Metrics]:
+    @classmethod
+    def from_config(
+        cls, config: ml_collections.ConfigDict, sac_networks: Any, action_size: int
+    ) -> "SACUpdate":
+        """The update of a trainer `config` (`quadcos.training.config`) for Brax's SAC networks
+        `sac_networks` acting in `action_size` dimensions: Adam for each part, the actor's and
+        critic's gradients clipped to `max_grad_norm` where it is set."""
+        alpha_loss, critic_loss, actor_loss = sac_losses.make_losses(
+            sac_network=sac_networks,
+            reward_scaling=config.reward_scaling,
+            discounting=config.discount,
+            # Brax's losses use action_size only for the temperature's target entropy,
+            # −0.5·action_size; passing −2·target_entropy sets that target.
+            action_size=action_size
+            if config.target_entropy is None
+            else -2.0 * config.target_entropy,
+        )
+        return cls(
+            alpha_loss=alpha_loss,
+            critic_loss=critic_loss,
+            actor_loss=actor_loss,
+            alpha_optimizer=optax.adam(config.learning_rate.alpha),
+            q_optimizer=_optimizer(config.learning_rate.critic, config.max_grad_norm),
+            policy_optimizer=_optimizer(config.learning_rate.actor, config.max_grad_norm),
+            tau=config.tau,
+            actor_warmup_steps=config.actor_warmup_steps,
+            policy_delay=config.policy_delay,
+        )
+
+    def __call__(
+        self, state: Any, batch: tuple[types.Transition, jax.Array]
+    ) -> tuple[Any, Metrics]:
         transitions, key = batch
         key_alpha, key_critic, key_actor = jax.random.split(key, 3)
         alpha = jnp.exp(state.log_alpha)
@@ -76,9 +109,7 @@ class SACUpdate:
         # During the warm-up only the critics learn: an actor that climbs an untrained Q
         # walks away from the action centre's gait before the critic can value it. After it, the
         # actor and the temperature learn in one update of every `policy_delay`.
-        warm = (state.gradient_steps.hi > 0) | (
-            state.gradient_steps.lo >= self.actor_warmup_steps
-        )
+        warm = (state.gradient_steps.hi > 0) | (state.gradient_steps.lo >= self.actor_warmup_steps)
         actor_learns = warm & (state.gradient_steps.lo % self.policy_delay == 0)
         (log_alpha, alpha_optimizer_state, policy_params, policy_optimizer_state) = jax.tree.map(
             lambda new, old: jnp.where(actor_learns, new, old),
@@ -119,3 +150,10 @@ def _apply(
 ) -> tuple[Any, Any]:
     updates, optimizer_state = optimizer.update(grad, optimizer_state)
     return optax.apply_updates(params, updates), optimizer_state
+
+
+def _optimizer(learning_rate: float, max_grad_norm: float | None) -> optax.GradientTransformation:
+    adam = optax.adam(learning_rate)
+    if max_grad_norm is None:
+        return adam
+    return optax.chain(optax.clip_by_global_norm(max_grad_norm), adam)
