@@ -179,8 +179,12 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     )
     assert result.returncode == 0, result.stderr[-3000:]
     assert "gait search round 2/2" in result.stderr
-    # Its trainer compiled meanwhile, on a placeholder gait (quadcos.training.ahead).
+    # Its trainer compiled meanwhile, on a placeholder gait (quadcos.training.ahead): the run
+    # loads its training chunk from the caches (compiling it would be a miss, caches cold or warm).
     assert "trainer compiled during the gait search" in result.stderr
+    startup = json.loads((run_dir / "startup.json").read_text())
+    assert startup["compile"]["first_chunk"]["cache_misses"] == 0
+    assert startup["compile"]["first_chunk"]["cache_hits"] >= 1
 
     search = json.loads((run_dir / "gait_search.json").read_text())
     assert not search["setup"]["include_trot"] and search["setup"]["symmetric"]

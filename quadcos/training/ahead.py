@@ -23,7 +23,7 @@ import ml_collections
 from quadcos import robot
 from quadcos.env import backends
 from quadcos.equations import oscillator
-from quadcos.training import sac
+from quadcos.training import policy, sac
 
 PLACEHOLDER_CENTRE = "midpoint"  # valid for any period floor; its values reach no program
 logger = logging.getLogger(__name__)
@@ -73,13 +73,14 @@ def _compile(
     env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict, build_envs: BuildEnvs
 ) -> None:
     """Builds the trainer of `config` on the envs of `env_config` and compiles the programs a
-    fresh run compiles: init (by calling it), the prefill (with a `min_replay_size`), the
-    training chunk and the evaluation."""
+    fresh run compiles: init and the copy of the policy its step-0 evaluation takes (by calling
+    them), the prefill (with a `min_replay_size`), the training chunk and the evaluation."""
     start = time.monotonic()
     try:
         env, eval_env = build_envs(env_config)
         trainer = sac.SACTrainer(env, config, eval_env=eval_env)
         state = trainer.init()
+        policy.PolicyPart.copy_of(state)
         for compiled in trainer.compile_ahead(state, prefill=config.min_replay_size > 0):
             compiled.result()
     except Exception as error:  # noqa: BLE001 - the run compiles its own trainer instead

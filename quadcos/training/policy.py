@@ -40,7 +40,13 @@ class PolicyPart(NamedTuple):
     def copy_of(cls, state: sac.TrainingState) -> "PolicyPart":
         """A copy on the device (dispatched, not awaited) that outlives `state` when the state
         is donated to a compiled program."""
-        return jax.tree.map(jnp.copy, cls(state.normalizer_params, state.policy_params))
+        return _copied(cls(state.normalizer_params, state.policy_params))
+
+
+@jax.jit
+def _copied(part: PolicyPart) -> PolicyPart:
+    """`part` copied leaf by leaf, one program for all of them (not one per leaf's shape)."""
+    return jax.tree.map(jnp.copy, part)
 
 
 @dataclasses.dataclass(frozen=True)
