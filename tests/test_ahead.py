@@ -1,5 +1,6 @@
-"""A from-scratch run's trainer compiled during its gait search (`quadcos.training.ahead`); the
-run that uses it end to end: tests/test_gait_search.py."""
+"""A from-scratch run's trainer compiled during its gait search (`quadcos.training.ahead`; the
+run that uses it end to end: tests/test_gait_search.py), and a search that eats the run's time
+budget warned of."""
 
 import logging
 import threading
@@ -7,7 +8,7 @@ import threading
 import pytest
 
 from quadcos import train
-from quadcos.training import ahead
+from quadcos.training import ahead, session
 
 
 def _config(**overrides: str):
@@ -53,3 +54,15 @@ def test_a_failed_compilation_is_one_warning_and_the_run_goes_on(caplog):
     (record,) = caplog.records
     assert "RuntimeError: boom" in record.getMessage()
     assert "the run compiles it after the search" in record.getMessage()
+
+
+@pytest.mark.parametrize(
+    "max_seconds, searched_s, warned",
+    [(0, 500.0, False), (300, 149.0, False), (300, 150.0, True), (300, 476.0, True)],
+)
+def test_a_search_that_takes_half_the_run_or_more_is_warned_of(max_seconds, searched_s, warned):
+    message = session.search_overrun(max_seconds, searched_s)
+    assert (message is not None) is warned
+    if warned:
+        assert f"ended {searched_s:.0f} s into the run's {max_seconds} s" in message
+        assert f"leaving SAC {max(max_seconds - searched_s, 0):.0f} s" in message

@@ -100,6 +100,9 @@ def run(
         search = _resolve_centre(config, run_dir, find_gait)
     if search is not None:
         startup.mark("gait_search")
+        overrun = search_overrun(config.sac.max_seconds, startup.seconds["gait_search"])
+        if overrun and started_at is not None:  # the search counts in the run's time
+            logger.warning("%s", overrun)
     key = reuse.program_key(config.env, config.sac)
     reused = None
     if trainers is not None and jax.process_count() == 1:
@@ -129,6 +132,19 @@ def run(
     if trainers is not None:
         trainers.keep(key, env, eval_env, result.trainer)
     return result
+
+
+def search_overrun(max_seconds: float, searched_s: float) -> str | None:
+    """For a run with a time budget of `max_seconds` (0: none) whose gait search ended
+    `searched_s` s after its start: a warning where the search took half the budget or more
+    (SAC gets the rest), else None."""
+    if not max_seconds or searched_s < max_seconds / 2:
+        return None
+    return (
+        f"the gait search ended {searched_s:.0f} s into the run's {max_seconds:g} s"
+        f" (sac.max_seconds), leaving SAC {max(max_seconds - searched_s, 0):.0f} s: give the run"
+        " more time or the search fewer rounds or candidates (sac.gait_search.*)"
+    )
 
 
 def _probe_physics(env_config: ml_collections.ConfigDict) -> dict[str, Any] | None:
