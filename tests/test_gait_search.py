@@ -2,6 +2,7 @@
 
 import json
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -153,6 +154,8 @@ def test_a_library_run_with_a_search_centre_needs_the_search(tmp_path):
     with pytest.raises(training.ConfigError, match="find_gait=quadcos.evaluation.gait_search"):
         training.run(config, tmp_path / "run")
     assert not (tmp_path / "run").exists()
+    # ... and nothing compiles for a search that will not run (quadcos.training.ahead)
+    assert "quadcos-compile-during-search" not in [t.name for t in threading.enumerate()]
 
 
 @pytest.mark.slow

@@ -96,8 +96,7 @@ def run(
     probed = _probe_physics(config.env)
     if probed is not None:
         startup.mark("solver_probe")
-    with ahead.during_search(config, _envs):
-        search = _resolve_centre(config, run_dir, find_gait)
+    search = _resolve_centre(config, run_dir, find_gait)
     if search is not None:
         startup.mark("gait_search")
         overrun = search_overrun(config.sac.max_seconds, startup.seconds["gait_search"])
@@ -163,9 +162,9 @@ def _resolve_centre(
     run_dir: pathlib.Path | None,
     find_gait: GaitSearch | None,
 ) -> dict[str, Any] | None:
-    """For a run config whose action centre is "search": runs `find_gait`, puts the gait found
-    in `config.env.action_centre` and writes the search to `run_dir`/gait_search.json. Other
-    configs: nothing (None)."""
+    """For a run config whose action centre is "search": runs `find_gait` (its trainer compiled
+    meanwhile: `ahead.during_search`), puts the gait found in `config.env.action_centre` and
+    writes the search to `run_dir`/gait_search.json. Other configs: nothing (None)."""
     if config.env.action_centre != oscillator.SEARCH_CENTRE:
         return None
     if find_gait is None:
@@ -173,7 +172,8 @@ def _resolve_centre(
             f'env.action_centre="{oscillator.SEARCH_CENTRE}" needs a gait search: pass'
             " find_gait=quadcos.evaluation.gait_search.find_gait"
         )
-    search = find_gait(config)
+    with ahead.during_search(config, _envs):  # the trainer compiles meanwhile, where it can
+        search = find_gait(config)
     config.env.action_centre = search["action_centre"]
     # the feed-forward measured on the gait found
     for key in ("reference_speed", "half_track", "speed_map"):
