@@ -4,6 +4,7 @@ budget warned of."""
 
 import logging
 import threading
+import time
 
 import pytest
 
@@ -12,7 +13,7 @@ from quadcos.training import ahead, session
 
 
 def _config(**overrides: str):
-    flags = {"env.action_centre": "search", **overrides}
+    flags = {"env.action_centre": "search", "env.impl": "jax", **overrides}
     return train.build_config(train.PRESETS["smoke"], flags)
 
 
@@ -23,6 +24,7 @@ def _config(**overrides: str):
         ({"sac.gait_search.compile_trainer": False}, False),
         ({"env.action_centre": "trot"}, False),  # no search to overlap
         ({"env.impl": "warp"}, False),  # MJX-Warp (here: not installed, the env says so)
+        ({"sac.num_devices": 1}, True),
     ],
 )
 def test_a_searching_run_on_mjx_jax_compiles_its_trainer_during_the_search(overrides, applies):
@@ -40,6 +42,16 @@ def test_the_trainer_compiles_on_a_placeholder_gait_beside_the_search_and_is_wai
     with ahead.during_search(_config(), build_envs):
         searched.set()
     assert built == [ahead.PLACEHOLDER_CENTRE]  # the thread ran, and was joined on leaving
+
+
+def test_a_search_that_raises_waits_for_the_thread():
+    def build_envs(env_config):
+        time.sleep(0.5)  # still compiling when the search is interrupted
+        raise RuntimeError("no envs in this test")
+
+    with pytest.raises(KeyboardInterrupt), ahead.during_search(_config(), build_envs):
+        raise KeyboardInterrupt
+    assert "quadcos-compile-during-search" not in [t.name for t in threading.enumerate()]
 
 
 def test_a_failed_compilation_is_one_warning_and_the_run_goes_on(caplog):

@@ -77,7 +77,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert config["sac"].pop("overlap_updates") is False
     # ... and the delayed actor and LayerNorm critics, off: Brax's SAC.
     assert (config["sac"].pop("policy_delay"), config["sac"].pop("critic_layer_norm")) == (1, False)
-    # ... and the trainer compiled during the search, which changes no number the run computes.
+    # ... and the trainer compiled during the search: a start-up option, not the runs' learning.
     assert config["sac"]["gait_search"].pop("compile_trainer") is True
     assert config["sac"] == recorded["config"]
     env = config["env"]
@@ -170,6 +170,7 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
         "--robot=quad12",
         "--config.sac.min_replay_size=0",
         "--config.env.action_centre=search",
+        "--config.env.impl=jax",  # the trainer compiles during the search on MJX-JAX only
         "--config.env.survival_min_speed=0.1",
         "--config.env.action_scale=0.5",
         "--config.sac.gait_search.num_candidates=6",

@@ -5,9 +5,10 @@ the caches without it (`quadcos._util.caches`), so a trainer built on any gait t
 compiles the very programs the run's own trainer loads once the search has found its gait.
 `during_search` builds one on a placeholder gait in a thread and compiles its programs into the
 caches while the search runs: on a GPU XLA compiles on the host while the search's robots step
-on the device. It applies to a run on MJX-JAX in one process with the compilation cache on:
-Warp's modules loaded from two threads at once, and two threads issuing programs that span
-several processes, are not known to be safe.
+on the device (on a CPU the two share the cores). It applies to a run on MJX-JAX on one device
+of one process with the compilation cache on: Warp's modules loaded from two threads at once,
+and two threads issuing programs that span several processes, are not known to be safe, and on
+several devices the initial state's program holds the gait as a constant.
 """
 
 import contextlib
@@ -23,7 +24,7 @@ import ml_collections
 from quadcos import robot
 from quadcos.env import backends
 from quadcos.equations import oscillator
-from quadcos.training import policy, sac
+from quadcos.training import checks, parallel, policy, sac
 
 PLACEHOLDER_CENTRE = "midpoint"  # valid for any period floor; its values reach no program
 logger = logging.getLogger(__name__)
@@ -34,13 +35,14 @@ BuildEnvs = Callable[[ml_collections.ConfigDict], tuple[Any, Any]]
 
 def applies(config: ml_collections.ConfigDict) -> bool:
     """Whether the run `config` ({"env", "sac"}) compiles its trainer during its gait search:
-    it searches, `sac.gait_search.compile_trainer` is on, its physics is MJX-JAX, it runs in one
-    process and the persistent compilation cache is on (the thread's programs reach the run's
-    trainer through it)."""
+    it searches, `sac.gait_search.compile_trainer` is on, its physics is MJX-JAX, it runs on one
+    device of one process and the persistent compilation cache is on (the thread's programs reach
+    the run's trainer through it)."""
     return (
         config.env.action_centre == oscillator.SEARCH_CENTRE
         and bool(config.sac.gait_search.compile_trainer)
         and jax.process_count() == 1
+        and parallel.make_layout(config.sac.num_devices).mesh is None
         and bool(jax.config.jax_compilation_cache_dir)
         and _impl(config.env) == "jax"
     )
@@ -51,36 +53,52 @@ def during_search(config: ml_collections.ConfigDict, build_envs: BuildEnvs) -> I
     """Where `applies(config)`: compiles the run's trainer on a placeholder gait in a thread while
     the body (the gait search) runs, and on leaving waits for it, so that the run's trainer
     loads those programs rather than compiling them a second time. A compilation that fails is
-    logged in one line and the run compiles its trainer itself; a body that raises leaves the
-    thread (a daemon) to finish or end with the process."""
+    logged in one line and the run compiles its trainer itself. A body that raises stops the
+    thread at its next step and waits for what it is compiling (XLA cannot be interrupted)."""
     if not applies(config):
         yield
         return
     env_config = ml_collections.ConfigDict(config.env.to_dict())
     env_config.action_centre = PLACEHOLDER_CENTRE
+    cancelled = threading.Event()
     thread = threading.Thread(
         target=_compile,
-        args=(env_config, config.sac.copy_and_resolve_references(), build_envs),
+        args=(env_config, config.sac.copy_and_resolve_references(), build_envs, cancelled),
         name="quadcos-compile-during-search",
         daemon=True,
     )
     thread.start()
-    yield
-    thread.join()
+    try:
+        yield
+    except BaseException:
+        cancelled.set()
+        raise
+    finally:
+        thread.join()
 
 
 def _compile(
-    env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict, build_envs: BuildEnvs
+    env_config: ml_collections.ConfigDict,
+    config: ml_collections.ConfigDict,
+    build_envs: BuildEnvs,
+    cancelled: threading.Event,
 ) -> None:
     """Builds the trainer of `config` on the envs of `env_config` and compiles the programs a
     fresh run compiles: init and the copy of the policy its step-0 evaluation takes (by calling
-    them), the prefill (with a `min_replay_size`), the training chunk and the evaluation."""
+    them), the prefill (with a `min_replay_size`), the training chunk and the evaluation. Stops
+    between these steps once `cancelled` is set; checks first that the trainer's state fits the
+    device (`checks.check_memory`: the run's own check says so in its error)."""
     start = time.monotonic()
     try:
         env, eval_env = build_envs(env_config)
         trainer = sac.SACTrainer(env, config, eval_env=eval_env)
+        checks.check_memory(trainer)
+        if cancelled.is_set():
+            return
         state = trainer.init()
         policy.PolicyPart.copy_of(state)
+        if cancelled.is_set():
+            return
         for compiled in trainer.compile_ahead(state, prefill=config.min_replay_size > 0):
             compiled.result()
     except Exception as error:  # noqa: BLE001 - the run compiles its own trainer instead

@@ -96,9 +96,8 @@ def run(
     probed = _probe_physics(config.env)
     if probed is not None:
         startup.mark("solver_probe")
-    search = _resolve_centre(config, run_dir, find_gait)
+    search = _resolve_centre(config, run_dir, find_gait, startup)
     if search is not None:
-        startup.mark("gait_search")
         overrun = search_overrun(config.sac.max_seconds, startup.seconds["gait_search"])
         if overrun and started_at is not None:  # the search counts in the run's time
             logger.warning("%s", overrun)
@@ -161,10 +160,12 @@ def _resolve_centre(
     config: ml_collections.ConfigDict,
     run_dir: pathlib.Path | None,
     find_gait: GaitSearch | None,
+    startup: host.StartUp,
 ) -> dict[str, Any] | None:
     """For a run config whose action centre is "search": runs `find_gait` (its trainer compiled
     meanwhile: `ahead.during_search`), puts the gait found in `config.env.action_centre` and
-    writes the search to `run_dir`/gait_search.json. Other configs: nothing (None)."""
+    writes the search to `run_dir`/gait_search.json; marks `startup` at the search's end. Other
+    configs: nothing (None)."""
     if config.env.action_centre != oscillator.SEARCH_CENTRE:
         return None
     if find_gait is None:
@@ -174,6 +175,7 @@ def _resolve_centre(
         )
     with ahead.during_search(config, _envs):  # the trainer compiles meanwhile, where it can
         search = find_gait(config)
+        startup.mark("gait_search")  # (waiting for the compilation counts in the envs built)
     config.env.action_centre = search["action_centre"]
     # the feed-forward measured on the gait found
     for key in ("reference_speed", "half_track", "speed_map"):
