@@ -160,12 +160,12 @@ def _resolve_centre(
     config: ml_collections.ConfigDict,
     run_dir: pathlib.Path | None,
     find_gait: GaitSearch | None,
-    startup: host.StartUp,
+    startup: host.StartUp | None = None,
 ) -> dict[str, Any] | None:
     """For a run config whose action centre is "search": runs `find_gait` (its trainer compiled
     meanwhile: `ahead.during_search`), puts the gait found in `config.env.action_centre` and
-    writes the search to `run_dir`/gait_search.json; marks `startup` at the search's end. Other
-    configs: nothing (None)."""
+    writes the search to `run_dir`/gait_search.json; marks `startup` (if any) at the search's
+    end. Other configs: nothing (None)."""
     if config.env.action_centre != oscillator.SEARCH_CENTRE:
         return None
     if find_gait is None:
@@ -175,7 +175,8 @@ def _resolve_centre(
         )
     with ahead.during_search(config, _envs):  # the trainer compiles meanwhile, where it can
         search = find_gait(config)
-        startup.mark("gait_search")  # (waiting for the compilation counts in the envs built)
+        if startup is not None:  # (waiting for the compilation counts in the envs built)
+            startup.mark("gait_search")
     config.env.action_centre = search["action_centre"]
     # the feed-forward measured on the gait found
     for key in ("reference_speed", "half_track", "speed_map"):
