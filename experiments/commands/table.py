@@ -195,6 +195,8 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1loops_s2": "as `go1loops_s0`, seed 2",
     "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
     "go2loops_s0": "the preset (Go2, seed 0): the drive's loops closed, 300 s",
+    "go2loops540_s0": "as `go2loops_s0`, 540 s",
+    "go1loops540_s0": "as `go1loops_s0`, 540 s: its best evaluation the searched gait (step 0)",
     "anymal_conf_s0": "the preset, loops open, gait search `min_speed` 0.15, its 16 best confirmed"
     " on 256 robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
     "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
