@@ -280,3 +280,53 @@ def test_the_committed_go1_policy_walks_go1(menagerie_root):
     )
     assert result.falls == 0.0 and result.speed > 0.5
     assert result.to_json()["setup"]["robot"]["name"] == "unitree_go1"
+
+
+def test_servo_gains_stiffen_the_position_servos_everywhere_the_robot_is_built(tmp_path):
+    """`env.servo_kp`/`servo_kd` set every position servo's gain and damping in the env's model
+    and in C MuJoCo's (deploy); a stiffer servo holds a loaded joint closer to its target."""
+    from quadcos import env as env_lib  # noqa: PLC0415
+    from quadcos.deploy import host_robot  # noqa: PLC0415
+    from quadcos.terrain import get  # noqa: PLC0415
+
+    def sag(servo):  # the largest joint error standing under its own weight, targets held
+        model = robot_lib.build_model(
+            get("flat"), robot_lib.load("quad12"), timestep=0.005, servo=servo
+        )
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+        data.qpos[2] += 0.05
+        joints = model.actuator_trnid[:, 0]
+        data.ctrl[:] = data.qpos[model.jnt_qposadr[joints]]
+        for _ in range(400):
+            mujoco.mj_step(model, data)
+        return float(np.abs(data.qpos[model.jnt_qposadr[joints]] - data.ctrl).max()), model
+
+    soft, stock = sag(None)
+    stiff, stiffened = sag((4 * float(stock.actuator_gainprm[0, 0]), 1.0))
+    assert stiff < 0.5 * soft
+    assert np.allclose(stiffened.actuator_biasprm[:, 1], -stiffened.actuator_gainprm[:, 0])
+    assert np.allclose(stiffened.actuator_biasprm[:, 2], -1.0)
+    overrides = {"robot": "quad12", "servo_kp": 123.0, "servo_kd": 2.5}
+    env = env_lib.make_env("flat", **overrides)
+    host = host_robot.HostRobot("flat", host_robot.Pilot.load("fixed:trot", overrides).config)
+    for model in (env.mj_model, host.model):
+        assert np.allclose(model.actuator_gainprm[:, 0], 123.0)
+        assert np.allclose(model.actuator_biasprm[:, 1:3], [-123.0, -2.5])
+    motors = prepare.load_spec(robot_variants.motors_without_gains(tmp_path))
+    with pytest.raises(ValueError, match="position actuators; actuator .* torque motor"):
+        prepare.set_servo_gains(motors, 100.0, 1.0)
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        ({"servo_kp": -1.0}, "servo_kp must be finite and >= 0; got -1.0"),
+        ({"servo_kd": 2.0}, "servo_kd > 0 needs servo_kp > 0"),
+    ],
+)
+def test_bad_servo_gains_are_refused_naming_the_key(overrides, message):
+    from quadcos import env as env_lib  # noqa: PLC0415
+
+    with pytest.raises(ValueError, match=message):
+        env_lib.make_env("flat", robot="quad12", **overrides)

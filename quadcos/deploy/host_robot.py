@@ -149,6 +149,7 @@ class HostRobot:
             timestep=config.physics_dt,
             solver_iterations=iterations,
             ls_iterations=ls_iterations,
+            servo=env_lib.servo_gains(config),
         )
         self.physics = {
             "solver": physics,

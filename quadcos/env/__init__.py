@@ -18,6 +18,7 @@ from quadcos.env.config import (
     default_config,
     max_progress,
     resolve,
+    servo_gains,
     validate_config,
 )
 from quadcos.env.layout import MAX_SPEED
@@ -34,6 +35,7 @@ __all__ = [
     "make_env",
     "max_progress",
     "resolve",
+    "servo_gains",
     "validate_config",
 ]
 

@@ -45,6 +45,12 @@ def default_config() -> ml_collections.ConfigDict:
     # stable physics_dt, iterations and cone (quadcos.env.solver_probe) where all four above are
     # left to the robot; False keeps its MJCF's.
     config.solver_probe = True
+    # N m/rad, N m s/rad: > 0 gives every position servo of the robot this gain and servo_kd this
+    # damping (the rhythm's joint targets are open loop: a soft servo sags and lags them; ANYmal
+    # C's MJCF has kp 100 for 50 kg); 0 keeps the MJCF's. Robots with torque motors take their
+    # PD gains from their preset (quadcos.robot.presets).
+    config.servo_kp = 0.0
+    config.servo_kd = 0.0
     config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
     # "phase" integrates ψ += 2π dt/T every physics step (continuous when T changes); "literal"
     # evaluates Eq. 3 at 2πt/T. Equal while T is constant; see quadcos.oscillator.
@@ -154,6 +160,11 @@ def resolve(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
     return resolved
 
 
+def servo_gains(config: ml_collections.ConfigDict) -> tuple[float, float] | None:
+    """(kp, kd) for the robot's position servos (`robot.build_model`), None for the MJCF's."""
+    return (float(config.servo_kp), float(config.servo_kd)) if config.servo_kp > 0 else None
+
+
 def action_size(config: ml_collections.ConfigDict) -> int:
     """Values in an action of an env with this config."""
     if config.controller == "joint":
@@ -213,6 +224,7 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         )
     if not 0.0 < config.action_scale <= 1.0:
         raise ValueError(f"action_scale must be in (0, 1]; got {config.action_scale}")
+    _validate_servo(config)
     if not config.action_filter_tau >= 0:
         raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")
     if not 0.0 <= config.start_ramp_s < math.inf:
@@ -245,6 +257,22 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(
             f"period_min must be in (0, {oscillator.PERIOD_MAX}]; got {config.period_min}"
         )
+
+
+def _validate_servo(config: ml_collections.ConfigDict) -> None:
+    """Raises ValueError for servo gains out of range or for a robot without position servos."""
+    for key in ("servo_kp", "servo_kd"):
+        if not 0.0 <= config[key] < math.inf:
+            raise ValueError(f"{key} must be finite and >= 0; got {config[key]}")
+    if config.servo_kd > 0 and not config.servo_kp > 0:
+        raise ValueError("servo_kd > 0 needs servo_kp > 0 (0 keeps the MJCF's servos as they are)")
+    if config.servo_kp > 0:
+        robot = robot_lib.load(config.robot)
+        if robot.description.actuator_kind != "position":
+            raise ValueError(
+                f"servo_kp applies to position servos; robot {config.robot} drives torque motors"
+                " (its PD gains: the robot preset's kp, kd)"
+            )
 
 
 def _validate_warp(warp: ml_collections.ConfigDict) -> None:

@@ -24,6 +24,7 @@ from quadcos.env.config import (
     default_config,
     max_progress,
     resolve,
+    servo_gains,
     validate_config,
 )
 from quadcos.env.layout import Layout, blown_up, fallen
@@ -73,6 +74,7 @@ class QuadrupedEnv(base.Env):
             solver_iterations=config.solver_iterations,
             ls_iterations=config.ls_iterations,
             cone=config.cone,
+            servo=servo_gains(config),
         )
         self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)

@@ -220,7 +220,10 @@ def probe(
     reference_config = config_lib.resolve(_probed_config(config))
     reference = SolverOptions(*(reference_config[key] for key in PHYSICS_KEYS))
     mj_model = robot_lib.build_model(
-        _flat(), robot_lib.load(config.robot), timestep=reference.physics_dt
+        _flat(),
+        robot_lib.load(config.robot),
+        timestep=reference.physics_dt,
+        servo=config_lib.servo_gains(config),
     )
     reference = dataclasses.replace(  # the MJCF's own values where the config leaves them
         reference,
@@ -286,6 +289,7 @@ class _Rollout:
     ):
         self.seconds, self.outcomes = seconds, {}
         self.robot = robot = robot_lib.load(config.robot)
+        self.servo = config_lib.servo_gains(config)
         plain = ml_collections.ConfigDict(config.to_dict())
         plain.impl, plain.randomization.enabled = "jax", False
         env = QuadrupedEnv("flat", plain)  # for its actions' joint targets
@@ -354,6 +358,7 @@ class _Rollout:
             solver_iterations=options.solver_iterations,
             ls_iterations=options.ls_iterations,
             cone=options.cone,
+            servo=self.servo,
         )
 
     def __call__(self, options: SolverOptions) -> Outcome:

@@ -24,6 +24,7 @@ def build_model(
     solver_iterations: int = 0,
     ls_iterations: int = 0,
     cone: str = "",
+    servo: tuple[float, float] | None = None,
 ) -> mujoco.MjModel:
     """Compile `robot` on `terrain` into an MjModel.
 
@@ -34,10 +35,11 @@ def build_model(
       solver_iterations, ls_iterations: constraint solver iterations (0 keeps the MJCF's).
       cone: "pyramidal" or "elliptic" friction cones; "" keeps the robot preset's (else the
         MJCF's).
+      servo: (kp, kd) of every position servo (`prepare.set_servo_gains`); None keeps the MJCF's.
 
     Raises:
       ValueError: the robot does not compile on the terrain, or has a ground of its own, naming
-        both.
+        both; servo gains for a robot without position servos.
     """
     spec = robot.spec()
     try:
@@ -55,6 +57,11 @@ def build_model(
         spec.option.ls_iterations = ls_iterations
     if cone:
         prepare.set_cone(spec, cone)
+    if servo is not None:
+        try:
+            prepare.set_servo_gains(spec, *servo)
+        except ValueError as error:
+            raise ValueError(f"robot {robot.source.spec}: {error}") from None
     try:
         return spec.compile()
     except Exception as error:  # mujoco raises plain ValueError with the compiler's message

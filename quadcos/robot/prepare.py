@@ -129,6 +129,27 @@ def set_cone(spec: mujoco.MjSpec, cone: str) -> None:
     spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{cone.upper()}")
 
 
+def set_servo_gains(spec: mujoco.MjSpec, kp: float, kd: float) -> None:
+    """Give every position servo of `spec` (an affine-biased actuator: force = kp (target − q)
+    − kd q̇) the gain `kp` (N m/rad) and damping `kd` (N m s/rad), in place; force ranges stay.
+
+    Raises:
+      ValueError: a gain that is not finite and > 0 or a damping below 0, or an actuator that is
+        no position servo (torque motors take the robot preset's kp, kd: the PD quadcos closes).
+    """
+    if not (0 < kp < float("inf") and 0 <= kd < float("inf")):
+        raise ValueError(f"servo gains must be finite, kp > 0 and kd >= 0; got kp {kp}, kd {kd}")
+    for actuator in spec.actuators:
+        servo = actuator.biastype == mujoco.mjtBias.mjBIAS_AFFINE and actuator.biasprm[1] < 0
+        if not servo:
+            raise ValueError(
+                f"servo gains apply to position actuators; actuator {actuator.name or '(unnamed)'}"
+                " is a torque motor (its PD gains: the robot preset's kp, kd)"
+            )
+        actuator.gainprm[0] = kp
+        actuator.biasprm[1], actuator.biasprm[2] = -kp, -kd
+
+
 def _is_visual(geom: mujoco.MjsGeom) -> bool:
     if geom.type == mujoco.mjtGeom.mjGEOM_MESH:
         return True
