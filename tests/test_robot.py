@@ -16,10 +16,13 @@ import pytest
 import robot_variants
 
 import quadcos
+from quadcos import env as env_lib
 from quadcos import robot as robot_lib
+from quadcos.deploy import host_robot
 from quadcos.equations import kinematics, oscillator
 from quadcos.robot import prepare
 from quadcos.robot.__main__ import main as robot_main
+from quadcos.terrain import get
 
 MENAGERIE = pathlib.Path(__file__).resolve().parents[2] / "shared" / "menagerie"
 needs_menagerie = pytest.mark.skipif(
@@ -285,10 +288,6 @@ def test_the_committed_go1_policy_walks_go1(menagerie_root):
 def test_servo_gains_stiffen_the_position_servos_everywhere_the_robot_is_built(tmp_path):
     """`env.servo_kp`/`servo_kd` set every position servo's gain and damping in the env's model
     and in C MuJoCo's (deploy); a stiffer servo holds a loaded joint closer to its target."""
-    from quadcos import env as env_lib  # noqa: PLC0415
-    from quadcos.deploy import host_robot  # noqa: PLC0415
-    from quadcos.terrain import get  # noqa: PLC0415
-
     def sag(servo):  # the largest joint error standing under its own weight, targets held
         model = robot_lib.build_model(
             get("flat"), robot_lib.load("quad12"), timestep=0.005, servo=servo
@@ -326,7 +325,5 @@ def test_servo_gains_stiffen_the_position_servos_everywhere_the_robot_is_built(t
     ],
 )
 def test_bad_servo_gains_are_refused_naming_the_key(overrides, message):
-    from quadcos import env as env_lib  # noqa: PLC0415
-
     with pytest.raises(ValueError, match=message):
         env_lib.make_env("flat", robot="quad12", **overrides)

@@ -143,6 +143,9 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
     [per30ms30_300]="300 --config.env.period_min=0.3 --config.sac.gait_search.min_speed=0.3"
     [per30as40_300]="300 --config.env.period_min=0.3 --config.env.action_scale=0.4"
     [per30ms30]="540 --config.env.period_min=0.3 --config.sac.gait_search.min_speed=0.3"
+    # stiffer position servos than the MJCF's kp 100 (servo_gains.py: the rhythms that walk)
+    [servo300]="540 --config.env.servo_kp=300 --config.env.servo_kd=4"
+    [servo300per30]="540 --config.env.servo_kp=300 --config.env.servo_kd=4 --config.env.period_min=0.3"
   )
   specs=()
   for name in "$@"; do
