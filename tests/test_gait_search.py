@@ -91,6 +91,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     # The friction cone and the solver probe, added since: the robot preset's cone, and a probe
     # that runs only for a robot without a preset (the paper's robot has one).
     assert (env.pop("cone"), env.pop("solver_probe")) == ("", True)
+    assert (env.pop("servo_kp"), env.pop("servo_kd")) == (0.0, 0.0)
     assert env == recorded["run_info"]["env"]
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 

@@ -45,10 +45,8 @@ def default_config() -> ml_collections.ConfigDict:
     # stable physics_dt, iterations and cone (quadcos.env.solver_probe) where all four above are
     # left to the robot; False keeps its MJCF's.
     config.solver_probe = True
-    # N m/rad, N m s/rad: > 0 gives every position servo of the robot this gain and servo_kd this
-    # damping (the rhythm's joint targets are open loop: a soft servo sags and lags them; ANYmal
-    # C's MJCF has kp 100 for 50 kg); 0 keeps the MJCF's. Robots with torque motors take their
-    # PD gains from their preset (quadcos.robot.presets).
+    # N m/rad, N m s/rad: > 0 gives every position servo this gain and servo_kd this damping (the
+    # rhythm is open loop: a soft servo sags and lags it); 0 keeps the MJCF's (docs/robots.md).
     config.servo_kp = 0.0
     config.servo_kd = 0.0
     config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
