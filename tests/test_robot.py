@@ -321,9 +321,24 @@ def test_servo_gains_stiffen_the_position_servos_everywhere_the_robot_is_built(t
     "overrides, message",
     [
         ({"servo_kp": -1.0}, "servo_kp must be finite and >= 0; got -1.0"),
-        ({"servo_kd": 2.0}, "servo_kd > 0 needs servo_kp > 0"),
+        ({"servo_kd": 2.0}, "servo_kd 2.0 needs servo_kp > 0"),
     ],
 )
 def test_bad_servo_gains_are_refused_naming_the_key(overrides, message):
     with pytest.raises(ValueError, match=message):
         env_lib.make_env("flat", robot="quad12", **overrides)
+
+
+@needs_menagerie
+def test_servo_gains_for_torque_motors_stop_train_before_anything_is_written(
+    tmp_path, capsys, menagerie_root
+):
+    from quadcos import train
+
+    run_dir = tmp_path / "run"
+    argv = ["--preset=smoke", "--robot=menagerie:unitree_go2", f"--output_dir={run_dir}"]
+    assert train.main([*argv, "--config.env.servo_kp=100"]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "servo_kp 100.0 applies to position servos" in error[0]
+    assert "unitree_go2 drives torque motors" in error[0]
+    assert not run_dir.exists()

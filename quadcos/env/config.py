@@ -263,12 +263,15 @@ def _validate_servo(config: ml_collections.ConfigDict) -> None:
         if not 0.0 <= config[key] < math.inf:
             raise ValueError(f"{key} must be finite and >= 0; got {config[key]}")
     if config.servo_kd > 0 and not config.servo_kp > 0:
-        raise ValueError("servo_kd > 0 needs servo_kp > 0 (0 keeps the MJCF's servos as they are)")
+        raise ValueError(
+            f"servo_kd {config.servo_kd} needs servo_kp > 0 (0 keeps the MJCF's servos as they are)"
+        )
     if config.servo_kp > 0:
         robot = robot_lib.load(config.robot)
         if robot.description.actuator_kind != "position":
             raise ValueError(
-                f"servo_kp applies to position servos; robot {config.robot} drives torque motors"
+                f"servo_kp {config.servo_kp} applies to position servos; robot {config.robot} drives"
+                " torque motors"
                 " (its PD gains: the robot preset's kp, kd)"
             )
 
