@@ -146,6 +146,7 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
     # stiffer position servos than the MJCF's kp 100 (servo_gains.py: the rhythms that walk)
     [servo300]="540 --config.env.servo_kp=300 --config.env.servo_kd=4"
     [servo300per30]="540 --config.env.servo_kp=300 --config.env.servo_kd=4 --config.env.period_min=0.3"
+    [servo500]="540 --config.env.servo_kp=500 --config.env.servo_kd=6"
   )
   specs=()
   for name in "$@"; do

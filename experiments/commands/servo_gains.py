@@ -7,7 +7,10 @@ friction, nothing randomised; per gain, how many rhythms survive every friction 
 
 A rhythm walks where it survives `--seconds` at every friction at ≥ `--walk_speed` m/s; its
 attitude is the largest |pitch| or |roll| after the first 2 s. Gains: `kp:kd` (N m/rad, N m s/rad;
-`mjcf` the MJCF's own), set through `env.servo_kp` / `env.servo_kd`.
+`mjcf` the MJCF's own), set through `env.servo_kp` / `env.servo_kd`. `--refine=G` then climbs
+from each gain's two fastest survivors for G generations of 6 mutants (each value moved by
+N(0, 6 % of its range)), keeping the best of: slowest speed − falls − 2 × attitude above
+`--refine_level` rad: how fast constant rhythms can walk the robot under that gain.
 """
 
 import argparse
@@ -55,17 +58,46 @@ def walk(args: argparse.Namespace, gain: str, rhythm: list[float], friction: flo
     }
 
 
+def under_gain(args: argparse.Namespace, gain: str, rhythm: list[float]) -> dict:
+    """The rhythm at every friction: falls, slowest speed, largest attitude."""
+    episodes = [walk(args, gain, rhythm, friction) for friction in args.frictions]
+    return {
+        "falls": sum(e["fell"] for e in episodes),
+        "min_speed": min(e["speed"] for e in episodes),
+        "attitude": max(e["attitude"] for e in episodes),
+    }
+
+
 def rhythm_row(args: argparse.Namespace, rhythm: list[float]) -> dict:
     """The rhythm under every gain: survived every friction, slowest speed, largest attitude."""
     row = {"rhythm": [round(v, 4) for v in rhythm]}
     for gain in args.gains:
-        episodes = [walk(args, gain, rhythm, friction) for friction in args.frictions]
-        row[gain] = {
-            "survived": not any(e["fell"] for e in episodes),
-            "min_speed": min(e["speed"] for e in episodes),
-            "attitude": max(e["attitude"] for e in episodes),
-        }
+        result = under_gain(args, gain, rhythm)
+        row[gain] = {"survived": result.pop("falls") == 0} | result
     return row
+
+
+def refine(args, pool, gain: str, start: list[float], rng: np.random.Generator) -> dict:
+    """`args.refine` generations of hill climbing from `start` under `gain` (module docstring)."""
+
+    def score(result: dict) -> float:
+        over = max(0.0, result["attitude"] - args.refine_level)
+        return result["min_speed"] - result["falls"] - 2.0 * over
+
+    best = {"rhythm": start} | under_gain(args, gain, start)
+    for _ in range(args.refine):
+        kids = [
+            list(np.clip(rng.normal(best["rhythm"], 0.06 * (HIGH - LOW)), LOW, HIGH))
+            for _ in range(6)
+        ]
+        results = pool.map(under_gain, [args] * len(kids), [gain] * len(kids), kids)
+        for kid, result in zip(kids, results, strict=True):
+            if score(result) > score(best):
+                best = {"rhythm": kid} | result
+    return {
+        "start": [round(v, 4) for v in start],
+        "rhythm": [round(v, 4) for v in best["rhythm"]],
+    } | {key: round(best[key], 3) for key in ("falls", "min_speed", "attitude")}
 
 
 def summary(args: argparse.Namespace, rows: list[dict]) -> dict:
@@ -99,6 +131,8 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=20, help="solver and line search")
     parser.add_argument("--walk_speed", type=float, default=0.1, help="m/s at every friction")
     parser.add_argument("--level", type=float, default=0.15, help="rad: largest |pitch|, |roll|")
+    parser.add_argument("--refine", type=int, default=0, help="generations of hill climbing")
+    parser.add_argument("--refine_level", type=float, default=0.25, help="rad, see --refine")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out")
@@ -110,9 +144,13 @@ def main() -> None:
     rhythms = [list(rng.uniform(LOW, HIGH)) for _ in range(args.rhythms)]
     with ProcessPoolExecutor(args.workers) as pool:
         rows = list(pool.map(rhythm_row, [args] * len(rhythms), rhythms))
+        gains = summary(args, rows)
+        for gain, row in gains.items():
+            starts = [fast["rhythm"] for fast in row["fastest"][:2]] if args.refine else []
+            row["refined"] = [refine(args, pool, gain, start, rng) for start in starts]
     record = {
         "command": "python experiments/commands/servo_gains.py"
-        + f" --rhythms={args.rhythms} --seed={args.seed}",
+        + f" --rhythms={args.rhythms} --refine={args.refine} --seed={args.seed}",
         "setup": {
             "robot": args.robot,
             "frictions": args.frictions,
@@ -123,15 +161,19 @@ def main() -> None:
             "rhythm_low": LOW.round(4).tolist(),
             "rhythm_high": HIGH.round(4).tolist(),
             "rhythms": args.rhythms,
+            "refine_level_rad": args.refine_level,
             "seed": args.seed,
         },
-        "gains": summary(args, rows),
+        "gains": gains,
     }
     for gain, row in record["gains"].items():
         print(
             f"{gain}: {row['survived']} of {args.rhythms} rhythms survive every friction,"
             f" {row['walking']} walk ≥ {args.walk_speed} m/s, {row['walking_level']} of those"
-            f" within {args.level} rad"
+            f" within {args.level} rad; refined: "
+            + ", ".join(
+                f"{r['min_speed']:.2f} m/s at {r['attitude']:.2f} rad" for r in row["refined"]
+            )
         )
     if args.out:
         Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
