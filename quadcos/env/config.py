@@ -46,7 +46,7 @@ def default_config() -> ml_collections.ConfigDict:
     # left to the robot; False keeps its MJCF's.
     config.solver_probe = True
     # N m/rad, N m s/rad: > 0 gives every position servo this gain and servo_kd this damping (the
-    # rhythm is open loop: a soft servo sags and lags it); 0 keeps the MJCF's (docs/robots.md).
+    # rhythm is open loop: a soft servo sags and lags it); servo_kp 0 keeps the MJCF's servos.
     config.servo_kp = 0.0
     config.servo_kd = 0.0
     config.controller = "oscillator"  # "oscillator" (paper) or "joint" (DRL-only baseline)
@@ -271,8 +271,7 @@ def _validate_servo(config: ml_collections.ConfigDict) -> None:
         if robot.description.actuator_kind != "position":
             raise ValueError(
                 f"servo_kp {config.servo_kp} applies to position servos; robot {config.robot} drives"
-                " torque motors"
-                " (its PD gains: the robot preset's kp, kd)"
+                " torque motors (its PD gains: the robot preset's kp, kd)"
             )
 
 
