@@ -7,6 +7,7 @@
 #   bash experiments/commands/run_gpu.sh pack RUN...      # $OUT/NAME.tgz
 #   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
 #   bash experiments/commands/run_gpu.sh anymal LEVER...  # all four for ANYmal C's (below)
+#   bash experiments/commands/run_gpu.sh go1 LEVER...     # all four for Go1's SAC levers (below)
 # RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
 # go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
 # the GPU's memory. The runs work from a copy of the tree under
@@ -28,7 +29,7 @@ split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops 
   [[ $NAME =~ ^[A-Za-z0-9_.-]+$ && -n $ROBOT && $SEED =~ ^[0-9]+$ ]] || {
     echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
 }
-case $verb in levers|anymal) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
+case $verb in levers|anymal|go1) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
 # the levers were measured with the drive's loops open (the command preset closes them)
 loops_open="--config.env.commands.speed_gain_rate=0 --config.env.commands.heading_gain=0"
 
@@ -135,6 +136,9 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
   # that trot's feed-forward, measured as a search's would be (README, "ANYmal C levers")
   trot+=" --config.env.commands.reference_speed=0.0928 --config.env.commands.half_track=0.3201"
   trot+=" --config.env.commands.speed_map=0.0799,0.191,0.3884,0.5223 --config.env.period_min=0.25"
+  rhythm="--config.env.action_centre=0.499,0.2196,0.2988,1.3737,2.9919"
+  rhythm+=" --config.env.commands.reference_speed=0.9444 --config.env.commands.half_track=4.0207"
+  rhythm+=" --config.env.commands.speed_map=0.3098,0.5718,0.9029,0.9378"
   declare -A lever=(  # NAME -> its seconds and flags
     [it20_300]="300" [ref]="540 $ref" [per]="540 --config.env.period_min=0.25"
     [refper]="540 $ref --config.env.period_min=0.25"
@@ -147,6 +151,9 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
     [servo300]="540 --config.env.servo_kp=300 --config.env.servo_kd=4"
     [servo300per30]="540 --config.env.servo_kp=300 --config.env.servo_kd=4 --config.env.period_min=0.3"
     [servo500]="540 --config.env.servo_kp=500 --config.env.servo_kd=6"
+    # servo_gains.py's fastest kp-300 rhythm as the centre (no search), its feed-forward measured
+    # on it by the calibration a search runs (README, "ANYmal C levers")
+    [servo300rhythm]="540 --config.env.servo_kp=300 --config.env.servo_kd=4 $rhythm"
   )
   specs=()
   for name in "$@"; do
@@ -158,5 +165,21 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
   for next in train wait; do bash "$0" $next "${specs[@]}"; done
   EVAL_ENVS=${EVAL_ENVS:-512} bash "$0" evaluate "${specs[@]}"
   bash "$0" pack "${specs[@]}" ;;
+go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go1loops540_s0
+  # (its centre, speed map and b given: nothing searched or measured), whose SAC never beat that
+  # gait; the command preset (the drive's loops closed) for 450 s, two runs sharing each GPU.
+  gait="--config.env.action_centre=0.223638,-0.149431,0.15185,-2.06857,-5.21017"
+  gait+=" --config.env.commands.reference_speed=1.03 --config.env.commands.half_track=0.442"
+  gait+=" --config.env.commands.speed_map=0.2165,0.4605,0.696,0.9307 --config.sac.max_seconds=450"
+  declare -A lever=(
+    [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
+    [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
+  )
+  specs=()
+  for name in "$@"; do
+    [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
+    specs+=("go1_${name}_s0@menagerie:unitree_go1@0@$gait ${lever[$name]}")
+  done
+  for next in train wait evaluate pack; do bash "$0" $next "${specs[@]}"; done ;;
 *) echo "unknown verb $verb" >&2; exit 2 ;;
 esac
