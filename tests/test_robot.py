@@ -342,3 +342,36 @@ def test_servo_gains_for_torque_motors_stop_train_before_anything_is_written(
     assert len(error) == 1 and "servo_kp 100.0 applies to position servos" in error[0]
     assert "unitree_go2 drives torque motors" in error[0]
     assert not run_dir.exists()
+
+
+def test_short_names_are_read_from_the_spec_alone():
+    short = robot_lib.sources.short_name
+    assert short("menagerie:anybotics_anymal_c") == "anybotics_anymal_c"
+    assert short("menagerie:anybotics_anymal_c/anymal_c_mjx.xml") == "anybotics_anymal_c"
+    assert short("") == short("quadcos") == "quadcos"
+    assert short("quad12") == "quad12"
+    assert short("/no/such/dir/anymal_c.xml") == "anymal_c"  # a path: no robot preset applies
+
+
+@needs_menagerie
+def test_the_command_preset_stiffens_anymal_c_and_flags_still_win(menagerie_root):
+    from quadcos.training import presets
+
+    def built(preset, **overrides):
+        return presets.build_config(presets.PRESETS[preset], overrides)
+
+    anymal = "menagerie:anybotics_anymal_c"
+    config = built("command", **{"env.robot": anymal})
+    assert (config.env.servo_kp, config.env.servo_kd) == (300.0, 4.0)
+    assert (config.env.solver_iterations, config.env.ls_iterations) == (20, 20)
+    assert config.sac.gait_search.min_speed == 0.15
+    assert config.sac.gait_search.confirm_robots == 256
+    # the command line wins; other robots, ANYmal C by its path and other presets are untouched
+    flagged = built("command", **{"env.robot": anymal, "env.servo_kp": 500.0})
+    assert flagged.env.servo_kp == 500.0 and flagged.env.servo_kd == 4.0
+    path = str(MENAGERIE / "anybotics_anymal_c" / "anymal_c.xml")
+    for preset, robot in (("command", "menagerie:unitree_go1"), ("command", path),
+                          ("scratch", anymal)):
+        other = built(preset, **{"env.robot": robot})
+        assert (other.env.servo_kp, other.env.solver_iterations) == (0.0, 0)
+        assert other.sac.gait_search.min_speed == 0.0

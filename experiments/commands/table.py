@@ -218,6 +218,10 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     "anymal_trot_s0": "from the open-loop trot below (no search), its feed-forward measured on it,"
     " period floor 0.25 s; 540 s, a GPU each, 1024 episodes",
     "anymal_trot_as10_s0": "as `anymal_trot_s0`, action bounds 0.1",
+    "anymal_servo300_s0": "servos kp 300, kd 4 (the MJCF's: kp 100); 540 s, MJX-JAX, 2 runs on"
+    " one GPU: the search took 776 s, SAC 270 k env steps with its actor not yet learning",
+    "anymal_servo300rhythm_s0": "servos kp 300, kd 4, from `servo_gains.py`'s fastest kp-300"
+    " rhythm (no search), its feed-forward measured on it; as `anymal_servo300_s0`",
 }
 NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
     "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics, loops open",
@@ -311,14 +315,15 @@ def anymal() -> str:
     rows = []
     for name, change in ANYMAL.items():
         run, kept = runs[name], runs[name]["kept"]
-        conditions = run["robustness"]
+        conditions = run["robustness"] or {}
         period = float(run["action_centre"].split(",")[2])
+        pitch = conditions.get("nominal", {}).get("mean_max_abs_pitch_error")
         rows.append(
             f"| `{name}` | {change} | {period:.3f} | {run['evaluations'][0]['fall_rate']:.3f} |"
             f" {kept['policy_env_steps'] / 1e6:.1f} M | "
-            + _rates(conditions.values())
-            + f" | {conditions['nominal']['mean_max_abs_pitch_error']:.2f} |"
-            f" {_tracking(kept)} |"
+            + (_rates(conditions.values()) or "not measured")
+            + (f" | {pitch:.2f} |" if pitch is not None else " | — |")
+            + f" {_tracking(kept)} |"
         )
     return "\n".join(rows)
 

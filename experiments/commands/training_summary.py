@@ -27,6 +27,9 @@ STEP = re.compile(
 FEED_FORWARD = re.compile(r"feed-forward: v_ref (\S+) m/s, b (\S+) m(?: .*?speed map \(([^)]*)\))?")
 DROPPED = ("--output_dir", "--no_progress")  # argv flags that say nothing of the run
 STOPPED = re.compile(r"error: (non-finite SAC loss[^;]*)")
+# the gait search's rounds and its result: how many candidates never fell, how long it took
+SEARCH_ROUND = re.compile(r"gait search round \d+/\d+ \((\d+) s\): (\d+) of (\d+) candidates")
+SEARCH_END = re.compile(r"gait search: action centre \S+ \(([\d.]+) m/s, ([\d.]+) % falls\) after (\d+) s")
 PROBE = re.compile(r"solver probe: ([^(\n]*?) \(")  # a robot without a preset: the physics chosen
 KEYS = (
     "success_rate",
@@ -68,6 +71,7 @@ def summary(path: Path) -> dict:
     stopped = STOPPED.search(log)
     probe = PROBE.search(log)
     rows = STEP.findall(log)
+    rounds, found = SEARCH_ROUND.findall(log), SEARCH_END.search(log)
     robust = files.get("robustness.json")
     config = json.loads(files.get("config.json", "{}"))
     argv = config.get("run_info", {}).get("argv")
@@ -96,6 +100,14 @@ def summary(path: Path) -> dict:
         # the trainer's env steps per second at its last evaluation (runs that logged it)
         **({"env_steps_per_s": int(rows[-1][1].replace(",", ""))} if len(rows) > 1 else {}),
         **({"solver_probe": probe[1]} if probe else {}),
+        # candidates that never fell in each round, the gait kept (runs that logged the search)
+        **({"gait_search": {
+            "never_fell": [int(kept) for _, kept, _ in rounds],
+            "candidates": int(rounds[-1][2]),
+            "speed": float(found[1]),
+            "fall_percent": float(found[2]),
+            "seconds": int(found[3]),
+        }} if rounds and found else {}),
         "stopped": stopped[1] if stopped else None,
         "kept": _evaluation(files.get("eval.json")),
         "last": _evaluation(files.get("last_eval.json")),

@@ -128,6 +128,17 @@ def resolve(spec: str) -> RobotSource:
     )
 
 
+def short_name(spec: str) -> str:
+    """The short name `resolve(spec).name` gives, read from the spec alone (no file is opened):
+    what a robot's presets are keyed by."""
+    spec = spec.strip()
+    if spec.startswith(MENAGERIE_PREFIX):
+        return spec.removeprefix(MENAGERIE_PREFIX).split("/")[0]
+    if spec in ("", "quadcos", "quad12") or spec in _REGISTRY:
+        return spec or "quadcos"
+    return pathlib.Path(spec).stem
+
+
 def _existing(path: pathlib.Path) -> pathlib.Path:
     if not path.is_file():
         raise FileNotFoundError(f"robot MJCF not found: {path}")
