@@ -224,3 +224,44 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     assert config["run_info"]["robot"]["name"] == "quad12"
     policy = quadcos.load_policy(run_dir / "policy")
     assert policy.act(np.zeros(3 + 3 + 12 + 5)).shape == (5,)
+
+
+@pytest.mark.parametrize(
+    "ends, after_rounds, out",
+    [
+        ([10.0], 0, False),  # round 2 would end at 20 s, within 25
+        ([10.0], 1, True),  # ... but its confirmation at 30 s
+        ([10.0, 14.0], 1, False),  # timed by the last round (4 s): 18 and 22 s
+        ([10.0, 20.0], 0, True),
+    ],
+)
+def test_the_search_runs_no_round_that_would_end_past_its_budget(ends, after_rounds, out):
+    from quadcos.evaluation import fixed_search
+
+    rounds_log = [{"wall_time_s": end} for end in ends]
+    assert fixed_search._out_of_time(rounds_log, 25.0, after_rounds) is out
+
+
+def test_a_search_in_a_timed_run_gets_its_share_of_the_budget_and_says_where_it_stopped(
+    monkeypatch, caplog
+):
+    from quadcos.evaluation import fixed_search, gait_search
+
+    seen = {}
+
+    def search_fixed(terrain, **kwargs):
+        seen["budget"] = kwargs["time_budget_s"]
+        best = {"parameters": dict(zip("abcde", oscillator.FIXED_TROT)), "mean_forward_speed": 0.5,
+                "fall_rate": 0.0}
+        return {"ranking": [best], "num_without_falls": 1, "confirmation": None,
+                "setup": {"rounds_run": 2, "wall_time_s": 140.0}}
+
+    monkeypatch.setattr(fixed_search, "search_fixed", search_fixed)
+    config = train.build_config(train.PRESETS["scratch"], {"sac.max_seconds": 300.0})
+    with caplog.at_level("WARNING", logger=gait_search.logger.name):
+        gait_search.find_gait(config)
+    assert seen["budget"] == 150.0  # max_fraction 0.5 of 300 s
+    assert "stopped after round 2 of 6: another would end past 150 s" in caplog.text
+    untimed = train.build_config(train.PRESETS["scratch"], {"sac.max_seconds": 0.0})
+    gait_search.find_gait(untimed)
+    assert seen["budget"] is None

@@ -37,6 +37,7 @@ def search_fixed(
     env_overrides: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_round: Callable[[dict[str, Any]], None] | None = None,
+    time_budget_s: float | None = None,
 ) -> dict[str, Any]:
     """Searches constant rhythm parameters (A_k, A_h, T, φ1, φ3) for the best fixed gait.
 
@@ -62,7 +63,9 @@ def search_fixed(
     then the rest by fewer falls (`confirmation_key`) — so that the gait kept is the one that held
     on many robots, not the one a few robots favoured once among thousands of tries.
 
-    `on_round` is called after each round with its entry of "rounds".
+    `on_round` is called after each round with its entry of "rounds". `time_budget_s` (s from the
+    search's start; None: none) ends the rounds early: after round 1, no round starts that would
+    end past it, nor one whose confirmation would, each timed as the round before.
 
     Returns:
       {"format", "ranking": the `top` best candidates (parameters, `policy` spec for --policy,
@@ -86,12 +89,13 @@ def search_fixed(
     env = search.env
     started = time.monotonic()
     evaluated, rounds_log = search.run_rounds(
-        rounds, elite, num_candidates, include_trot, symmetric, progress, on_round, started
+        rounds, elite, num_candidates, include_trot, symmetric, progress, on_round, started,
+        time_budget_s, after_rounds=1 if confirm_robots else 0,
     )
     ranked = sorted(evaluated, key=search.rank_key, reverse=True)
     confirmation = None
     if confirm_robots:
-        ranked, confirmation = search.confirm(ranked, confirm_robots, rounds, started)
+        ranked, confirmation = search.confirm(ranked, confirm_robots, len(rounds_log), started)
     return {
         "format": SEARCH_FORMAT,
         "format_version": FORMAT_VERSION,
@@ -106,6 +110,8 @@ def search_fixed(
             "robots_per_candidate": robots_per_candidate,
             "lanes": candidate_lanes(env.terrain.num_lanes, robots_per_candidate).tolist(),
             "rounds": rounds,
+            "rounds_run": len(rounds_log),
+            "time_budget_s": time_budget_s,
             "elite": elite,
             "seconds": search.num_steps * env.dt,
             "seed": seed,
@@ -118,6 +124,14 @@ def search_fixed(
             "wall_time_s": time.monotonic() - started,
         },
     }
+
+
+def _out_of_time(rounds_log: list[dict[str, Any]], budget_s: float, after_rounds: int) -> bool:
+    """Whether one more round and `after_rounds` after it, each as long as the last round, would
+    end past `budget_s` (the rounds' wall times count from the search's start)."""
+    ends = [entry["wall_time_s"] for entry in rounds_log]
+    last = ends[-1] - (ends[-2] if len(ends) > 1 else 0.0)
+    return ends[-1] + (1 + after_rounds) * last > budget_s
 
 
 def _check_arguments(
@@ -216,10 +230,13 @@ class _Search:
         progress: Callable[[int, int], None] | None,
         on_round: Callable[[dict[str, Any]], None] | None,
         started: float,
+        time_budget_s: float | None = None,
+        after_rounds: int = 0,
     ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
         """The search's rounds (`search_fixed`), each on `num_candidates` candidates of
         `num_envs // num_candidates` robots: every candidate scored, and each round's entry of
-        "rounds" (wall times from `started`)."""
+        "rounds" (wall times from `started`). With `time_budget_s`, a round runs only where it
+        and `after_rounds` more (a confirmation), each as long as the last, end within it."""
         rng = np.random.default_rng(self.seed)
         robots = self.num_envs // num_candidates
         evaluated: list[dict[str, Any]] = []
@@ -235,6 +252,8 @@ class _Search:
             rounds_log.append(_round_entry(round_index + 1, this_round, self.rank_key, started))
             if on_round is not None:
                 on_round(rounds_log[-1])
+            if time_budget_s is not None and _out_of_time(rounds_log, time_budget_s, after_rounds):
+                break
         return evaluated, rounds_log
 
     def score(

@@ -59,6 +59,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         config.env.terrain,
     )
 
+    budget = search.max_fraction * config.sac.max_seconds or None  # s, from the search's start
     floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
     if floor and search.min_speed_of == "slowest":
         floor += " on every robot"
@@ -92,12 +93,24 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         confirm_robots=search.confirm_robots,
         env_overrides=overrides,
         on_round=report,
+        time_budget_s=budget,
     )
+    if budget is not None and result["setup"]["rounds_run"] < search.rounds:
+        logger.warning(
+            "gait search: stopped after round %d of %d: another would end past %.0f s, %g of the"
+            " run's %g s (sac.gait_search.max_fraction, sac.max_seconds)",
+            result["setup"]["rounds_run"],
+            search.rounds,
+            budget,
+            search.max_fraction,
+            config.sac.max_seconds,
+        )
     best = result["ranking"][0]
     if result["num_without_falls"] == 0:
         raise NoGaitFound(
-            f"the gait search found no candidate without falls{floor} in {search.rounds} rounds"
-            f" of {search.num_candidates}; raise config.sac.gait_search.rounds or .num_candidates"
+            f"the gait search found no candidate without falls{floor} in"
+            f" {result['setup']['rounds_run']} rounds of {search.num_candidates}; raise"
+            " config.sac.gait_search.rounds or .num_candidates"
             + (" or lower .min_speed" if floor else "")
         )
     confirmation = result["confirmation"]

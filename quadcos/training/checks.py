@@ -74,6 +74,10 @@ def check_config(config: ml_collections.ConfigDict) -> None:
             raise ValueError(
                 f"config.gait_search.seconds must be finite and > 0, got {search.seconds}"
             )
+        if not 0 <= search.max_fraction <= 1:
+            raise ValueError(
+                f"config.gait_search.max_fraction must be in [0, 1], got {search.max_fraction}"
+            )
         lessons = config.curriculum
         if not (isinstance(lessons.promote_lanes, int) and lessons.promote_lanes >= 1):
             raise ValueError(

@@ -142,6 +142,9 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
     # run — the clean ones by reward, else the one that fell least.
     # compile_trainer: while the search runs, a thread compiles the trainer's programs on a
     # placeholder gait into the compilation caches (quadcos.training.ahead; MJX-JAX, one process).
+    # max_fraction: in a run with a time budget (max_seconds), the search runs no round (nor its
+    # confirmation) that would end past this fraction of the budget, as timed by the round before
+    # (0: every round).
     config.gait_search = ml_collections.ConfigDict(
         dict(
             num_candidates=2048,
@@ -154,6 +157,7 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
             min_speed_of="mean",
             confirm_robots=0,
             compile_trainer=True,
+            max_fraction=0.5,
         )
     )
 

@@ -39,6 +39,8 @@ LEGACY_VALUES: dict[str, Any] = {
     # Before the delayed actor and LayerNorm critics, SAC was Brax's.
     "sac.policy_delay": 1,
     "sac.critic_layer_norm": False,
+    # Before the search's time budget, it ran every round.
+    "sac.gait_search.max_fraction": 0.0,
 }
 
 
