@@ -11,6 +11,9 @@ attitude is the largest |pitch| or |roll| after the first 2 s. Gains: `kp:kd` (N
 from each gain's two fastest survivors for G generations of 6 mutants (each value moved by
 N(0, 6 % of its range)), keeping the best of: slowest speed − falls − 2 × attitude above
 `--refine_level` rad: how fast constant rhythms can walk the robot under that gain.
+
+`--rhythm A_k,A_h,T,φ1,φ3 ...` runs the rhythms given instead of random ones (e.g. a gait an MJX
+search kept: does it walk C MuJoCo?); `--period_min` lowers the env's period floor for them.
 """
 
 import argparse
@@ -35,6 +38,8 @@ def walk(args: argparse.Namespace, gain: str, rhythm: list[float], friction: flo
         "solver_iterations": args.iterations,
         "ls_iterations": args.iterations,
     }
+    if args.period_min is not None:
+        overrides["period_min"] = args.period_min
     if gain != "mjcf":
         kp, kd = (float(v) for v in gain.split(":"))
         overrides |= {"servo_kp": kp, "servo_kd": kd}
@@ -65,6 +70,7 @@ def under_gain(args: argparse.Namespace, gain: str, rhythm: list[float]) -> dict
         "falls": sum(e["fell"] for e in episodes),
         "min_speed": min(e["speed"] for e in episodes),
         "attitude": max(e["attitude"] for e in episodes),
+        "speeds": [round(e["speed"], 3) for e in episodes],  # at each friction
     }
 
 
@@ -114,7 +120,7 @@ def summary(args: argparse.Namespace, rows: list[dict]) -> dict:
             "walking_level": len(level),
             "fastest": [
                 {"rhythm": r["rhythm"]}
-                | {k: round(v, 3) for k, v in r[gain].items() if k != "survived"}
+                | {k: round(v, 3) for k, v in r[gain].items() if k not in ("survived", "speeds")}
                 for r in fastest
             ],
         }
@@ -135,6 +141,8 @@ def main() -> None:
     parser.add_argument("--refine_level", type=float, default=0.25, help="rad, see --refine")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--rhythm", nargs="+", help="A_k,A_h,T,phi1,phi3: these, not random ones")
+    parser.add_argument("--period_min", type=float, help="s: the env's period floor")
     parser.add_argument("--out")
     args = parser.parse_args()
     for gain in args.gains:
@@ -142,15 +150,20 @@ def main() -> None:
             parser.error(f"bad gain {gain!r}: kp:kd (N m/rad, N m s/rad) or mjcf")
     rng = np.random.default_rng(args.seed)
     rhythms = [list(rng.uniform(LOW, HIGH)) for _ in range(args.rhythms)]
+    if args.rhythm:
+        rhythms = [[float(v) for v in spec.split(",")] for spec in args.rhythm]
+        args.rhythms = len(rhythms)
     with ProcessPoolExecutor(args.workers) as pool:
         rows = list(pool.map(rhythm_row, [args] * len(rhythms), rhythms))
         gains = summary(args, rows)
         for gain, row in gains.items():
             starts = [fast["rhythm"] for fast in row["fastest"][:2]] if args.refine else []
             row["refined"] = [refine(args, pool, gain, start, rng) for start in starts]
+    given = f" --rhythm {' '.join(args.rhythm)}" if args.rhythm else f" --rhythms={args.rhythms}"
     record = {
         "command": "python experiments/commands/servo_gains.py"
-        + f" --rhythms={args.rhythms} --refine={args.refine} --seed={args.seed}",
+        + f"{given} --refine={args.refine} --seed={args.seed} --seconds={args.seconds:g}"
+        + (f" --period_min={args.period_min:g}" if args.period_min is not None else ""),
         "setup": {
             "robot": args.robot,
             "frictions": args.frictions,
@@ -161,10 +174,12 @@ def main() -> None:
             "rhythm_low": LOW.round(4).tolist(),
             "rhythm_high": HIGH.round(4).tolist(),
             "rhythms": args.rhythms,
+            "period_min": args.period_min,
             "refine_level_rad": args.refine_level,
             "seed": args.seed,
         },
         "gains": gains,
+        **({"rows": rows} if args.rhythm else {}),  # the given rhythms, each under every gain
     }
     for gain, row in record["gains"].items():
         print(
