@@ -225,10 +225,10 @@ PRESETS["command"] = {
         # ANYmal C's MJCF servos (kp 100 for 45 kg) sag under an open-loop rhythm: with them no
         # search kept a gait that walks 0.15 m/s without falls (with its preset's 4 / 8 solver
         # iterations the searched gaits fell in 12 % of episodes and more). With kp 300, kd 4,
-        # 20 / 20 iterations and candidates asked for 0.15 m/s,
-        # their best confirmed on 256 robots, the searched gait tracks 0.080 m/s and 0.140 rad/s
-        # under random commands and the training randomisation, 0.998 surviving
-        # (experiments/commands, "ANYmal C levers": anymal_servo300_s0).
+        # 20 / 20 iterations and candidates asked for 0.15 m/s, their best confirmed on 256
+        # robots, the searched gait tracks 0.080 m/s and 0.140 rad/s under random commands and
+        # the training randomisation, 0.998 surviving (experiments/commands, "ANYmal C levers":
+        # anymal_servo300_s0), and walks C MuJoCo at 0.66-0.73 m/s at every friction.
         "anybotics_anymal_c": {
             "env.servo_kp": 300.0,
             "env.servo_kd": 4.0,
