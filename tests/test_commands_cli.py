@@ -352,6 +352,22 @@ def test_the_feed_forward_leaves_out_the_walks_that_fall(monkeypatch):
     assert measured["reference_speed"] == pytest.approx(0.5)
 
 
+def test_a_gait_that_barely_turns_by_its_strides_is_warned_of(monkeypatch, caplog):
+    from quadcos.deploy import calibration
+
+    def walk(config, schedule, seed, robots, friction=None):  # 0.6 m/s a scale; sides barely turn
+        return 0.6 * float(schedule.split(",")[0]), 0.03
+
+    monkeypatch.setattr(calibration, "_walk", walk)
+    config = evaluation.env_config({"commands.spec": "random", "commands.feed_forward": True})
+    with caplog.at_level("WARNING", logger=calibration.logger.name):
+        measured = calibration.measure(config)
+    # b = 0.3 * 0.6 / 0.03 = 6 m: the top turn (0.5 rad/s) asks each side for 3 m/s
+    assert measured["half_track"] == pytest.approx(6.0)
+    assert "asks each side for -/+ 3.00 m/s, more than the gait's 0.60 m/s" in caplog.text
+    assert "turns above 0.10 rad/s saturate" in caplog.text
+
+
 def test_the_feed_forward_is_measured_on_the_gait_and_applied_to_the_run(monkeypatch, tmp_path):
     from quadcos.deploy import calibration
     from quadcos.training import presets, session

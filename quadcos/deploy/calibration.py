@@ -126,6 +126,18 @@ def measure(
             yaw_rate,
             result["half_track"],
         )
+    # The drive asks each side for v* -/+ ω*·b: where the fastest turn needs more than the
+    # gait's full stride gives, turns saturate (and one side's strides stop).
+    turn, top = abs(result["half_track"]) * resolved.commands.yaw_rate_max, slope
+    if turn > top:
+        logger.warning(
+            "feed-forward: a turn at ω* %.2f rad/s asks each side for -/+ %.2f m/s, more than the"
+            " gait's %.2f m/s at full stride: turns above %.2f rad/s saturate",
+            resolved.commands.yaw_rate_max,
+            turn,
+            top,
+            top / abs(result["half_track"]),
+        )
     logger.info(
         "feed-forward: v_ref %.2f m/s, b %.3f m (sides at 1 -/+ %g: %.2f rad/s), speed map %s"
         " m/s at the scales %s",
