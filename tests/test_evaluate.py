@@ -311,13 +311,14 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
     assert result["confirmation"] is None and confirmed_result["setup"]["confirm_robots"] == 4
     with pytest.raises(ValueError, match="confirm_robots must be 0 or divide .* = 4; got 3"):
         evaluation_lib.search_fixed(num_candidates=2, robots_per_candidate=2, confirm_robots=3)
-    # A time budget the first round already spent: no second round, the budget recorded.
-    timed = evaluation_lib.search_fixed(
-        num_candidates=2, robots_per_candidate=2, rounds=2, seconds=1, seed=1, time_budget_s=1e-3
+    # An `on_round` that says stop ends the rounds after that one.
+    seen = []
+    stopped = evaluation_lib.search_fixed(
+        num_candidates=2, robots_per_candidate=2, rounds=2, seconds=1, seed=1,
+        on_round=lambda entry: seen.append(entry["round"]) or True,
     )
-    assert timed["setup"]["rounds_run"] == 1 and len(timed["rounds"]) == 1
-    assert timed["num_evaluated"] == 2 and timed["setup"]["time_budget_s"] == 1e-3
-    assert result["setup"]["rounds_run"] == 2 and result["setup"]["time_budget_s"] is None
+    assert seen == [1] and len(stopped["rounds"]) == 1 and stopped["num_evaluated"] == 2
+    assert stopped["rounds"][0]["best_score"] == result["rounds"][0]["best_score"]
 
 
 @pytest.mark.parametrize(

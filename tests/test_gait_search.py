@@ -79,6 +79,8 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert (config["sac"].pop("policy_delay"), config["sac"].pop("critic_layer_norm")) == (1, False)
     # ... and the trainer compiled during the search: a start-up option, not the runs' learning.
     assert config["sac"]["gait_search"].pop("compile_trainer") is True
+    # ... and the search's share of the time budget, which came later.
+    assert config["sac"]["gait_search"].pop("max_fraction") == 0.5
     assert config["sac"] == recorded["config"]
     env = config["env"]
     assert env.pop("action_centre") == "search"
@@ -236,10 +238,9 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     ],
 )
 def test_the_search_runs_no_round_that_would_end_past_its_budget(ends, after_rounds, out):
-    from quadcos.evaluation import fixed_search
+    from quadcos.evaluation import gait_search
 
-    rounds_log = [{"wall_time_s": end} for end in ends]
-    assert fixed_search._out_of_time(rounds_log, 25.0, after_rounds) is out
+    assert gait_search.out_of_time(ends, 25.0, after_rounds) is out
 
 
 def test_a_search_in_a_timed_run_gets_its_share_of_the_budget_and_says_where_it_stopped(
@@ -247,21 +248,29 @@ def test_a_search_in_a_timed_run_gets_its_share_of_the_budget_and_says_where_it_
 ):
     from quadcos.evaluation import fixed_search, gait_search
 
-    seen = {}
-
-    def search_fixed(terrain, **kwargs):
-        seen["budget"] = kwargs["time_budget_s"]
+    def search_fixed(terrain, rounds, on_round, **kwargs):  # rounds of 40 s each
+        log = []
+        for index in range(rounds):
+            log.append({"round": index + 1, "wall_time_s": 40.0 * (index + 1), "best_score": 1.0,
+                        "num_without_falls": 1, "best_forward_speed": 0.5})
+            if on_round(log[-1]):
+                break
         best = {"parameters": dict(zip("abcde", oscillator.FIXED_TROT)), "mean_forward_speed": 0.5,
                 "fall_rate": 0.0}
-        return {"ranking": [best], "num_without_falls": 1, "confirmation": None,
-                "setup": {"rounds_run": 2, "wall_time_s": 140.0}}
+        return {"ranking": [best], "num_without_falls": 1, "confirmation": None, "rounds": log,
+                "setup": {"wall_time_s": log[-1]["wall_time_s"]}}
 
     monkeypatch.setattr(fixed_search, "search_fixed", search_fixed)
+    # 300 s: the search gets 150; round 3 would end at 120 s, round 4 at 160
     config = train.build_config(train.PRESETS["scratch"], {"sac.max_seconds": 300.0})
     with caplog.at_level("WARNING", logger=gait_search.logger.name):
-        gait_search.find_gait(config)
-    assert seen["budget"] == 150.0  # max_fraction 0.5 of 300 s
-    assert "stopped after round 2 of 6: another would end past 150 s" in caplog.text
-    untimed = train.build_config(train.PRESETS["scratch"], {"sac.max_seconds": 0.0})
-    gait_search.find_gait(untimed)
-    assert seen["budget"] is None
+        assert len(gait_search.find_gait(config)["rounds"]) == 3
+    assert "stopped after round 3 of 6: another would end past 150 s" in caplog.text
+    # with the confirmation to fit too (two more 40-s runs), round 2 is the last
+    confirmed = train.build_config(
+        train.PRESETS["scratch"], {"sac.max_seconds": 300.0, "sac.gait_search.confirm_robots": 2}
+    )
+    assert len(gait_search.find_gait(confirmed)["rounds"]) == 2
+    for untimed in ({"sac.max_seconds": 0.0}, {"sac.gait_search.max_fraction": 0.0}):
+        config = train.build_config(train.PRESETS["scratch"], untimed)
+        assert len(gait_search.find_gait(config)["rounds"]) == 6

@@ -37,7 +37,6 @@ def search_fixed(
     env_overrides: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_round: Callable[[dict[str, Any]], None] | None = None,
-    time_budget_s: float | None = None,
 ) -> dict[str, Any]:
     """Searches constant rhythm parameters (A_k, A_h, T, φ1, φ3) for the best fixed gait.
 
@@ -63,9 +62,7 @@ def search_fixed(
     then the rest by fewer falls (`confirmation_key`) — so that the gait kept is the one that held
     on many robots, not the one a few robots favoured once among thousands of tries.
 
-    `on_round` is called after each round with its entry of "rounds". `time_budget_s` (s from the
-    search's start; None: none) ends the rounds early: after round 1, no round starts that would
-    end past it, nor one whose confirmation would, each timed as the round before.
+    `on_round` is called after each round with its entry of "rounds"; a true return ends them.
 
     Returns:
       {"format", "ranking": the `top` best candidates (parameters, `policy` spec for --policy,
@@ -89,8 +86,7 @@ def search_fixed(
     env = search.env
     started = time.monotonic()
     evaluated, rounds_log = search.run_rounds(
-        rounds, elite, num_candidates, include_trot, symmetric, progress, on_round, started,
-        time_budget_s, after_rounds=1 if confirm_robots else 0,
+        rounds, elite, num_candidates, include_trot, symmetric, progress, on_round, started
     )
     ranked = sorted(evaluated, key=search.rank_key, reverse=True)
     confirmation = None
@@ -110,8 +106,6 @@ def search_fixed(
             "robots_per_candidate": robots_per_candidate,
             "lanes": candidate_lanes(env.terrain.num_lanes, robots_per_candidate).tolist(),
             "rounds": rounds,
-            "rounds_run": len(rounds_log),
-            "time_budget_s": time_budget_s,
             "elite": elite,
             "seconds": search.num_steps * env.dt,
             "seed": seed,
@@ -124,14 +118,6 @@ def search_fixed(
             "wall_time_s": time.monotonic() - started,
         },
     }
-
-
-def _out_of_time(rounds_log: list[dict[str, Any]], budget_s: float, after_rounds: int) -> bool:
-    """Whether one more round and `after_rounds` after it, each as long as the last round, would
-    end past `budget_s` (the rounds' wall times count from the search's start)."""
-    ends = [entry["wall_time_s"] for entry in rounds_log]
-    last = ends[-1] - (ends[-2] if len(ends) > 1 else 0.0)
-    return ends[-1] + (1 + after_rounds) * last > budget_s
 
 
 def _check_arguments(
@@ -230,13 +216,10 @@ class _Search:
         progress: Callable[[int, int], None] | None,
         on_round: Callable[[dict[str, Any]], None] | None,
         started: float,
-        time_budget_s: float | None = None,
-        after_rounds: int = 0,
     ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
         """The search's rounds (`search_fixed`), each on `num_candidates` candidates of
         `num_envs // num_candidates` robots: every candidate scored, and each round's entry of
-        "rounds" (wall times from `started`). With `time_budget_s`, a round runs only where it
-        and `after_rounds` more (a confirmation), each as long as the last, end within it."""
+        "rounds" (wall times from `started`), up to the one `on_round` ends them after."""
         rng = np.random.default_rng(self.seed)
         robots = self.num_envs // num_candidates
         evaluated: list[dict[str, Any]] = []
@@ -250,9 +233,7 @@ class _Search:
             evaluated += self.score(candidates, robots, round_index, round_progress)
             this_round = evaluated[-num_candidates:]
             rounds_log.append(_round_entry(round_index + 1, this_round, self.rank_key, started))
-            if on_round is not None:
-                on_round(rounds_log[-1])
-            if time_budget_s is not None and _out_of_time(rounds_log, time_budget_s, after_rounds):
+            if on_round is not None and on_round(rounds_log[-1]):
                 break
         return evaluated, rounds_log
 

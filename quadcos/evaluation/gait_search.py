@@ -16,6 +16,7 @@ shuffles at 0.33 m/s and falls within 2-13 s (experiments/robots).
 """
 
 import logging
+from collections.abc import Callable
 from typing import Any
 
 import ml_collections
@@ -63,21 +64,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
     if floor and search.min_speed_of == "slowest":
         floor += " on every robot"
-
-    def report(entry: dict[str, Any]) -> None:
-        best = entry["best_score"]
-        logger.info(
-            "gait search round %d/%d (%.0f s): %d of %d candidates never fell%s; best %s at %.2f m/s",
-            entry["round"],
-            search.rounds,
-            entry["wall_time_s"],
-            entry["num_without_falls"],
-            search.num_candidates,
-            floor,
-            "none" if best is None else f"{best:,.0f}",
-            entry["best_forward_speed"],
-        )
-
+    report = _round_report(search, floor, budget)
     result = fixed_search.search_fixed(
         config.env.terrain,
         num_candidates=search.num_candidates,
@@ -93,23 +80,12 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         confirm_robots=search.confirm_robots,
         env_overrides=overrides,
         on_round=report,
-        time_budget_s=budget,
     )
-    if budget is not None and result["setup"]["rounds_run"] < search.rounds:
-        logger.warning(
-            "gait search: stopped after round %d of %d: another would end past %.0f s, %g of the"
-            " run's %g s (sac.gait_search.max_fraction, sac.max_seconds)",
-            result["setup"]["rounds_run"],
-            search.rounds,
-            budget,
-            search.max_fraction,
-            config.sac.max_seconds,
-        )
     best = result["ranking"][0]
     if result["num_without_falls"] == 0:
         raise NoGaitFound(
             f"the gait search found no candidate without falls{floor} in"
-            f" {result['setup']['rounds_run']} rounds of {search.num_candidates}; raise"
+            f" {len(result['rounds'])} rounds of {search.num_candidates}; raise"
             " config.sac.gait_search.rounds or .num_candidates"
             + (" or lower .min_speed" if floor else "")
         )
@@ -134,3 +110,47 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     )
     return result | {"action_centre": centre}
 
+
+
+def _round_report(
+    search: ml_collections.ConfigDict, floor: str, budget: float | None
+) -> Callable[[dict[str, Any]], bool]:
+    """The search's `on_round`: logs each round; True (the rounds end) where another round, and
+    the confirmation after it, would end past `budget` (s from the search's start; None: none)."""
+    ends = []  # each round's end, s from the search's start
+
+    def report(entry: dict[str, Any]) -> bool:
+        best = entry["best_score"]
+        logger.info(
+            "gait search round %d/%d (%.0f s): %d of %d candidates never fell%s; best %s at %.2f m/s",
+            entry["round"],
+            search.rounds,
+            entry["wall_time_s"],
+            entry["num_without_falls"],
+            search.num_candidates,
+            floor,
+            "none" if best is None else f"{best:,.0f}",
+            entry["best_forward_speed"],
+        )
+        ends.append(entry["wall_time_s"])
+        after = 1 if search.confirm_robots else 0
+        stop = budget is not None and entry["round"] < search.rounds
+        if stop and out_of_time(ends, budget, after):
+            logger.warning(
+                "gait search: stopped after round %d of %d: another would end past %.0f s"
+                " (sac.gait_search.max_fraction of sac.max_seconds)",
+                entry["round"],
+                search.rounds,
+                budget,
+            )
+            return True
+        return False
+
+    return report
+
+
+def out_of_time(ends: list[float], budget_s: float, after_rounds: int) -> bool:
+    """Whether one more round and `after_rounds` after it, each as long as the last of the rounds
+    ending at `ends` (s from the search's start), would end past `budget_s`."""
+    last = ends[-1] - (ends[-2] if len(ends) > 1 else 0.0)
+    return ends[-1] + (1 + after_rounds) * last > budget_s
