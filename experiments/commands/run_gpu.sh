@@ -174,6 +174,7 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
   declare -A lever=(
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
+    [eval2]="--config.sac.eval_interval=2000000"  # the kept policy chosen every 2 M, not 10 M
   )
   specs=()
   for name in "$@"; do
