@@ -5,6 +5,7 @@
 #   bash experiments/commands/run_gpu.sh wait  RUN...     # until they have ended (their policies)
 #   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
 #   bash experiments/commands/run_gpu.sh pack RUN...      # $OUT/NAME.tgz
+#   bash experiments/commands/run_gpu.sh stop             # end every run and evaluation started
 #   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
 #   bash experiments/commands/run_gpu.sh anymal LEVER...  # all four for ANYmal C's (below)
 #   bash experiments/commands/run_gpu.sh go1 LEVER...     # all four for Go1's SAC levers (below)
@@ -29,7 +30,7 @@ split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops 
   [[ $NAME =~ ^[A-Za-z0-9_.-]+$ && -n $ROBOT && $SEED =~ ^[0-9]+$ ]] || {
     echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
 }
-case $verb in levers|anymal|go1) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
+case $verb in levers|anymal|go1|stop) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
 # the levers were measured with the drive's loops open (the command preset closes them)
 loops_open="--config.env.commands.speed_gain_rate=0 --config.env.commands.heading_gain=0"
 
@@ -182,5 +183,10 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
     specs+=("go1_${name}_s0@menagerie:unitree_go1@0@$gait ${lever[$name]}")
   done
   for next in train wait evaluate pack; do bash "$0" $next "${specs[@]}"; done ;;
+stop)  # the bracketed first letters keep each pattern from matching a shell that names it
+  pkill -f "[q]uadcos.train .*--output_dir=$runs/"
+  pkill -f "[q]uadcos.evaluate --no_progress"
+  pkill -f "[e]xperiments/robustness/measure.py"
+  exit 0 ;;
 *) echo "unknown verb $verb" >&2; exit 2 ;;
 esac
