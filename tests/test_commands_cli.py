@@ -156,6 +156,45 @@ def test_policy_env_steps_of_a_best_policy_is_its_step(tmp_path):
     assert evaluation.PolicySpec.parse(str(best)).env_steps == 0  # the search's gait
 
 
+def test_a_gait_spec_is_its_directorys_zero_action(commanded):
+    directory = evaluation.PolicySpec.parse(str(commanded))
+    gait = evaluation.PolicySpec.parse(f"gait:{commanded}")
+    assert (gait.kind, gait.env_steps, gait.policy) == ("gait", 0, None)
+    assert gait.env_options == directory.env_options
+    sizes = (gait.observation_size, gait.action_size)
+    assert sizes == (directory.observation_size, directory.action_size)
+    obs = jnp.ones((3, gait.observation_size))
+    source, trained = gait.action_source(), directory.action_source()
+    actions = np.asarray(source.act(source.params, obs))
+    assert actions.shape == (3, gait.action_size) and not actions.any()
+    assert np.asarray(trained.act(trained.params, obs)).any()  # the policy's own are not zero
+    assert (source.kind, source.env_steps) == ("gait", 0)
+
+
+def test_a_gait_runs_in_c_mujoco_as_step_zero(commanded):
+    spec = f"gait:{commanded}"
+    summary = engines.evaluate(
+        spec, engine="mujoco", episodes=1, seconds=0.2, commands="0.5,0@5"
+    ).summary
+    assert summary["setup"]["policy_kind"] == "gait"
+    assert summary["setup"]["policy_env_steps"] == 0
+    pilot = host_robot.Pilot.load(spec)
+    action = pilot.actor()(np.ones(pilot.spec.observation_size))
+    assert action.shape == (pilot.spec.action_size,) and not action.any()
+
+
+@pytest.mark.parametrize(
+    ("text", "error", "says"),
+    [
+        ("gait:fixed:trot", ValueError, "takes a run or policy directory"),
+        ("gait:/no/such/policy", FileNotFoundError, "no policy at /no/such/policy"),
+    ],
+)
+def test_a_bad_gait_spec_is_refused(text, error, says):
+    with pytest.raises(error, match=says):
+        evaluation.PolicySpec.parse(text)
+
+
 # --- the ONNX export ------------------------------------------------------------------------------
 
 

@@ -15,7 +15,8 @@
 # /tmp/qc (the tree a later call brings may differ), their folders under /tmp/qc_runs/NAME; the
 # summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
 # NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json and the policies;
-# pack tars NAME/ with the run's logs as NAME.tgz.
+# pack tars NAME/ with the run's logs as NAME.tgz. MEM (default 0.9): the share of each GPU's memory
+# the call's processes take together, less where another call's runs share the GPUs.
 set -uo pipefail
 verb=${1:?usage: run_gpu.sh train|wait|evaluate RUN...}; shift
 export MENAGERIE_ROOT=${MENAGERIE_ROOT:-$PWD/.menagerie}
@@ -24,6 +25,7 @@ runs=/tmp/qc_runs; mkdir -p "$runs"
 gpus=$(nvidia-smi -L 2>/dev/null | wc -l); [ "$gpus" -gt 0 ] || gpus=1
 envs=${EVAL_ENVS:-1024}  # episodes of each evaluation
 share=$(( ($# + gpus - 1) / gpus ))  # runs on one GPU
+mem=${MEM:-0.9}
 
 split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops the script
   IFS=@ read -r NAME ROBOT SEED EXTRA <<< "$1"
@@ -43,7 +45,7 @@ train)
     extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
     rm -rf "$runs/$NAME"
     (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$((i % gpus)) \
-      XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9 / $share, 2))") \
+      XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem / $share, 2))") \
       setsid nohup python3 -m quadcos.train \
       --preset=command --robot="$ROBOT" --seed="$SEED" --output_dir="$runs/$NAME" --no_progress \
       "${extra[@]}" > "$runs/$NAME.log" 2>&1 < /dev/null &)
@@ -73,7 +75,7 @@ evaluate)
       # The kept policy's random-command evaluation and its robustness conditions, and the last
       # policy's evaluation, side by side on the run's GPU.
       export CUDA_VISIBLE_DEVICES=$((i % gpus))
-      export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.27 / $share, 2))")
+      export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem * 0.3 / $share, 2))")
       python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=$envs \
         --seconds=20 --commands=random --out="$OUT/$NAME/eval.json" > "$runs/${NAME}_eval.log" 2>&1 &
       python3 -m quadcos.evaluate --no_progress --policy="$runs/$NAME/policy" --terrain=flat \
@@ -173,6 +175,7 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
   gait+=" --config.env.commands.reference_speed=1.03 --config.env.commands.half_track=0.442"
   gait+=" --config.env.commands.speed_map=0.2165,0.4605,0.696,0.9307 --config.sac.max_seconds=450"
   declare -A lever=(
+    [base]=""  # the same start on the same machine, no lever
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
     [eval2]="--config.sac.eval_interval=2000000"  # the kept policy chosen every 2 M, not 10 M

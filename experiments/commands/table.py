@@ -23,7 +23,7 @@ RUNS = {
     "unitree_go1": "unitree_go1_command",
     "unitree_go1_nofeed": None,
     "unitree_go2": "unitree_go2_command",
-    "anybotics_anymal_c": None,
+    "anybotics_anymal_c": "anybotics_anymal_c_command",
 }
 CONDITIONS = ("nominal", "latency 40 ms", "pushes 50 N, 0.1 s", "friction 0.4")
 TARGETS = {  # issue 58's targets, 1024 episodes of 20 s, commands resampled every 5 s
@@ -201,6 +201,11 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " on 256 robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
     "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
     " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
+    "anymal_cmd_s0": "the preset with its ANYmal C settings (servos kp 300, kd 4; 20 / 20"
+    " iterations; search floored at 0.15 m/s, confirmed on 256 robots), 540 s, MJX-Warp:"
+    " `../policies/anybotics_anymal_c_command`",
+    "go1warp_s0": "the preset (seed 0), 300 s, MJX-Warp, two runs sharing one GPU",
+    "go2warp_s0": "as `go1warp_s0`, Go2",
 }
 ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (first row)
     "anymal_it20_300_s0": "— (alone on the GPU)",
@@ -222,12 +227,15 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     " one GPU: the search took 776 s, SAC 270 k env steps with its actor not yet learning",
     "anymal_servo300rhythm_s0": "servos kp 300, kd 4, from `servo_gains.py`'s fastest kp-300"
     " rhythm (no search), its feed-forward measured on it; as `anymal_servo300_s0`",
+    "anymal_cmd_s0": "`--preset=command` as it is (servos kp 300, kd 4, the drive's loops"
+    " closed); 540 s, alone, 1024 episodes",
 }
 NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
     "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics, loops open",
     "go1ref200_s0": "`menagerie:unitree_go1`: the preset's physics (rate only, 200 s)",
     "go1pathloops_s0": "Go1's MJCF by its path, the drive's loops closed (the preset)",
 }
+WARP = ("go1warp_s0", "go2warp_s0")  # Go1 and Go2 from nothing on MJX-Warp, sharing one GPU
 SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
 # the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
 SEEDS_NO_LOOPS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")
@@ -240,17 +248,22 @@ def _flag(argv: list[str], name: str) -> str:
     return next(arg.split("=", 1)[1] for arg in argv if arg.startswith(f"{name}="))
 
 
-def seeds(names: tuple[str, ...] = SEEDS) -> str:
+def seeds(names: tuple[str, ...] = SEEDS, label: str = "seed") -> str:
     """The rows of a Go1 seeds table: each seed's kept policy under random commands with the
-    training randomisation and in the four robustness conditions (nominal: none drawn)."""
+    training randomisation and in the four robustness conditions (nominal: none drawn).
+    `label` "run": the first cell names the run, its robot and seed."""
     runs = json.loads((HERE / "campaign.json").read_text())["runs"]
     rows = []
     for name in names:
         run, kept = runs[name], runs[name]["kept"]
         conditions = run["robustness"]
         nominal = conditions["nominal"]
+        seed = _flag(run["argv"], "--seed")
+        first = seed if label == "seed" else (
+            f"`{name}`: {_flag(run['argv'], '--robot').split(':')[-1]}, seed {seed}"
+        )
         rows.append(
-            f"| {_flag(run['argv'], '--seed')} | {kept['policy_env_steps'] / 1e6:.1f} M | "
+            f"| {first} | {kept['policy_env_steps'] / 1e6:.1f} M | "
             + _rates(conditions.values())
             + f" | {_tracking(kept)} |"
             f" {_tracking(nominal)} |"
@@ -267,14 +280,20 @@ SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `b
     "go2_rate_ln_fw3": "yaw rate, w1 450, LayerNorm",
     "go2_rate_ln_fw3_d2": "yaw rate, w1 450, LayerNorm, actor every 2nd update",
 }
+GO1_LEVERS = {  # run in campaign.json (run_gpu.sh go1) -> its change from the preset
+    "go1_base_s0": "— (the preset from `go1loops540_s0`'s searched gait)",
+    "go1_lr_s0": "critic and temperature learning rates 3e-4 (the preset: 1e-3)",
+    "go1_warm_s0": "the actor's warm-up 20,000 updates (2,000): about 10 M env steps",
+}
 
 
-def sac_levers() -> str:
-    """The rows of SAC's levers table: the trainer's reward from the start to its last evaluation,
-    the kept policy, and its survival and tracking (speed, yaw rate) in each condition."""
+def sac_levers(levers: dict[str, str] = SAC_LEVERS) -> str:
+    """The rows of a SAC levers table: the trainer's reward from the start to its last
+    evaluation, the kept policy, and its survival and tracking (speed, yaw rate) in each
+    condition."""
     runs = json.loads((HERE / "campaign.json").read_text())["runs"]
     rows = []
-    for name, change in SAC_LEVERS.items():
+    for name, change in levers.items():
         run = runs[name]
         first, last = run["evaluations"][0], run["evaluations"][-1]
         conditions = run["robustness"].values()
@@ -354,6 +373,8 @@ ENGINE_RUNS = {  # Go1's policy closes the drive's loops as it was trained (its 
     "unitree_go1_command": ("unitree_go1_command", ()),
     "unitree_go2_command": ("unitree_go2_command", ()),
 }
+# the schedule of a policy whose ranges SCHEDULE leaves (ANYmal C: 0.8 m/s, 0.4 rad/s)
+SCHEDULES = {"anybotics_anymal_c_command": "0.4,0@5;0.8,0@5;0.5,0.3@5;0,0@5"}
 
 
 def engines() -> str:
@@ -373,12 +394,14 @@ def engines() -> str:
 
 
 def measure_engines(name: str, episodes: int = 64) -> None:
-    """NAME_engines.json: the policy of ENGINE_RUNS[NAME] on SCHEDULE with its flags, nominal
-    physics, `episodes` episodes of 20 s in MJX (quadcos.evaluate), C MuJoCo (quadcos.sim2sim) and
-    C MuJoCo with its ONNX export; each engine's evaluation summary without its per-episode data."""
+    """NAME_engines.json: the policy of ENGINE_RUNS[NAME] on its schedule (SCHEDULES, else
+    SCHEDULE) with its flags, nominal physics, `episodes` episodes of 20 s in MJX
+    (quadcos.evaluate), C MuJoCo (quadcos.sim2sim) and C MuJoCo with its ONNX export; each
+    engine's evaluation summary without its per-episode data."""
     policy_name, flags = ENGINE_RUNS[name]
     policy = POLICIES / policy_name
-    common = [f"--commands={SCHEDULE}", "--seconds=20", "--no_progress", *flags]
+    schedule = SCHEDULES.get(name, SCHEDULE)
+    common = [f"--commands={schedule}", "--seconds=20", "--no_progress", *flags]
     summaries = {}
     with tempfile.TemporaryDirectory() as scratch:
         onnx = Path(scratch) / f"{name}.onnx"
@@ -398,7 +421,7 @@ def measure_engines(name: str, episodes: int = 64) -> None:
             summary.pop("episodes", None)
             summaries[label] = summary
     record = {"policy": f"experiments/policies/{policy_name}", "flags": list(flags),
-              "commands": SCHEDULE, "engines": summaries}
+              "commands": schedule, "engines": summaries}
     (HERE / f"{name}_engines.json").write_text(json.dumps(record, indent=1) + "\n")
 
 
@@ -428,8 +451,8 @@ def check() -> list[str]:
     readme = set((HERE / "README.md").read_text().splitlines())
     blocks = (
         table(), seeds(), seeds(SEEDS_NO_LOOPS), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(),
-        campaign(), anymal(),
-        sac_levers(), engines(), levers(), no_preset(),
+        campaign(), anymal(), seeds(WARP, "run"),
+        sac_levers(), sac_levers(GO1_LEVERS), engines(), levers(), no_preset(),
     )
     return [line for block in blocks for line in block.splitlines() if line not in readme]
 
@@ -462,7 +485,11 @@ if __name__ == "__main__":
         print()
         print(anymal())
         print()
+        print(seeds(WARP, "run"))
+        print()
         print(sac_levers())
+        print()
+        print(sac_levers(GO1_LEVERS))
         print()
         print(engines())
         print()

@@ -9,8 +9,8 @@ replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_d
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
 rate, the env-steps/s of the window it ends), the training rate at the last evaluation, the
 solver probe's physics (a robot without a preset), and the key numbers of the kept policy's
-random-command evaluation and robustness conditions and of the last policy's evaluation
-(per-episode data left out).
+random-command evaluation and robustness conditions and of the last policy's evaluation, with the
+physics they ran on where recorded (per-episode data left out).
 """
 
 import io
@@ -29,7 +29,9 @@ DROPPED = ("--output_dir", "--no_progress")  # argv flags that say nothing of th
 STOPPED = re.compile(r"error: (non-finite SAC loss[^;]*)")
 # the gait search's rounds and its result: how many candidates never fell, how long it took
 SEARCH_ROUND = re.compile(r"gait search round \d+/\d+ \((\d+) s\): (\d+) of (\d+) candidates")
-SEARCH_END = re.compile(r"gait search: action centre \S+ \(([\d.]+) m/s, ([\d.]+) % falls\) after (\d+) s")
+SEARCH_END = re.compile(
+    r"gait search: action centre \S+ \(([\d.]+) m/s, ([\d.]+) % falls\) after (\d+) s"
+)
 PROBE = re.compile(r"solver probe: ([^(\n]*?) \(")  # a robot without a preset: the physics chosen
 KEYS = (
     "success_rate",
@@ -59,7 +61,10 @@ def _evaluation(text: str | None) -> dict | None:
     if text is None:
         return None
     summary = json.loads(io.StringIO(text).read())
-    return {"policy_env_steps": summary["setup"]["policy_env_steps"]} | {
+    setup = summary["setup"]
+    # the physics it ran on ("jax" or "warp"; evaluations that recorded it)
+    physics = {"impl": setup["impl"]} if "impl" in setup else {}
+    return {"policy_env_steps": setup["policy_env_steps"], **physics} | {
         key: summary[key] for key in KEYS
     }
 

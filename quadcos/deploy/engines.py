@@ -260,7 +260,7 @@ def _mujoco_episodes(
     setup = {
         "engine": "mujoco",
         "policy": pilot.name,
-        "policy_kind": "fixed" if pilot.spec.kind == "fixed" else "sac",
+        "policy_kind": pilot.spec.kind if pilot.spec.kind in ("fixed", "gait") else "sac",
         "policy_env_steps": pilot.spec.env_steps,
         "robot": host.robot.provenance(),
         "terrain": host.terrain.spec,

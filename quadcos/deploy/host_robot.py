@@ -75,7 +75,7 @@ class Pilot:
         """
         spec = sources.PolicySpec.parse(spec) if isinstance(spec, str) else spec
         config = spec.env_config(env_overrides)
-        if spec.kind == "fixed":
+        if spec.kind in ("fixed", "gait"):
             return cls(spec, config)
         policy = OnnxPolicy.load(spec.path) if spec.kind == "onnx" else export.numpy_policy(spec)
         return cls(spec, config, policy)
@@ -86,9 +86,13 @@ class Pilot:
         return self.spec.text
 
     def actor(self) -> Callable[[np.ndarray], np.ndarray]:
-        """obs -> (action_size,) action; fixed parameters: the constant action commanding them."""
+        """obs -> (action_size,) action; fixed parameters: the constant action commanding them;
+        a gait: the zero action (the action centre)."""
         if self.policy is not None:
             return self.policy
+        if self.spec.kind == "gait":
+            zeros = np.zeros(env_lib.action_size(self.config))
+            return lambda obs: zeros
         centre = oscillator.action_centre(self.config.action_centre, self.config.period_min)
         action = np.asarray(
             oscillator.parameters_to_action(

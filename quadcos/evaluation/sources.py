@@ -32,6 +32,10 @@ from quadcos.equations import oscillator
 from quadcos.training import run_config as runs
 
 FIXED_PREFIX = "fixed:"
+# `gait:DIR`: the zero action in DIR's env: the run's searched gait (its action centre) under its
+# drive, as the untrained actor acts it (its outputs scaled by `sac.policy_output_scale`, 0.01 in
+# the presets that search): the step-0 policy a trained one is measured against.
+GAIT_PREFIX = "gait:"
 PARAMETER_NAMES = oscillator.RhythmParameters._fields
 
 
@@ -41,7 +45,7 @@ class ActionSource:
 
     Attributes:
       name: the --policy string (or a description).
-      kind: "sac" or "fixed".
+      kind: "sac", "fixed" or "gait" (the zero action, `GAIT_PREFIX`).
       act: (params, obs (n, obs_size)) -> actions (n, action_size); jit-able.
       params: the first argument of `act` (fixed: the (5,) parameters; sac: the network's).
       env_overrides: env config overrides (dotted keys) that rebuild the training env.
@@ -129,6 +133,11 @@ def fixed_source(params: oscillator.RhythmParameters, name: str | None = None) -
     )
 
 
+def _zero_action(zeros: jax.Array, obs: jax.Array) -> jax.Array:
+    """(n, action_size) zeros: the action centre for each of the n observations."""
+    return jnp.broadcast_to(zeros, (obs.shape[0], zeros.shape[-1]))
+
+
 def _constant_action(actions: jax.Array, obs: jax.Array) -> jax.Array:
     """The (n, action_size) actions that `rollout` computed from the fixed parameters for its
     env (`QuadrupedEnv.action_for`)."""
@@ -144,7 +153,8 @@ class PolicySpec:
     Attributes:
       text: the --policy string.
       kind: "directory" (a run or policy directory), "npz" or "onnx" (an exported policy,
-        `quadcos.deploy.export`) or "fixed" (rhythm parameters).
+        `quadcos.deploy.export`), "fixed" (rhythm parameters) or "gait" (a directory's zero
+        action, `GAIT_PREFIX`).
       env_options: the env config options (dotted keys) the policy was trained with, terrain
         excluded; {} for fixed parameters (the default env).
       training_terrain: the terrain spec it was trained on ("flat" for fixed parameters).
@@ -171,8 +181,8 @@ class PolicySpec:
 
     @classmethod
     def parse(cls, text: str | os.PathLike[str]) -> "PolicySpec":
-        """`fixed:trot`, `fixed:A_k,A_h,T,phi1,phi3`, a run or policy directory, or an exported
-        .npz / .onnx.
+        """`fixed:trot`, `fixed:A_k,A_h,T,phi1,phi3`, a run or policy directory, `gait:` and
+        one (its zero action), or an exported .npz / .onnx.
 
         Raises:
           FileNotFoundError: no such file or directory.
@@ -182,6 +192,13 @@ class PolicySpec:
         if text.startswith(FIXED_PREFIX):
             parameters = parse_fixed(text[len(FIXED_PREFIX) :])
             return cls(text, "fixed", {}, "flat", fixed_parameters=parameters)
+        if text.startswith(GAIT_PREFIX):
+            directory = cls.parse(text[len(GAIT_PREFIX) :])
+            if directory.kind != "directory":
+                raise ValueError(
+                    f"bad policy {text!r}: {GAIT_PREFIX} takes a run or policy directory"
+                )
+            return dataclasses.replace(directory, text=text, kind="gait", env_steps=0, policy=None)
         if not text.strip():
             raise ValueError(f"bad policy {text!r}: expected {POLICY_FORMS}")
         path = pathlib.Path(text)
@@ -230,13 +247,25 @@ class PolicySpec:
         return config
 
     def action_source(self) -> ActionSource:
-        """The JAX action source of a directory or fixed spec (the MJX engine's).
+        """The JAX action source of a directory, gait or fixed spec (the MJX engine's).
 
         Raises:
           ValueError: an exported policy (.npz, .onnx), which runs only in C MuJoCo.
         """
         if self.kind == "fixed":
             return fixed_source(self.fixed_parameters, name=self.text)
+        if self.kind == "gait":
+            return ActionSource(
+                name=self.text,
+                kind="gait",
+                act=_zero_action,
+                params=jnp.zeros(self.action_size, jnp.float32),
+                env_overrides=dict(self.env_options),
+                training_terrain=self.training_terrain,
+                observation_size=self.observation_size,
+                action_size=self.action_size,
+                env_steps=0,
+            )
         if self.kind != "directory":
             raise ValueError(
                 f"the policy {self.text} is an exported .{self.kind}: the mjx engine runs run or"
@@ -258,7 +287,8 @@ class PolicySpec:
 
 
 POLICY_FORMS = (
-    "a run or policy directory, an exported .npz or .onnx, fixed:trot or fixed:A_k,A_h,T,phi1,phi3"
+    "a run or policy directory, gait:DIRECTORY (its zero action), an exported .npz or .onnx,"
+    " fixed:trot or fixed:A_k,A_h,T,phi1,phi3"
 )
 EXPORTED_KINDS = ("npz", "onnx")
 _SIZES = ("observation_size", "action_size")

@@ -1,0 +1,80 @@
+"""Trained command policies against the gaits they started from, condition by condition:
+
+    MENAGERIE_ROOT=DIR python experiments/commands/versus_gait.py --num_envs=128 \
+        --out=experiments/commands/versus_gait.json RUN=POLICY_DIR...
+
+measures each RUN's kept policy (POLICY_DIR, e.g. a run's policy_best/) and `gait:POLICY_DIR` —
+the run's searched gait under its drive, the zero action, which the untrained actor of step 0
+acts within its output scale (0.01) — in the four conditions of issue 58's targets
+(experiments/robustness/measure.py: nominal, 40 ms, 50-N pushes, friction 0.4) under random
+commands, both on the same episodes (seeds). A RUN may name `gait:POLICY_DIR` alone (runs that
+share one start). `--out` keeps the RUNs it already holds and is written after each RUN.
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).parent
+MEASURE = HERE.parent / "robustness" / "measure.py"
+CONDITIONS = ("nominal", "latency 40 ms", "pushes 50 N, 0.1 s", "friction 0.4")
+KEYS = (
+    "success_rate",
+    "speed_tracking_rms",
+    "yaw_rate_tracking_rms",
+    "mean_max_abs_pitch_error",
+    "mean_max_abs_roll",
+)
+
+
+def measure(policy: str, num_envs: int, seconds: float) -> dict:
+    """measure.py's four conditions of `policy` under random commands: {condition: KEYS, impl}."""
+    with tempfile.TemporaryDirectory() as scratch:
+        out = Path(scratch) / "conditions.json"
+        subprocess.run(
+            [sys.executable, str(MEASURE), f"--policy={policy}", f"--num_envs={num_envs}",
+             f"--seconds={seconds}", "--commands=random", "--conditions", *CONDITIONS,
+             f"--out={out}"],
+            check=True,
+        )
+        rows = json.loads(out.read_text())["conditions"]
+    return {name: {key: rows[name][key] for key in (*KEYS, "impl")} for name in CONDITIONS}
+
+
+def _run_and_policy(text: str) -> tuple[str, str]:
+    run, _, policy = text.partition("=")
+    if not run or not policy:
+        raise SystemExit(f"versus_gait.py: bad RUN {text!r}: expected RUN=POLICY_DIR")
+    return run, policy
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("runs", nargs="+", metavar="RUN=POLICY_DIR")
+    parser.add_argument("--num_envs", type=int, default=128)
+    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args()
+    pairs = [_run_and_policy(text) for text in args.runs]  # every RUN checked before measuring
+
+    from quadcos import evaluation
+
+    out = Path(args.out)
+    record = json.loads(out.read_text()) if out.exists() else {"runs": {}}
+    record |= {"num_envs": args.num_envs, "seconds": args.seconds, "commands": "random"}
+    for run, policy in pairs:
+        gait = policy if policy.startswith("gait:") else f"gait:{policy}"
+        entry = {"gait": measure(gait, args.num_envs, args.seconds)}
+        if not policy.startswith("gait:"):
+            entry["policy_env_steps"] = evaluation.PolicySpec.parse(policy).env_steps
+            entry["kept"] = measure(policy, args.num_envs, args.seconds)
+        record["runs"][run] = entry
+        out.write_text(json.dumps(record, indent=1) + "\n")
+        print(f"versus_gait.py: {run} measured -> {out}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
