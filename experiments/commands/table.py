@@ -372,6 +372,7 @@ ENGINES = ("MJX (JAX)", "C MuJoCo", "C MuJoCo, ONNX policy")
 ENGINE_RUNS = {  # Go1's policy closes the drive's loops as it was trained (its config); Go2's not
     "unitree_go1_command": ("unitree_go1_command", ()),
     "unitree_go2_command": ("unitree_go2_command", ()),
+    "anybotics_anymal_c_command": ("anybotics_anymal_c_command", ()),
 }
 # the schedule of a policy whose ranges SCHEDULE leaves (ANYmal C: 0.8 m/s, 0.4 rad/s)
 SCHEDULES = {"anybotics_anymal_c_command": "0.4,0@5;0.8,0@5;0.5,0.3@5;0,0@5"}
