@@ -170,7 +170,7 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
   bash "$0" pack "${specs[@]}" ;;
 go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go1loops540_s0
   # (its centre, speed map and b given: nothing searched or measured), whose SAC never beat that
-  # gait; the command preset (the drive's loops closed) for 450 s, two runs sharing each GPU.
+  # gait on MJX-JAX; the command preset (the drive's loops closed) for 450 s; runs share GPUs.
   gait="--config.env.action_centre=0.223638,-0.149431,0.15185,-2.06857,-5.21017"
   gait+=" --config.env.commands.reference_speed=1.03 --config.env.commands.half_track=0.442"
   gait+=" --config.env.commands.speed_map=0.2165,0.4605,0.696,0.9307 --config.sac.max_seconds=450"
