@@ -7,7 +7,8 @@
     python -m quadcos.evaluate --search_fixed --terrain=flat --num_candidates=512 --out=search.json
     python -m quadcos.evaluate --render=s4_trace.json --video=s4.mp4     # a saved trace, here
 
-`--policy` is a run directory, a policy directory (`quadcos.load_policy`), `fixed:trot`
+`--policy` is a run directory, a policy directory (`quadcos.load_policy`), `gait:DIRECTORY` (the
+zero action in that policy's env: the gait it started from), `fixed:trot`
 (`oscillator.FIXED_TROT`) or `fixed:A_k,A_h,T,phi1,phi3` (rad, rad, s, rad, rad; `pi` allowed);
 with `--engine=mujoco` also an exported .npz or .onnx (`quadcos.evaluation.PolicySpec`).
 A trained policy runs in the env it was trained in (its saved env config), on its training
@@ -58,8 +59,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = engines.policy_parser(
         "python -m quadcos.evaluate",
         __doc__,
-        policy_help="run or policy directory, fixed:trot or fixed:A_k,A_h,T,phi1,phi3 (and with"
-        " --engine=mujoco an exported .npz or .onnx)",
+        policy_help="run or policy directory, gait:DIRECTORY (its zero action), fixed:trot or"
+        " fixed:A_k,A_h,T,phi1,phi3 (and with --engine=mujoco an exported .npz or .onnx)",
     )
     parser.add_argument("--num_envs", type=int, default=64, help="episodes, all run at once")
     parser.add_argument("--seconds", type=float, default=20.0, help="time limit of an episode, s")

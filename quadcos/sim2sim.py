@@ -7,8 +7,8 @@ the loop.
     python -m quadcos.export --policy=experiments/policies/flat --out=flat.onnx
     python -m quadcos.sim2sim --policy=flat.onnx --obs_noise=0.01 --latency_ms=20 --out=onnx.json
 
-`--policy` takes a run or policy directory, an exported .npz, an exported .onnx (run with ONNX
-Runtime) or `fixed:...`. `--obs_noise` adds N(0, std²) to each observation value the policy
+`--policy` takes a run or policy directory, `gait:DIRECTORY` (its zero action), an exported .npz,
+an exported .onnx (run with ONNX Runtime) or `fixed:...`. `--obs_noise` adds N(0, std²) to each observation value the policy
 sees; `--latency_ms` delays each action by that many ms, rounded to whole physics steps (below a
 control step: the previous action for the first round(latency / physics_dt) substeps of each
 control step, as the MJX env's randomised latency). Both are recorded in the setup.

@@ -186,13 +186,32 @@ def test_a_gait_runs_in_c_mujoco_as_step_zero(commanded):
 @pytest.mark.parametrize(
     ("text", "error", "says"),
     [
-        ("gait:fixed:trot", ValueError, "takes a run or policy directory"),
+        ("gait:fixed:trot", ValueError, "'gait:fixed:trot': gait: takes a run or policy"),
+        ("gait: ", ValueError, "'gait: ': gait: takes a run or policy directory"),
         ("gait:/no/such/policy", FileNotFoundError, "no policy at /no/such/policy"),
     ],
 )
 def test_a_bad_gait_spec_is_refused(text, error, says):
     with pytest.raises(error, match=says):
         evaluation.PolicySpec.parse(text)
+
+
+def test_the_gait_of_a_joint_controller_is_refused(commanded, tmp_path):
+    directory = tmp_path / "joint"
+    directory.mkdir()
+    for part in commanded.iterdir():
+        (directory / part.name).write_bytes(part.read_bytes())
+    saved = json.loads((directory / "policy.json").read_text())
+    saved["config"]["run_info"]["env"]["controller"] = "joint"
+    (directory / "policy.json").write_text(json.dumps(saved))
+    with pytest.raises(ValueError, match="controller is 'joint', whose zero action stands"):
+        evaluation.PolicySpec.parse(f"gait:{directory}")
+
+
+def test_a_gait_does_not_export(commanded, tmp_path):
+    with pytest.raises(ValueError, match="not a run or policy directory: only those export"):
+        export_lib.export_policy(f"gait:{commanded}", tmp_path / "gait.onnx")
+    assert not (tmp_path / "gait.onnx").exists()
 
 
 # --- the ONNX export ------------------------------------------------------------------------------
@@ -349,6 +368,11 @@ def test_mjx_evaluation_records_policy_env_steps(commanded):
     result = evaluation.evaluate(str(commanded), num_envs=2, seconds=0.5, commands="0.5,0@5")
     assert result.summary["setup"]["policy_env_steps"] == 1234
     assert result.summary["speed_tracking_rms"] is not None
+    gait = evaluation.evaluate(f"gait:{commanded}", num_envs=2, seconds=0.5, commands="0.5,0@5")
+    assert gait.summary["setup"]["policy_kind"] == "gait"
+    assert gait.summary["setup"]["policy_env_steps"] == 0
+    # the same env, another actor: the policy's random weights move the rhythm off its centre
+    assert gait.summary["mean_forward_speed"] != result.summary["mean_forward_speed"]
 
 
 # --- the feed-forward measured on a gait ----------------------------------------------------------

@@ -8,7 +8,8 @@ the run's searched gait under its drive, the zero action, which the untrained ac
 acts within its output scale (0.01) — in the four conditions of issue 58's targets
 (experiments/robustness/measure.py: nominal, 40 ms, 50-N pushes, friction 0.4) under random
 commands, both on the same episodes (seeds). A RUN may name `gait:POLICY_DIR` alone (runs that
-share one start). `--out` keeps the RUNs it already holds and is written after each RUN.
+share one start). `--out` keeps the RUNs it already holds (measured with the same --num_envs and
+--seconds, else it refuses) and is written after each RUN.
 """
 
 import argparse
@@ -45,6 +46,7 @@ def measure(policy: str, num_envs: int, seconds: float) -> dict:
 
 
 def _run_and_policy(text: str) -> tuple[str, str]:
+    """(RUN, POLICY_DIR) of a RUN=POLICY_DIR argument; exits naming a malformed one."""
     run, _, policy = text.partition("=")
     if not run or not policy:
         raise SystemExit(f"versus_gait.py: bad RUN {text!r}: expected RUN=POLICY_DIR")
@@ -52,6 +54,7 @@ def _run_and_policy(text: str) -> tuple[str, str]:
 
 
 def main() -> None:
+    """Measures each RUN (gait, then kept policy) into --out, written after each RUN."""
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("runs", nargs="+", metavar="RUN=POLICY_DIR")
     parser.add_argument("--num_envs", type=int, default=128)
@@ -63,8 +66,12 @@ def main() -> None:
     from quadcos import evaluation
 
     out = Path(args.out)
+    setup = {"num_envs": args.num_envs, "seconds": args.seconds, "commands": "random"}
     record = json.loads(out.read_text()) if out.exists() else {"runs": {}}
-    record |= {"num_envs": args.num_envs, "seconds": args.seconds, "commands": "random"}
+    held = {key: record[key] for key in setup if key in record}
+    if held and held != setup:  # one record, one setup: its RUNs compare
+        raise SystemExit(f"versus_gait.py: {out} holds RUNs measured with {held}, not {setup}")
+    record |= setup
     for run, policy in pairs:
         gait = policy if policy.startswith("gait:") else f"gait:{policy}"
         entry = {"gait": measure(gait, args.num_envs, args.seconds)}

@@ -260,7 +260,7 @@ def _mujoco_episodes(
     setup = {
         "engine": "mujoco",
         "policy": pilot.name,
-        "policy_kind": pilot.spec.kind if pilot.spec.kind in ("fixed", "gait") else "sac",
+        "policy_kind": pilot.spec.source_kind,
         "policy_env_steps": pilot.spec.env_steps,
         "robot": host.robot.provenance(),
         "terrain": host.terrain.spec,
@@ -334,7 +334,8 @@ def host_parser(prog: str, description: str) -> argparse.ArgumentParser:
     parser = policy_parser(
         prog,
         description,
-        policy_help="run or policy directory, exported .npz or .onnx, or fixed:trot",
+        policy_help="run or policy directory, gait:DIRECTORY (its zero action), exported .npz or"
+        " .onnx, or fixed:trot",
     )
     parser.add_argument(
         "--physics",

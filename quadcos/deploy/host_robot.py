@@ -54,8 +54,8 @@ _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for s
 @dataclasses.dataclass(frozen=True)
 class Pilot:
     """What chooses actions in C MuJoCo: the policy of a `PolicySpec` as NumPy (a directory or
-    an exported .npz) or ONNX Runtime (an exported .onnx), None for fixed parameters, and the env
-    config it runs in (`PolicySpec.env_config`)."""
+    an exported .npz) or ONNX Runtime (an exported .onnx), None for fixed parameters and a gait
+    (`gait:DIR`, the zero action), and the env config it runs in (`PolicySpec.env_config`)."""
 
     spec: sources.PolicySpec
     config: ml_collections.ConfigDict

@@ -32,9 +32,10 @@ from quadcos.equations import oscillator
 from quadcos.training import run_config as runs
 
 FIXED_PREFIX = "fixed:"
-# `gait:DIR`: the zero action in DIR's env: the run's searched gait (its action centre) under its
-# drive, as the untrained actor acts it (its outputs scaled by `sac.policy_output_scale`, 0.01 in
-# the presets that search): the step-0 policy a trained one is measured against.
+# `gait:DIR`: the zero action in DIR's env: its action centre (the searched gait, where the run
+# searched one) under its drive, as the untrained actor acts it (its outputs scaled by
+# `sac.policy_output_scale`, 0.01 in the presets that search): the step-0 policy a trained one is
+# measured against. Oscillator policies only: a joint controller's zero action stands.
 GAIT_PREFIX = "gait:"
 PARAMETER_NAMES = oscillator.RhythmParameters._fields
 
@@ -47,7 +48,8 @@ class ActionSource:
       name: the --policy string (or a description).
       kind: "sac", "fixed" or "gait" (the zero action, `GAIT_PREFIX`).
       act: (params, obs (n, obs_size)) -> actions (n, action_size); jit-able.
-      params: the first argument of `act` (fixed: the (5,) parameters; sac: the network's).
+      params: the first argument of `act` (fixed: the (5,) parameters; gait: (action_size,)
+        zeros; sac: the network's).
       env_overrides: env config overrides (dotted keys) that rebuild the training env.
       training_terrain: the terrain spec the policy was trained on ("flat" for fixed parameters).
       fixed_parameters: the rhythm parameters of a fixed source, else None.
@@ -193,12 +195,7 @@ class PolicySpec:
             parameters = parse_fixed(text[len(FIXED_PREFIX) :])
             return cls(text, "fixed", {}, "flat", fixed_parameters=parameters)
         if text.startswith(GAIT_PREFIX):
-            directory = cls.parse(text[len(GAIT_PREFIX) :])
-            if directory.kind != "directory":
-                raise ValueError(
-                    f"bad policy {text!r}: {GAIT_PREFIX} takes a run or policy directory"
-                )
-            return dataclasses.replace(directory, text=text, kind="gait", env_steps=0, policy=None)
+            return _gait_spec(text)
         if not text.strip():
             raise ValueError(f"bad policy {text!r}: expected {POLICY_FORMS}")
         path = pathlib.Path(text)
@@ -224,6 +221,12 @@ class PolicySpec:
             action_size,
             None if env_steps is None else int(env_steps),
         )
+
+    @property
+    def source_kind(self) -> str:
+        """What acts, as an evaluation's setup records it: "fixed", "gait" or "sac" (a trained
+        network: a directory or an exported file)."""
+        return self.kind if self.kind in ("fixed", "gait") else "sac"
 
     @property
     def robot(self) -> str:
@@ -257,7 +260,7 @@ class PolicySpec:
         if self.kind == "gait":
             return ActionSource(
                 name=self.text,
-                kind="gait",
+                kind=self.source_kind,
                 act=_zero_action,
                 params=jnp.zeros(self.action_size, jnp.float32),
                 env_overrides=dict(self.env_options),
@@ -275,7 +278,7 @@ class PolicySpec:
 
         return ActionSource(
             name=self.text,
-            kind="sac",
+            kind=self.source_kind,
             act=policy_lib.action_function(self.policy.spec),
             params=self.policy.params,
             env_overrides=dict(self.env_options),
@@ -315,6 +318,27 @@ def _directory_spec(text: str, path: pathlib.Path) -> PolicySpec:
     return PolicySpec(
         text, "directory", options, terrain, path, None, *sizes, steps, policy=policy
     )
+
+
+def _gait_spec(text: str) -> PolicySpec:
+    """The spec of `gait:DIR`: DIR's env and sizes, the zero action, 0 env steps of training.
+
+    Raises:
+      FileNotFoundError: no DIR. ValueError: DIR is no directory, or drives joints directly.
+    """
+    inner = text[len(GAIT_PREFIX) :]
+    if not inner.strip():
+        raise ValueError(f"bad policy {text!r}: {GAIT_PREFIX} takes a run or policy directory")
+    directory = PolicySpec.parse(inner)
+    if directory.kind != "directory":
+        raise ValueError(f"bad policy {text!r}: {GAIT_PREFIX} takes a run or policy directory")
+    controller = directory.env_options.get("controller", env_lib.default_config().controller)
+    if controller != "oscillator":
+        raise ValueError(
+            f"bad policy {text!r}: its env's controller is {controller!r}, whose zero action"
+            " stands: a gait needs the oscillator"
+        )
+    return dataclasses.replace(directory, text=text, kind="gait", env_steps=0, policy=None)
 
 
 def _trained_env_steps(saved: Mapping[str, Any]) -> int | None:
