@@ -1,13 +1,12 @@
 """The commanded-gait tables of experiments/commands/README.md, from the evaluation and
 robustness JSONs beside this file (`run_gpu.sh evaluate` writes them; per-episode data removed),
 the policies' configs and the campaign's runs in campaign.json (`training_summary.py`); and its
-figure (commanded against achieved velocity of each shipped command policy on one schedule: 8
-episodes, the first traced; runs on a CPU):
+figure (commanded against achieved velocity of each shipped command policy on its schedule: 8
+episodes, the first traced; runs on a CPU; the sim-to-sim records: engines_record.py):
 
     python experiments/commands/table.py            # the rows of every table
     python experiments/commands/table.py --check    # exit 1 where README.md's tables differ
     MENAGERIE_ROOT=DIR python experiments/commands/table.py --figure   # docs/command_tracking.png
-    MENAGERIE_ROOT=DIR python experiments/commands/table.py --engines [NAME...]   # NAME_engines.json
 """
 
 import json
@@ -309,6 +308,27 @@ def sac_levers(levers: dict[str, str] = SAC_LEVERS) -> str:
     return "\n".join(rows)
 
 
+def versus_gait() -> str:
+    """The rows of the step-0 table (versus_gait.py): each run's searched gait under its drive
+    (the zero action, step 0) and its kept policy, survival and tracking in each condition."""
+    record = _load("versus_gait.json")
+    rows = []
+    for name, run in record["runs"].items():
+        policies = [("step-0 gait", 0, run["gait"])]
+        if "kept" in run:
+            policies.append(("kept policy", run["policy_env_steps"], run["kept"]))
+        for label, steps, conditions in policies:
+            steps = "—" if steps is None else f"{steps / 1e6:.1f} M"
+            rows.append(
+                f"| `{name}` | {label}, {steps} | "
+                + " | ".join(
+                    f"{c['success_rate']:.3f}; {_tracking(c)}" for c in conditions.values()
+                )
+                + " |"
+            )
+    return "\n".join(rows)
+
+
 def campaign() -> str:
     """The rows of the campaign table: each run's feed-forward, kept and last policy."""
     runs = json.loads((HERE / "campaign.json").read_text())["runs"]
@@ -394,40 +414,12 @@ def engines() -> str:
     return "\n".join(rows)
 
 
-def measure_engines(name: str, episodes: int = 64) -> None:
-    """NAME_engines.json: the policy of ENGINE_RUNS[NAME] on its schedule (SCHEDULES, else
-    SCHEDULE) with its flags, nominal physics, `episodes` episodes of 20 s in MJX
-    (quadcos.evaluate), C MuJoCo (quadcos.sim2sim) and C MuJoCo with its ONNX export; each
-    engine's evaluation summary without its per-episode data."""
-    policy_name, flags = ENGINE_RUNS[name]
-    policy = POLICIES / policy_name
-    schedule = SCHEDULES.get(name, SCHEDULE)
-    common = [f"--commands={schedule}", "--seconds=20", "--no_progress", *flags]
-    summaries = {}
-    with tempfile.TemporaryDirectory() as scratch:
-        onnx = Path(scratch) / f"{name}.onnx"
-        runs = {
-            "MJX (JAX)": ["quadcos.evaluate", f"--policy={policy}", "--terrain=flat",
-                          f"--num_envs={episodes}", "--env.randomization.enabled=false"],
-            "C MuJoCo": ["quadcos.sim2sim", f"--policy={policy}", f"--episodes={episodes}"],
-            "C MuJoCo, ONNX policy": ["quadcos.sim2sim", f"--policy={onnx}",
-                                      f"--episodes={episodes}"],
-        }
-        subprocess.run([sys.executable, "-m", "quadcos.export", f"--policy={policy}",
-                        f"--out={onnx}"], check=True)
-        for label, args in runs.items():
-            out = Path(scratch) / "eval.json"
-            subprocess.run([sys.executable, "-m", *args, *common, f"--out={out}"], check=True)
-            summary = json.loads(out.read_text())
-            summary.pop("episodes", None)
-            summaries[label] = summary
-    record = {"policy": f"experiments/policies/{policy_name}", "flags": list(flags),
-              "commands": schedule, "engines": summaries}
-    (HERE / f"{name}_engines.json").write_text(json.dumps(record, indent=1) + "\n")
-
-
 SCHEDULE = "0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5"
-FIGURE_POLICIES = {"Go1": "unitree_go1_command", "Go2": "unitree_go2_command"}
+FIGURE_POLICIES = {
+    "Go1": "unitree_go1_command",
+    "Go2": "unitree_go2_command",
+    "ANYmal C": "anybotics_anymal_c_command",
+}
 
 
 def figure() -> None:
@@ -439,7 +431,8 @@ def figure() -> None:
             trace = Path(scratch) / f"{name}.json"
             subprocess.run(
                 [sys.executable, "-m", "quadcos.evaluate", f"--policy={POLICIES / name}",
-                 f"--commands={SCHEDULE}", "--num_envs=8", "--seconds=20", "--no_progress",
+                 f"--commands={SCHEDULES.get(name, SCHEDULE)}", "--num_envs=8", "--seconds=20",
+                 "--no_progress",
                  f"--out={Path(scratch) / 'eval.json'}", f"--trace={trace}"],
                 check=True,
             )
@@ -453,7 +446,7 @@ def check() -> list[str]:
     blocks = (
         table(), seeds(), seeds(SEEDS_NO_LOOPS), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(),
         campaign(), anymal(), seeds(WARP, "run"),
-        sac_levers(), sac_levers(GO1_LEVERS), engines(), levers(), no_preset(),
+        sac_levers(), sac_levers(GO1_LEVERS), versus_gait(), engines(), levers(), no_preset(),
     )
     return [line for block in blocks for line in block.splitlines() if line not in readme]
 
@@ -466,9 +459,6 @@ if __name__ == "__main__":
         sys.exit(1 if stale else 0)
     if sys.argv[1:] == ["--figure"]:
         figure()
-    elif sys.argv[1:2] == ["--engines"]:
-        for record_name in sys.argv[2:] or ENGINE_RUNS:
-            measure_engines(record_name)
     else:
         print(table())
         print()
@@ -491,6 +481,8 @@ if __name__ == "__main__":
         print(sac_levers())
         print()
         print(sac_levers(GO1_LEVERS))
+        print()
+        print(versus_gait())
         print()
         print(engines())
         print()
