@@ -19,16 +19,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+from table import CONDITIONS
+from training_summary import KEYS as EVALUATION_KEYS
+
 HERE = Path(__file__).parent
 MEASURE = HERE.parent / "robustness" / "measure.py"
-CONDITIONS = ("nominal", "latency 40 ms", "pushes 50 N, 0.1 s", "friction 0.4")
-KEYS = (
-    "success_rate",
-    "speed_tracking_rms",
-    "yaw_rate_tracking_rms",
-    "mean_max_abs_pitch_error",
-    "mean_max_abs_roll",
-)
+KEYS = EVALUATION_KEYS[:5]  # survival, tracking and attitude: what a condition records
 
 
 def measure(policy: str, num_envs: int, seconds: float) -> dict:
