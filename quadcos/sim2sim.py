@@ -11,7 +11,9 @@ the loop.
 an exported .onnx (run with ONNX Runtime) or `fixed:...`. `--obs_noise` adds N(0, std²) to each observation value the policy
 sees; `--latency_ms` delays each action by that many ms, rounded to whole physics steps (below a
 control step: the previous action for the first round(latency / physics_dt) substeps of each
-control step, as the MJX env's randomised latency). Both are recorded in the setup.
+control step, as the MJX env's randomised latency); `--friction` sets every geom's sliding
+friction (MuJoCo takes the larger of two at a contact), as the env's randomisation draws one.
+All three are recorded in the setup.
 `--physics=reference` (default) solves contacts with the MJCF's own solver iterations (converged:
 the physics a policy must transfer to); `--physics=training` with the iterations it trained with;
 `--physics=N/M` with N solver and M line-search iterations. `--commands=SPEC` (a policy trained
@@ -47,6 +49,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--latency_ms", type=float, default=0.0, help="control latency, ms (whole physics steps)"
     )
+    parser.add_argument(
+        "--friction", type=float, default=0.0,
+        help="every geom's sliding friction, as the env's randomisation sets it (0: the MJCF's)",
+    )
     parser.add_argument("--out", help="evaluation JSON to write")
     parser.add_argument("--no_progress", action="store_true", help="no progress on stderr")
     return parser
@@ -65,7 +71,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         out = pathlib.Path(args.out)
         if out.suffix != ".json" or not out.absolute().parent.is_dir():
             raise ValueError(f"--out must be a .json file in an existing directory; got {out}")
-        for flag, value in (("--obs_noise", args.obs_noise), ("--latency_ms", args.latency_ms)):
+        checked = ("--obs_noise", args.obs_noise), ("--latency_ms", args.latency_ms)
+        for flag, value in (*checked, ("--friction", args.friction)):
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{flag} must be >= 0 and finite; got {value}")
         result = engines.evaluate(
@@ -80,6 +87,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             latency_s=args.latency_ms / 1000.0,
             physics=args.physics,
             commands=args.commands,
+            friction=args.friction,
             progress=None if args.no_progress else _print_progress,
         )
     except (ValueError, FileNotFoundError) as error:

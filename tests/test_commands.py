@@ -377,6 +377,29 @@ def test_the_drive_inverts_a_measured_speed_map():
         quadcos.make_env("flat", controller="joint", **{"commands.feed_forward": True})
 
 
+def test_the_turn_cap_limits_what_the_drive_asks_of_the_sides():
+    linear = tuple(0.3 * scale for scale in commands.SPEED_MAP_SCALES)
+    asked = np.float32([[0.6, 0.8], [0.6, -3.0], [0.0, 0.2], [0.5, 0.0]])
+    within = np.float32([[0.6, 0.4], [0.6, -0.4], [0.0, 0.2], [0.5, 0.0]])
+    capped = np.asarray(commands.drive_scales(asked, linear, 0.5, 1.5, turn_max=0.4))
+    np.testing.assert_allclose(capped, commands.drive_scales(within, linear, 0.5, 1.5), rtol=1e-6)
+    uncapped = np.asarray(commands.drive_scales(asked, linear, 0.5, 1.5))
+    assert not np.allclose(uncapped[:2], capped[:2])  # 0: no cap
+    for row in range(len(asked)):
+        np.testing.assert_allclose(
+            twins.drive_scales(asked[row], linear, 0.5, 1.5, 0.4), capped[row], rtol=1e-5
+        )
+    config = commands.default_config()
+    config.speed_map, config.half_track, config.feed_forward = (0.3, 0.6, 0.8, 0.9), 0.5, True
+    config.turn_max = 0.4
+    mapping = commands.drive_map(config)
+    np.testing.assert_allclose(
+        commands.drive(config, asked, mapping), commands.drive(config, within, mapping), rtol=1e-6
+    )
+    with pytest.raises(ValueError, match="turn_max"):
+        quadcos.make_env("flat", **{"commands.turn_max": -0.1})
+
+
 # --- the env ----------------------------------------------------------------------------------
 
 SCHEDULE = "0.5,0@0.1;1.0,0.3@5"

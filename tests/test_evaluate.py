@@ -232,6 +232,8 @@ def test_both_engines_run_through_one_function_and_write_one_format(fixed_trot_r
         engines.evaluate("fixed:trot", engine="warp")
     with pytest.raises(ValueError, match="options of the mujoco engine"):
         engines.evaluate("fixed:trot", engine="mjx", obs_noise=0.1)
+    with pytest.raises(ValueError, match="options of the mujoco engine"):
+        engines.evaluate("fixed:trot", engine="mjx", friction=0.4)
     with pytest.raises(ValueError, match="trace_episode is an mjx option"):
         engines.evaluate("fixed:trot", engine="mujoco", trace_episode=1)
 

@@ -366,6 +366,7 @@ def test_the_command_preset_stiffens_anymal_c_and_flags_still_win(menagerie_root
     assert (config.env.solver_iterations, config.env.ls_iterations) == (20, 20)
     assert config.sac.gait_search.min_speed == 0.15
     assert config.sac.gait_search.confirm_robots == 256
+    assert config.env.commands.turn_max == 0.4
     # the command line wins; other robots, ANYmal C by its path and other presets are untouched
     flagged = built("command", **{"env.robot": anymal, "env.servo_kp": 500.0})
     assert flagged.env.servo_kp == 500.0 and flagged.env.servo_kd == 4.0
@@ -374,4 +375,4 @@ def test_the_command_preset_stiffens_anymal_c_and_flags_still_win(menagerie_root
                           ("scratch", anymal)):
         other = built(preset, **{"env.robot": robot})
         assert (other.env.servo_kp, other.env.solver_iterations) == (0.0, 0)
-        assert other.sac.gait_search.min_speed == 0.0
+        assert other.sac.gait_search.min_speed == 0.0 and other.env.commands.turn_max == 0.0

@@ -231,6 +231,7 @@ def test_policy_walks_and_a_course_ends_at_its_end():
         (["--policy=fixed:trot", "--latency_ms=ten"], "--latency_ms"),
         (["--policy=fixed:trot", "--physics=fast"], "--physics"),
         (["--policy=fixed:trot", "--physics=4/0"], "--physics"),
+        (["--policy=fixed:trot", "--friction=-0.4"], "--friction"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, capsys, args, named):
@@ -280,6 +281,19 @@ def test_no_noise_and_no_latency_change_nothing_and_are_recorded():
         4,
     )
     assert _episode(obs_noise=0.05, latency_s=0.02)[0] == noisy  # seeded
+
+
+def test_a_set_friction_reaches_every_geom_and_is_recorded():
+    config = evaluation.env_config({})
+    host = host_robot.HostRobot("flat", config, friction=0.4)
+    np.testing.assert_array_equal(host.model.geom_friction[:, 0], 0.4)
+    assert host.physics["friction"] == 0.4
+    own = host_robot.HostRobot("flat", config)
+    assert own.physics["friction"] is None and own.model.geom_friction[:, 0].max() > 0.4
+    slippery, setup = _episode(friction=0.4)
+    assert setup["physics"]["friction"] == 0.4 and slippery != _episode()[0]
+    with pytest.raises(ValueError, match="friction"):
+        host_robot.HostRobot("flat", config, friction=float("nan"))
 
 
 def _commands(monkeypatch, latency_s, actions):

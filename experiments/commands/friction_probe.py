@@ -24,9 +24,9 @@ def survival(
     pilot: host_robot.Pilot, friction: float, commands: str, episodes: int, seconds: float
 ) -> dict:
     """The share of `episodes` that did not fall and the mean seconds walked, at `friction`."""
-    robot = host_robot.HostRobot("flat", pilot.config, physics="training", commands=commands)
-    if friction > 0:
-        robot.model.geom_friction[:, 0] = friction
+    robot = host_robot.HostRobot(
+        "flat", pilot.config, physics="training", commands=commands, friction=friction
+    )
     feet = robot.layout.foot_geoms
     act, steps, walked = pilot.actor(), round(seconds / robot.dt), []
     for seed in range(episodes):

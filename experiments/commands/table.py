@@ -201,8 +201,9 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
     " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
     "anymal_cmd_s0": "the preset with its ANYmal C settings (servos kp 300, kd 4; 20 / 20"
-    " iterations; search floored at 0.15 m/s, confirmed on 256 robots), 540 s, MJX-Warp:"
-    " `../policies/anybotics_anymal_c_command`",
+    " iterations; search floored at 0.15 m/s, confirmed on 256 robots), 540 s, MJX-Warp",
+    "anymal_cap_s0": "as `anymal_cmd_s0` with the drive's turn capped at 0.4 rad/s (the"
+    " preset), 420 s: `../policies/anybotics_anymal_c_command`",
     "go1warp_s0": "the preset (seed 0), 300 s, MJX-Warp, two runs sharing one GPU",
     "go2warp_s0": "as `go1warp_s0`, Go2",
 }
@@ -226,8 +227,10 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     " one GPU: the search took 776 s, SAC 270 k env steps with its actor not yet learning",
     "anymal_servo300rhythm_s0": "servos kp 300, kd 4, from `servo_gains.py`'s fastest kp-300"
     " rhythm (no search), its feed-forward measured on it; as `anymal_servo300_s0`",
-    "anymal_cmd_s0": "`--preset=command` as it is (servos kp 300, kd 4, the drive's loops"
-    " closed); 540 s, alone, 1024 episodes",
+    "anymal_cmd_s0": "`--preset=command` without the turn cap (servos kp 300, kd 4, the drive's"
+    " loops closed); 540 s, alone, 1024 episodes",
+    "anymal_cap_s0": "`--preset=command` as it is: the drive's turn capped at 0.4 rad/s; 420 s,"
+    " alone, 1024 episodes",
 }
 NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
     "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics, loops open",

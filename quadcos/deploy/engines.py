@@ -41,7 +41,7 @@ _MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitc
 # GaitEpisodeStats fields that the host episodes do not sum: the end-of-step samples (only the
 # rollout's next step reads them) and the flags.
 _NOT_SUMMED = ("reward_terms", "command", "yaw", "foot_xy", "foot_contact", "commanded", "mass")
-_MUJOCO_ONLY = {"obs_noise": 0.0, "latency_s": 0.0, "physics": "reference"}
+_MUJOCO_ONLY = {"obs_noise": 0.0, "latency_s": 0.0, "physics": "reference", "friction": 0.0}
 
 
 def evaluate(
@@ -59,6 +59,7 @@ def evaluate(
     physics: str = "reference",
     progress: Callable[[int, int], None] | None = None,
     commands: str | None = None,
+    friction: float = 0.0,
 ) -> evaluation.Evaluation:
     """`episodes` deterministic episodes of `policy` on `terrain` (default: its training terrain)
     in `engine` ("mjx" or "mujoco", module docstring).
@@ -68,8 +69,8 @@ def evaluate(
       seed: seed of the reset noise.
       env_overrides: env config options on top of the policy's (dotted keys).
       trace_episode: mjx: the episode whose time series the result's `trace` holds.
-      obs_noise, latency_s, physics: mujoco: observation noise (std), control latency (s) and
-        solver (`quadcos.deploy.host_robot`).
+      obs_noise, latency_s, physics, friction: mujoco: observation noise (std), control latency
+        (s), solver and every geom's sliding friction (0: the MJCF's) (`quadcos.deploy.host_robot`).
       progress: called as progress(done, total) (mjx: steps; mujoco: episodes).
       commands: velocity commands to follow ("random" or a schedule "v,ω@s;...",
         `quadcos.env.commands.parse_commands`); None: the policy's env's own.
@@ -82,9 +83,11 @@ def evaluate(
         raise ValueError(f"unknown engine {engine!r}; known: {', '.join(ENGINES)}")
     spec = sources.PolicySpec.parse(policy) if isinstance(policy, str) else policy
     if engine == "mjx":
-        given = dict(obs_noise=obs_noise, latency_s=latency_s, physics=physics)
+        given = dict(obs_noise=obs_noise, latency_s=latency_s, physics=physics, friction=friction)
         if given != _MUJOCO_ONLY:
-            raise ValueError("obs_noise, latency_s and physics are options of the mujoco engine")
+            raise ValueError(
+                "obs_noise, latency_s, physics and friction are options of the mujoco engine"
+            )
         return evaluation.evaluate(
             spec,
             terrain,
@@ -104,7 +107,7 @@ def evaluate(
         raise ValueError(f"the observation noise must be >= 0 and finite; got {obs_noise}")
     pilot = host_robot.Pilot.load(spec, env_overrides)
     ground = terrain if terrain is not None else spec.training_terrain
-    host = host_robot.HostRobot(ground, pilot.config, latency_s, physics, commands)
+    host = host_robot.HostRobot(ground, pilot.config, latency_s, physics, commands, friction)
     return _mujoco_episodes(pilot, host, episodes, seconds, seed, obs_noise, progress)
 
 

@@ -123,11 +123,12 @@ class HostRobot:
     """One robot on a terrain in C MuJoCo under the env's controller path (`QuadrupedEnv.step`);
     `latency_s`: the control latency, s; `physics`: "reference", "training" or "N/M" solver
     iterations (module docstring); `commands`: a command spec followed instead of the config's
-    own (`quadcos.deploy.host_commands`; None: the config's).
+    own (`quadcos.deploy.host_commands`; None: the config's); `friction` > 0: every geom's
+    sliding friction, as the env's randomisation draws one (0: the MJCF's).
 
     Raises:
-      ValueError: a latency that is negative or not finite, an unknown `physics`, or commands
-        for a config without them.
+      ValueError: a latency or friction that is negative or not finite, an unknown `physics`, or
+        commands for a config without them.
     """
 
     def __init__(
@@ -137,9 +138,12 @@ class HostRobot:
         latency_s: float = 0.0,
         physics: str = "reference",
         commands: str | None = None,
+        friction: float = 0.0,
     ):
         if not (math.isfinite(latency_s) and latency_s >= 0):
             raise ValueError(f"the latency must be >= 0 s and finite; got {latency_s}")
+        if not (math.isfinite(friction) and friction >= 0):
+            raise ValueError(f"the friction must be >= 0 and finite; got {friction}")
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.robot = robot.load(config.robot)
         config = env_lib.resolve(host_commands.follow(config, commands))
@@ -155,6 +159,8 @@ class HostRobot:
             ls_iterations=ls_iterations,
             servo=env_lib.servo_gains(config),
         )
+        if friction > 0:
+            self.model.geom_friction[:, 0] = friction
         self.physics = {
             "solver": physics,
             "timestep": float(self.model.opt.timestep),
@@ -163,6 +169,7 @@ class HostRobot:
             "cone": "elliptic"
             if self.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
             else "pyramidal",
+            "friction": friction or None,
         }
         self.layout = Layout.of(self.robot.description, self.model, xp=np)
         self.data = mujoco.MjData(self.model)
@@ -294,6 +301,7 @@ class HostRobot:
                 env_commands.speed_map(drive),
                 drive.half_track,
                 drive.scale_max,
+                drive.turn_max,
             )
             swing = twins.side_scaled(swing, scales)
         ramp = twins.start_ramp(self.data.time, config.start_ramp_s)

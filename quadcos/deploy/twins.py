@@ -67,12 +67,16 @@ def side_scaled(rhythm: np.ndarray, scales: np.ndarray) -> np.ndarray:
 
 
 def drive_scales(
-    velocity: np.ndarray, speeds: tuple[float, ...], half_track: float, scale_max: float
+    velocity: np.ndarray,
+    speeds: tuple[float, ...],
+    half_track: float,
+    scale_max: float,
+    turn_max: float = 0.0,
 ):
     """`commands.drive_scales`: (2,) left and right hip-swing scales for a command (v*, ω*)."""
-    speed, yaw_rate = velocity
-    sides = np.array([speed - yaw_rate * half_track, speed + yaw_rate * half_track])
-    return np.clip(commands.side_scale(sides, speeds, np), -scale_max, scale_max)
+    return commands.drive_scales(
+        np.asarray(velocity), speeds, half_track, scale_max, turn_max, np
+    )
 
 
 def abduction_stride(rhythm: np.ndarray, turn: float, bound: float) -> np.ndarray:

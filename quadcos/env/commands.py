@@ -81,6 +81,10 @@ def default_config() -> ml_collections.ConfigDict:
     # 0 = the robot's (mean |hip y|)
     config.half_track = 0.0
     config.scale_max = 1.5  # the largest |scale| of a side's hip swing
+    # rad/s: > 0 caps the yaw rate the drive asks of the sides, after its gain and heading loop
+    # (`drive_scales`): side differences past what a gait turns by reverse its turn on low
+    # friction, and the loops then wind it up into a spin; 0: no cap
+    config.turn_max = 0.0
     # 1/s: > 0 closes the feed-forward's loop on speed: the drive asks for g·(v*, ω*), the gain g
     # moved each control step by this rate × the relative speed error (`corrected_gain`); 0: g = 1
     config.speed_gain_rate = 0.0
@@ -197,7 +201,7 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
         )
-    for key in ("reference_speed", "scale_max", "speed_gain_rate", "heading_gain"):
+    for key in ("reference_speed", "scale_max", "turn_max", "speed_gain_rate", "heading_gain"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     if not math.isfinite(config.half_track):
@@ -236,21 +240,31 @@ def drive_map(config: ml_collections.ConfigDict) -> np.ndarray | None:
 def drive(config: ml_collections.ConfigDict, velocity: jax.Array, mapping: jax.Array) -> jax.Array:
     """(..., 2) `drive_scales` for velocity commands (..., 2) through a drive map `mapping`
     (`drive_map`: traced where a trainer passes it) and a `commands` config's clip."""
-    return drive_scales(velocity, tuple(mapping[:-1]), mapping[-1], config.scale_max)
+    return drive_scales(
+        velocity, tuple(mapping[:-1]), mapping[-1], config.scale_max, config.turn_max
+    )
 
 
 def drive_scales(
-    velocity: jax.Array, speeds: tuple[float, ...], half_track: float, scale_max: float
-) -> jax.Array:
-    """(2,) the feed-forward's scales of the left and right hips' swing for a command (v*, ω*)
-    (m/s, rad/s): each side's commanded speed, v* ∓ ω*·b for half track b (m), turned into the
-    scale that walks it by the speed map `speeds` (m/s at SPEED_MAP_SCALES, `speed_map`), clipped
-    to ±`scale_max` — a differential drive: a side's stride, and so its speed, grows with its hip
-    amplitude. (0, 0) at v* = ω* = 0 (trotting in place); opposite signs turn on the spot (a
-    negative scale strides backwards)."""
+    velocity: Any,
+    speeds: tuple[float, ...],
+    half_track: Any,
+    scale_max: float,
+    turn_max: float = 0.0,
+    xp: Any = jnp,
+) -> Any:
+    """(..., 2) the feed-forward's scales of the left and right hips' swing for commands (..., 2)
+    (v*, ω*) (m/s, rad/s): each side's commanded speed, v* ∓ ω*·b for half track b (m), ω* capped
+    at ±`turn_max` where that is > 0, turned into the scale that walks it by the speed map
+    `speeds` (m/s at SPEED_MAP_SCALES, `speed_map`), clipped to ±`scale_max` — a differential
+    drive: a side's stride, and so its speed, grows with its hip amplitude. (0, 0) at v* = ω* = 0
+    (trotting in place); opposite signs turn on the spot (a negative scale strides backwards).
+    With `xp` numpy or jax.numpy."""
     speed, yaw_rate = velocity[..., 0], velocity[..., 1]
-    sides = jnp.stack([speed - yaw_rate * half_track, speed + yaw_rate * half_track], axis=-1)
-    return jnp.clip(side_scale(sides, speeds, jnp), -scale_max, scale_max)
+    if turn_max > 0:
+        yaw_rate = xp.clip(yaw_rate, -turn_max, turn_max)
+    sides = xp.stack([speed - yaw_rate * half_track, speed + yaw_rate * half_track], axis=-1)
+    return xp.clip(side_scale(sides, speeds, xp), -scale_max, scale_max)
 
 
 def side_scale(speed: Any, speeds: tuple[float, ...], xp: Any = jnp) -> Any:

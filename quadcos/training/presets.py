@@ -228,8 +228,13 @@ PRESETS["command"] = {
         # 20 / 20 iterations and candidates asked for 0.15 m/s, their best confirmed on 256
         # robots, the searched gait tracks 0.080 m/s and 0.140 rad/s under random commands and
         # the training randomisation, 0.998 surviving (experiments/commands, "ANYmal C levers":
-        # anymal_servo300_s0), and walks C MuJoCo at 0.66-0.73 m/s at every friction.
+        # anymal_servo300_s0), and walks C MuJoCo at 0.66-0.73 m/s at every friction. Its turn
+        # by side differences reverses on low friction past ~0.5 rad/s (C MuJoCo, friction 0.4),
+        # where the drive's loops wound it into a spin: the drive turns at most 0.4 rad/s, its
+        # command range (random commands at friction 0.4: 0.398 -> 0.087 m/s, 0.892 -> 0.152
+        # rad/s; experiments/commands, "ANYmal C's turn cap").
         "anybotics_anymal_c": {
+            "env.commands.turn_max": 0.4,
             "env.servo_kp": 300.0,
             "env.servo_kd": 4.0,
             "env.solver_iterations": 20,
