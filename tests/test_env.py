@@ -114,6 +114,22 @@ def test_the_trainers_programs_are_kept_for_every_gait(tmp_path, monkeypatch):
     assert key(action_centre="0.3,0.2,0.4,3.0,0.0", observe_slope=True, **gait) != searched
 
 
+def test_moving_is_measured_along_x_or_the_heading(flat_reset):
+    before = jax.tree.map(lambda leaf: leaf[0], flat_reset(jax.random.split(jax.random.PRNGKey(0), 1)))
+    before = before.pipeline_state
+    heading = quadcos.make_env("flat", survival_speed_frame="heading")
+    yaw_pi = jnp.asarray([0.0, 0.0, 0.0, 1.0])
+    turned = before.replace(qpos=before.qpos.at[3:7].set(yaw_pi))
+    if heading.layout.orientation_sensor is not None:  # the IMU reads the turned pose
+        sensor = heading.layout.orientation_sensor
+        turned = turned.replace(sensordata=turned.sensordata.at[sensor].set(yaw_pi))
+    moved = jnp.asarray([-0.05, 0.02, 0.0])  # 5 cm towards -x: forwards for a robot facing -x
+    along_x = quadcos.make_env("flat")._moved_forward(turned, moved)
+    np.testing.assert_allclose([along_x, heading._moved_forward(turned, moved)], [-0.05, 0.05],
+                               atol=1e-6)
+    np.testing.assert_allclose(heading._moved_forward(before, moved), -0.05, atol=5e-3)
+
+
 def test_sizes(flat_env):
     # v_x, v_y, v_z, pitch, yaw, roll, ξ1..ξ8, then the filtered command (5)
     assert flat_env.observation_size == 19

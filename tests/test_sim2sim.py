@@ -6,6 +6,7 @@ import json
 import math
 import pathlib
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -170,6 +171,21 @@ def test_survival_pays_a_step_backwards_only_without_a_min_speed(min_speed, surv
     assert result.forward_speed < 0 and result.reward_terms["survival"] == survival
 
 
+@pytest.mark.parametrize("frame, survival", [("x", 0.0), ("heading", 10.0)])
+def test_moving_is_judged_along_the_heading_where_the_frame_says(frame, survival):
+    """A robot facing -x walking forward 1 m/s: backwards along x, forwards along its heading."""
+    config = evaluation.env_config({"survival_min_speed": 0.5, "survival_speed_tau": 0.0,
+                                    "survival_speed_frame": frame})
+    host = host_robot.HostRobot("flat", config)
+    host.reset(0)
+    host.data.qpos[3:7] = [0.0, 0.0, 0.0, 1.0]  # yaw π
+    host.data.qvel[0] = -1.0
+    mujoco.mj_forward(host.model, host.data)  # the IMU reads the turned pose
+    assert host.step(np.zeros(5)).reward_terms["survival"] == survival
+    with pytest.raises(ValueError, match="survival_speed_frame"):
+        evaluation.env_config({"survival_speed_frame": "y"})
+
+
 def test_cli_writes_an_evaluation_json(tmp_path, capsys):
     out = tmp_path / "trot.json"
     args = ["--policy=fixed:trot", "--terrain=flat", "--episodes=2", "--seconds=2", f"--out={out}"]
@@ -195,6 +211,7 @@ def test_reference_physics_converges_where_training_takes_the_presets_shortcut(t
         "iterations": 100,
         "ls_iterations": 50,
         "cone": "elliptic",
+        "friction": None,
     }
     with pytest.raises(ValueError, match="unknown physics 'fast'"):
         host_robot.HostRobot("flat", config, physics="fast")

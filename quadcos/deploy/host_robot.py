@@ -255,6 +255,9 @@ class HostRobot:
         slope_truth = float(twins.slope_at(self.terrain, x, y))
         fell = bool(blown_up(self.data.qpos, self.data.qvel, np)) or self._fell(body, slope_truth)
         forward_speed = (x - x_last) / self.dt
+        if self.config.survival_speed_frame == "heading":  # QuadrupedEnv._moved_forward
+            along = (x - x_last) * math.cos(yaw_before) + (y - y_last) * math.sin(yaw_before)
+            forward_speed = along / self.dt
         self.mean_speed += self._speed_blend * (forward_speed - self.mean_speed)
         terms = twins.reward_terms(
             x_now=x,

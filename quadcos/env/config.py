@@ -13,6 +13,7 @@ from quadcos.equations import oscillator, reward
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")
+SURVIVAL_FRAMES = ("x", "heading")  # `survival_speed_frame`: along which "moving" is measured
 _POSTURE_BOUND_MAX = 0.7  # rad: a hip offset plus §3.3's hip swing (≤ 0.5) stays in ±1.2 rad
 
 
@@ -84,6 +85,10 @@ def default_config() -> ml_collections.ConfigDict:
     # s: "moving" is judged on the forward speed low-pass filtered with this time constant, so
     # that rocking back and forth (forward half the time, no progress) does not count.
     config.survival_speed_tau = 1.0
+    # Which way "moving" is measured: "x", the world's x axis (the paper's course direction), or
+    # "heading", the torso's heading at each step's start (a turning robot's progress; with
+    # velocity commands the way the forward term measures too). SURVIVAL_FRAMES.
+    config.survival_speed_frame = "x"
     # m/s: > 0 caps the speed Eq. 10's r_y pays for (faster steps earn no more progress reward),
     # so that a policy does not trade falls for speed; 0 = the paper's uncapped r_y.
     config.forward_speed_cap = 0.0
@@ -234,6 +239,11 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
     if not 0.0 <= config.forward_speed_cap < math.inf:
         raise ValueError(
             f"forward_speed_cap must be finite and >= 0 m/s; got {config.forward_speed_cap}"
+        )
+    if config.survival_speed_frame not in SURVIVAL_FRAMES:
+        raise ValueError(
+            f"survival_speed_frame must be one of {', '.join(SURVIVAL_FRAMES)}; got"
+            f" {config.survival_speed_frame!r}"
         )
     if not 0.0 <= config.survival_speed_tau < math.inf:
         raise ValueError(

@@ -216,9 +216,9 @@ class QuadrupedEnv(base.Env):
             self.layout, self.terrain, self.config, data, torso, observed.attitude, slope_truth
         )
         last = before.qpos[self.layout.position]
-        forward_speed = (position[0] - last[0]) / self.dt
-        mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
         moved = position - last
+        forward_speed = self._moved_forward(before, moved) / self.dt
+        mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
         tracking, info = self._track(info, observed.attitude.yaw, before, data.time, moved)
         terms = reward.reward_terms(
             x_now=position[0],
@@ -478,6 +478,14 @@ class QuadrupedEnv(base.Env):
             info["velocity_command"], yaw, yaw_before, self.dt, before.time, now, progress
         )
         return tracking, {**info, "velocity_command": following}
+
+    def _moved_forward(self, before: mjx.Data, moved: jax.Array) -> jax.Array:
+        """m: a step's torso displacement `moved` (x, y, z) along x, or with
+        `survival_speed_frame` "heading" along the torso's heading in `before`."""
+        if self.config.survival_speed_frame == "x":
+            return moved[0]
+        yaw_before = slope.attitude(self.layout.orientation(before)).yaw
+        return reward.along_heading(moved[0], moved[1], yaw_before)[0]
 
     def _moving(self, mean_speed: jax.Array, tracking: dict[str, jax.Array]) -> jax.Array | bool:
         """Whether a step earns Eq. 9's r_s: every step (survival_min_speed 0), or a step whose
