@@ -82,8 +82,8 @@ def default_config() -> ml_collections.ConfigDict:
     config.half_track = 0.0
     config.scale_max = 1.5  # the largest |scale| of a side's hip swing
     # rad/s: > 0 caps the yaw rate the drive asks of the sides, after its gain and heading loop
-    # (`drive_scales`): side differences past what a gait turns by reverse its turn on low
-    # friction, and the loops then wind it up into a spin; 0: no cap
+    # (`drive_scales`): past what a gait turns by, side differences turn it no faster (on low
+    # friction hardly at all) and the loops wind a lagging turn up to the strides' clip; 0: no cap
     config.turn_max = 0.0
     # 1/s: > 0 closes the feed-forward's loop on speed: the drive asks for g·(v*, ω*), the gain g
     # moved each control step by this rate × the relative speed error (`corrected_gain`); 0: g = 1

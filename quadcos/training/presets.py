@@ -229,10 +229,10 @@ PRESETS["command"] = {
         # robots, the searched gait tracks 0.080 m/s and 0.140 rad/s under random commands and
         # the training randomisation, 0.998 surviving (experiments/commands, "ANYmal C levers":
         # anymal_servo300_s0), and walks C MuJoCo at 0.66-0.73 m/s at every friction. Its turn
-        # by side differences reverses on low friction past ~0.5 rad/s (C MuJoCo, friction 0.4),
-        # where the drive's loops wound it into a spin: the drive turns at most 0.4 rad/s, its
-        # command range (random commands at friction 0.4: 0.398 -> 0.087 m/s, 0.892 -> 0.152
-        # rad/s; experiments/commands, "ANYmal C's turn cap").
+        # by side differences fades on low friction (C MuJoCo, friction 0.4: 0.08 rad/s asked 0.4),
+        # where the drive's loops wound it up into strides at their clip: the drive turns at most
+        # 0.4 rad/s, its command range (its gait under random commands at friction 0.4: 0.304 ->
+        # 0.097 m/s, 0.206 -> 0.132 rad/s; docs/env.md, "The drive's turn cap").
         "anybotics_anymal_c": {
             "env.commands.turn_max": 0.4,
             "env.servo_kp": 300.0,
