@@ -13,7 +13,10 @@ from quadcos.equations import oscillator, reward
 
 CONTROLLERS = ("oscillator", "joint")
 OSCILLATOR_FORMS = ("phase", "literal")
-SURVIVAL_FRAMES = ("x", "heading")  # `survival_speed_frame`: along which "moving" is measured
+# `survival_speed_frame`: "x", the world's x axis (the paper's course direction), or "heading", the
+# torso's heading at each step's start (a turning robot's progress; with velocity commands the way
+# the forward term measures too).
+SURVIVAL_FRAMES = ("x", "heading")
 _POSTURE_BOUND_MAX = 0.7  # rad: a hip offset plus §3.3's hip swing (≤ 0.5) stays in ±1.2 rad
 
 
@@ -85,10 +88,7 @@ def default_config() -> ml_collections.ConfigDict:
     # s: "moving" is judged on the forward speed low-pass filtered with this time constant, so
     # that rocking back and forth (forward half the time, no progress) does not count.
     config.survival_speed_tau = 1.0
-    # Which way "moving" is measured: "x", the world's x axis (the paper's course direction), or
-    # "heading", the torso's heading at each step's start (a turning robot's progress; with
-    # velocity commands the way the forward term measures too). SURVIVAL_FRAMES.
-    config.survival_speed_frame = "x"
+    config.survival_speed_frame = "x"  # along what "moving" is measured: SURVIVAL_FRAMES
     # m/s: > 0 caps the speed Eq. 10's r_y pays for (faster steps earn no more progress reward),
     # so that a policy does not trade falls for speed; 0 = the paper's uncapped r_y.
     config.forward_speed_cap = 0.0
