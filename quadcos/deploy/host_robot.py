@@ -245,20 +245,21 @@ class HostRobot:
             self.phase = math.fmod(oscillator.TWO_PI * self.data.time / period, oscillator.TWO_PI)
         tracking = {}
         x, y, _ = self.data.qpos[self.layout.position]
+        # m along the heading at the step's start (the env's _track and _moved_forward)
+        along = (x - x_last) * math.cos(yaw_before) + (y - y_last) * math.sin(yaw_before)
         if self.commands is not None:  # the env's _track: before the observation that shows it
             yaw = twins.attitude(self.layout.orientation(self.data)).yaw
-            moved = (x - x_last) * math.cos(yaw_before) + (y - y_last) * math.sin(yaw_before)
             tracking = self.commands.track(
-                yaw, yaw_before, time_before, self.data.time, self.dt, moved
+                yaw, yaw_before, time_before, self.data.time, self.dt, along
             )
         obs, body, slope_estimate = self._observe()
         slope_truth = float(twins.slope_at(self.terrain, x, y))
         fell = bool(blown_up(self.data.qpos, self.data.qvel, np)) or self._fell(body, slope_truth)
         forward_speed = (x - x_last) / self.dt
-        if self.config.survival_speed_frame == "heading":  # QuadrupedEnv._moved_forward
-            along = (x - x_last) * math.cos(yaw_before) + (y - y_last) * math.sin(yaw_before)
-            forward_speed = along / self.dt
-        self.mean_speed += self._speed_blend * (forward_speed - self.mean_speed)
+        moving_speed = forward_speed  # QuadrupedEnv._moved_forward
+        if self.config.survival_speed_frame == "heading":
+            moving_speed = along / self.dt
+        self.mean_speed += self._speed_blend * (moving_speed - self.mean_speed)
         terms = twins.reward_terms(
             x_now=x,
             x_last=x_last,

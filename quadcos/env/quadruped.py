@@ -217,8 +217,9 @@ class QuadrupedEnv(base.Env):
         )
         last = before.qpos[self.layout.position]
         moved = position - last
-        forward_speed = self._moved_forward(before, moved) / self.dt
-        mean_speed = mean_speed + self._speed_blend * (forward_speed - mean_speed)
+        forward_speed = moved[0] / self.dt
+        moving_speed = self._moved_forward(before, moved) / self.dt
+        mean_speed = mean_speed + self._speed_blend * (moving_speed - mean_speed)
         tracking, info = self._track(info, observed.attitude.yaw, before, data.time, moved)
         terms = reward.reward_terms(
             x_now=position[0],
