@@ -227,6 +227,36 @@ def test_yaw_rate_tracking_reads_the_steps_own_turn():
         commands.validate(_config(spec="random", tracking="heading_rate"))
 
 
+def test_low_passed_yaw_rate_tracks_the_turn_over_strides_not_its_sway():
+    """`yaw_rate_tau` > 0: the yaw term's ω is the yaw rate low-passed over τ, so a stride's sway
+    about a steady turn costs far less than the per-step rate charges, and the low-passed rate
+    settles on the turn's mean."""
+    errors = {}
+    for tau in (0.0, 0.25):
+        config = _config(spec="random", tracking="yaw_rate", yaw_rate_tau=tau, resample_seconds=60)
+        plan = commands.Plan(commands.validate(config), config)
+        command = plan.start(jax.random.PRNGKey(0)).replace(velocity=jnp.asarray([0.5, 0.3]))
+        yaw, error, rate = 0.0, [], []
+        for step in range(200):  # 0.3 rad/s with a ±0.3 rad/s sway over a 0.4-s stride
+            turn = 0.05 * (0.3 + 0.3 * np.sin(2 * np.pi * step * 0.05 / 0.4))
+            times = (0.05 * step, 0.05 * step + 0.05)
+            tracking, command = plan.step(
+                command, jnp.float32(yaw + turn), jnp.float32(yaw), 0.05, *times, jnp.float32(0.02)
+            )
+            yaw += turn
+            error.append(abs(float(tracking["yaw_rate_error"])))
+            rate.append(float(command.yaw_rate))
+        errors[tau] = np.mean(error[104:])  # 12 whole strides
+        assert np.mean(rate[104:]) == (pytest.approx(0.3, abs=0.01) if tau else 0.0)
+    sway = 0.3 * np.mean(np.abs(np.sin(np.arange(8) * np.pi / 4)))  # 8 steps a stride
+    assert errors[0.0] == pytest.approx(sway, rel=0.01)
+    assert errors[0.25] < 0.3 * errors[0.0]
+    with pytest.raises(ValueError, match="yaw_rate_tau needs commands.tracking='yaw_rate'"):
+        commands.validate(_config(spec="random", tracking="heading", yaw_rate_tau=0.2))
+    with pytest.raises(ValueError, match="commands.yaw_rate_tau must be finite and >= 0"):
+        commands.validate(_config(spec="random", tracking="yaw_rate", yaw_rate_tau=-1.0))
+
+
 # --- the reward -------------------------------------------------------------------------------
 
 

@@ -103,6 +103,7 @@ def test_host_tracking_equals_the_envs(tracking):
     config = env_commands.default_config()
     config.update(spec="0.6,0.3@5", speed_max=1.0, yaw_rate_max=0.5, tracking=tracking)
     config.observed_speed_tau, config.speed_gain_rate, config.heading_gain = 0.3, 1.5, 2.0
+    config.yaw_rate_tau = 0.2 if tracking == "yaw_rate" else 0.0
     plan = env_commands.Plan(env_commands.validate(config), config)
     command = plan.start(jax.random.PRNGKey(0))
     follower = host_commands.HostCommands(config)
@@ -119,6 +120,7 @@ def test_host_tracking_equals_the_envs(tracking):
         assert follower.speed == pytest.approx(float(command.speed), abs=1e-6)
         assert follower.gain == pytest.approx(float(command.gain), abs=1e-6)
         assert follower.correction == pytest.approx(float(command.correction), abs=1e-5)
+        assert follower.yaw_rate == pytest.approx(float(command.yaw_rate), abs=1e-5)
         assert follower.speed > 0 and follower.gain != 1.0
         assert set(host_tracking) == set(env_tracking)
         for key, value in host_tracking.items():

@@ -54,13 +54,14 @@ class HostCommands:
         self.speed = 0.0  # m/s: the observed speed (`env.commands.low_passed_speed`)
         self.gain = 1.0  # the drive's speed gain (`env.commands.corrected_gain`)
         self.correction = 0.0  # rad/s: the drive's heading correction (`env.commands.steering`)
+        self.yaw_rate = 0.0  # rad/s: the low-passed yaw rate (`env.commands.Command.yaw_rate`)
         self._rng = np.random.default_rng(0)
 
     def start(self, seed: int | Sequence[int]) -> None:
         """An episode's first command (t = 0), its draws seeded by the reset seed `seed`."""
         self._rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
         self.velocity, self.heading, self.held = self._at(0.0), 0.0, False
-        self.speed, self.gain, self.correction = 0.0, 1.0, 0.0
+        self.speed, self.gain, self.correction, self.yaw_rate = 0.0, 1.0, 0.0, 0.0
 
     def steer(self, velocity: Sequence[float]) -> None:
         """Follow (v*, ω*) `velocity` from now until the next `start`."""
@@ -91,10 +92,13 @@ class HostCommands:
         self.correction = float(
             env_commands.steering(self.heading, yaw, self.config.heading_gain, np)
         )
+        turn, tau = twins.wrap_angle(yaw - yaw_before), self.config.yaw_rate_tau
+        self.yaw_rate = env_commands.low_passed_speed(self.yaw_rate, turn, dt, tau)
         tracking = {"heading": self.heading, "commanded_progress": progress}
         if self.config.tracking == "yaw_rate":
             tracking["heading"] = yaw_before
-            tracking["yaw_rate_error"] = twins.wrap_angle(yaw - yaw_before) / dt - yaw_rate
+            turned = env_commands.tracked_yaw_rate(self.yaw_rate, turn, dt, tau)
+            tracking["yaw_rate_error"] = turned - yaw_rate
         if self.held:
             return tracking
         if self.spec.mode != env_commands.RANDOM:

@@ -66,6 +66,10 @@ def default_config() -> ml_collections.ConfigDict:
     config.resample_seconds = 5.0  # s: a random command is drawn anew this often in an episode
     config.heading_leash = 0.5  # rad: the most the commanded heading ψ* may lead or trail the yaw
     config.tracking = "heading"  # or "yaw_rate" (TRACKING; the module docstring)
+    # s: > 0 (tracking "yaw_rate") the yaw term charges the yaw rate low-passed over this time
+    # constant (`low_passed_speed`), the turn over a stride or two as the tracking metric's 0.5-s
+    # windows measure it, not each step's sway within a stride; 0: the step's own yaw rate
+    config.yaw_rate_tau = 0.0
     # s: > 0 observes the robot's speed along its own heading, low-passed over this time constant
     # (`Command.speed`), before (v*, ω*); 0: not observed (the policy sees the torso's velocity
     # in the world frame only, as the paper's state has it)
@@ -201,7 +205,12 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
         )
-    for key in ("reference_speed", "scale_max", "turn_max", "speed_gain_rate", "heading_gain"):
+    if config.yaw_rate_tau > 0 and config.tracking != "yaw_rate":
+        raise ValueError(
+            f"commands.yaw_rate_tau needs commands.tracking='yaw_rate'; got {config.tracking!r}"
+        )
+    keys = ("reference_speed", "scale_max", "turn_max", "speed_gain_rate", "heading_gain")
+    for key in (*keys, "yaw_rate_tau"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     if not math.isfinite(config.half_track):
@@ -297,6 +306,9 @@ class Command:
     gain: jax.Array
     # () rad/s: the drive's heading correction (`steering`), added to ω*; 0 at a reset
     correction: jax.Array
+    # () rad/s: the robot's yaw rate low-passed over `yaw_rate_tau` (`low_passed_speed`); 0 at a
+    # reset
+    yaw_rate: jax.Array
 
     def driven(self) -> jax.Array:
         """(..., 2) the velocity the drive is asked for: g·(v*, ω* + s) (`driven`)."""
@@ -329,18 +341,20 @@ class Plan:
             speed=zero,
             gain=one,
             correction=zero,
+            yaw_rate=zero,
         )
 
     def restart(self, command: Command, just_reset: jax.Array) -> Command:
         """`command`, or where `just_reset` (an auto-reset restored the first state) its first
-        one again, the heading, the observed speed and the drive's correction back at 0, its gain
-        at 1."""
+        one again, the heading, the observed speed, the low-passed yaw rate and the drive's
+        correction back at 0, its gain at 1."""
         return command.replace(
             velocity=jnp.where(just_reset, command.initial, command.velocity),
             heading=jnp.where(just_reset, 0.0, command.heading),
             speed=jnp.where(just_reset, 0.0, command.speed),
             gain=jnp.where(just_reset, 1.0, command.gain),
             correction=jnp.where(just_reset, 0.0, command.correction),
+            yaw_rate=jnp.where(just_reset, 0.0, command.yaw_rate),
         )
 
     def at(self, key: jax.Array, time: jax.Array) -> jax.Array:
@@ -364,9 +378,10 @@ class Plan:
         `time_now` in which the robot's yaw went from `yaw_before` to `yaw` (rad) and it moved
         `moved` m along its heading at the step's start: the commanded progress v*·dt (m) and
         the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
-        step's start and the yaw-rate error ω − ω* (rad/s); and the command after the step
-        (`advance`), its observed speed low-passed (`low_passed_speed`), its drive's gain
-        corrected (`corrected_gain`) and its heading correction set (`steering`)."""
+        step's start and the yaw-rate error ω − ω* (rad/s, ω as `tracked_yaw_rate`); and the
+        command after the step (`advance`), its observed speed and yaw rate low-passed
+        (`low_passed_speed`), its drive's gain corrected (`corrected_gain`) and its heading
+        correction set (`steering`)."""
         speed = low_passed_speed(command.speed, moved, dt, self.config.observed_speed_tau)
         rate = self.config.speed_gain_rate
         gain = corrected_gain(command.gain, command.velocity[0], moved, dt, rate, jnp)
@@ -377,10 +392,13 @@ class Plan:
             heading = advance_heading(heading, yaw_rate, yaw, dt, self.config.heading_leash)
         correction = steering(heading, yaw, self.config.heading_gain, jnp)
         command = command.replace(heading=heading, correction=correction)
+        turn, tau = wrap_angle(yaw - yaw_before), self.config.yaw_rate_tau
+        command = command.replace(yaw_rate=low_passed_speed(command.yaw_rate, turn, dt, tau))
         tracking = {"heading": heading, "commanded_progress": progress}
         if self.config.tracking == "yaw_rate":
             tracking["heading"] = yaw_before
-            tracking["yaw_rate_error"] = wrap_angle(yaw - yaw_before) / dt - yaw_rate
+            turned = tracked_yaw_rate(command.yaw_rate, turn, dt, tau)
+            tracking["yaw_rate_error"] = turned - yaw_rate
         return tracking, self.advance(command, time_before, time_now)
 
     def advance(self, command: Command, time_before: jax.Array, time_now: jax.Array) -> Command:
@@ -415,6 +433,13 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
     if tau <= 0:
         return speed
     return speed + (1.0 - math.exp(-dt / tau)) * (progress / dt - speed)
+
+
+def tracked_yaw_rate(low_passed: Any, turn: Any, dt: float, tau: float) -> Any:
+    """rad/s: the yaw rate the reward's yaw term tracks after a control step of `dt` s that
+    turned the robot `turn` rad: the `low_passed` yaw rate (`low_passed_speed` of the turns over
+    `tau` s, this step's included) for τ > 0, else the step's own turn / dt."""
+    return low_passed if tau > 0 else turn / dt
 
 
 def corrected_gain(
