@@ -367,6 +367,8 @@ def test_the_command_preset_stiffens_anymal_c_and_flags_still_win(menagerie_root
     assert config.sac.gait_search.min_speed == 0.15
     assert config.sac.gait_search.confirm_robots == 256
     assert config.env.commands.turn_max == 0.4
+    assert config.env.commands.yaw_rate_tau == 0.25
+    assert config.env.survival_speed_frame == "heading"
     # the command line wins; other robots, ANYmal C by its path and other presets are untouched
     flagged = built("command", **{"env.robot": anymal, "env.servo_kp": 500.0})
     assert flagged.env.servo_kp == 500.0 and flagged.env.servo_kd == 4.0
@@ -376,3 +378,4 @@ def test_the_command_preset_stiffens_anymal_c_and_flags_still_win(menagerie_root
         other = built(preset, **{"env.robot": robot})
         assert (other.env.servo_kp, other.env.solver_iterations) == (0.0, 0)
         assert other.sac.gait_search.min_speed == 0.0 and other.env.commands.turn_max == 0.0
+        assert other.env.commands.yaw_rate_tau == 0.0 and other.env.survival_speed_frame == "x"

@@ -232,9 +232,14 @@ PRESETS["command"] = {
         # by side differences fades on low friction (C MuJoCo, friction 0.4: 0.08 rad/s asked 0.4),
         # where the drive's loops wound it up into strides at their clip: the drive turns at most
         # 0.4 rad/s, its command range (its gait under random commands at friction 0.4: 0.304 ->
-        # 0.097 m/s, 0.206 -> 0.132 rad/s; docs/env.md, "The drive's turn cap").
+        # 0.097 m/s, 0.206 -> 0.132 rad/s; docs/env.md, "The drive's turn cap"). Its reward
+        # charges the yaw rate low-passed over 0.25 s and counts "moving" along its heading: with
+        # each step's yaw rate and "moving" along x, SAC left the better-tracking gait
+        # (experiments/commands, "ANYmal C's reward").
         "anybotics_anymal_c": {
             "env.commands.turn_max": 0.4,
+            "env.commands.yaw_rate_tau": 0.25,
+            "env.survival_speed_frame": "heading",
             "env.servo_kp": 300.0,
             "env.servo_kd": 4.0,
             "env.solver_iterations": 20,
