@@ -202,8 +202,10 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
     "anymal_cmd_s0": "the preset with its ANYmal C settings (servos kp 300, kd 4; 20 / 20"
     " iterations; search floored at 0.15 m/s, confirmed on 256 robots), 540 s, MJX-Warp",
-    "anymal_cap_s0": "as `anymal_cmd_s0` with the drive's turn capped at 0.4 rad/s (the"
-    " preset), 420 s: `../policies/anybotics_anymal_c_command`",
+    "anymal_cap_s0": "as `anymal_cmd_s0` with the drive's turn capped at 0.4 rad/s, 420 s",
+    "anymal_reward_s0": "as `anymal_cap_s0`, the yaw term on the yaw rate low-passed over 0.25 s,"
+    " \"moving\" along the heading (the preset), 480 s: its best evaluation the searched gait"
+    " (step 0): `../policies/anybotics_anymal_c_command`",
     "go1warp_s0": "the preset (seed 0), 300 s, MJX-Warp, two runs sharing one GPU",
     "go2warp_s0": "as `go1warp_s0`, Go2",
 }
@@ -229,8 +231,13 @@ ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (firs
     " rhythm (no search), its feed-forward measured on it; as `anymal_servo300_s0`",
     "anymal_cmd_s0": "`--preset=command` without the turn cap (servos kp 300, kd 4, the drive's"
     " loops closed); 540 s, alone, 1024 episodes",
-    "anymal_cap_s0": "`--preset=command` as it is: the drive's turn capped at 0.4 rad/s; 420 s,"
-    " alone, 1024 episodes",
+    "anymal_cap_s0": "`--preset=command` with the drive's turn capped at 0.4 rad/s; 420 s, alone,"
+    " 1024 episodes",
+    "anymal_tau_s0": "from `anymal_cap_s0`'s gait and feed-forward (no search), the yaw term on"
+    " the yaw rate low-passed over 0.25 s; 420 s, 2 runs on one GPU, 1024 episodes",
+    "anymal_tauhd_s0": "as `anymal_tau_s0`, r_s's \"moving\" along the heading",
+    "anymal_reward_s0": "`--preset=command` as it is: both (the yaw rate low-passed, \"moving\""
+    " along the heading), its gait searched under them; 480 s, alone, 1024 episodes",
 }
 NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
     "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics, loops open",
