@@ -228,11 +228,11 @@ PRESETS["command"] = {
         # 20 / 20 iterations and candidates asked for 0.15 m/s, their best confirmed on 256
         # robots, the searched gait tracks 0.080 m/s and 0.140 rad/s under random commands and
         # the training randomisation, 0.998 surviving (experiments/commands, "ANYmal C levers":
-        # anymal_servo300_s0), and walks C MuJoCo at 0.66-0.73 m/s at every friction. Its turn
-        # by side differences fades on low friction (C MuJoCo, friction 0.4: 0.08 rad/s asked 0.4),
-        # where the drive's loops wound it up into strides at their clip: the drive turns at most
-        # 0.4 rad/s, its command range (its gait under random commands at friction 0.4: 0.304 ->
-        # 0.097 m/s, 0.206 -> 0.132 rad/s; docs/env.md, "The drive's turn cap"). Its reward
+        # anymal_servo300_s0), and walks C MuJoCo at 0.66-0.73 m/s at every friction. A gait's
+        # turn by side differences goes only so far (less on low friction), and the drive's loops
+        # wind a lagging turn up into strides at their clip: the drive turns at most 0.4 rad/s,
+        # its command range (with the cap, a run's policy at friction 0.4 tracked 0.130 m/s and
+        # 0.257 rad/s, without 0.344 and 0.362; docs/env.md, "The drive's turn cap"). Its reward
         # charges the yaw rate low-passed over 0.25 s and counts "moving" along its heading: with
         # each step's yaw rate and "moving" along x, SAC made its searched gait track worse and the
         # run kept SAC's (0.095 m/s, 0.173 rad/s against the gait's 0.074, 0.115); with both the
