@@ -107,12 +107,16 @@ def test_random_commands_are_resampled_every_period_only():
     changes = [i for i in range(1, len(seen)) if not np.array_equal(seen[i], seen[i - 1])]
     assert [float(times[i]) for i in changes] == [1.0, 2.0, 3.0]
     moved = command.replace(
-        heading=jnp.float32(0.3), speed=jnp.float32(0.4), gain=jnp.float32(0.7)
+        heading=jnp.float32(0.3), speed=jnp.float32(0.4), gain=jnp.float32(0.7),
+        correction=jnp.float32(0.2), yaw_rate=jnp.float32(0.3),
     )
     restarted = plan.restart(moved, jnp.bool_(True))
     np.testing.assert_array_equal(restarted.velocity, command.initial)
     assert float(restarted.heading) == 0.0 and float(restarted.speed) == 0.0
-    assert float(restarted.gain) == 1.0
+    assert float(restarted.gain) == 1.0 and float(restarted.correction) == 0.0
+    assert float(restarted.yaw_rate) == 0.0
+    kept = plan.restart(moved, jnp.bool_(False))  # no reset: every field as it was
+    assert float(kept.yaw_rate) == pytest.approx(0.3) and float(kept.gain) == pytest.approx(0.7)
 
 
 def test_the_observed_speed_settles_on_the_mean_of_a_strided_walk():
@@ -249,6 +253,16 @@ def test_low_passed_yaw_rate_tracks_the_turn_over_strides_not_its_sway():
         errors[tau] = np.mean(error[104:])  # 12 whole strides
         assert np.mean(rate[104:]) == (pytest.approx(0.3, abs=0.01) if tau else 0.0)
     sway = 0.3 * np.mean(np.abs(np.sin(np.arange(8) * np.pi / 4)))  # 8 steps a stride
+    # one step from rest: the step's own turn is in the rate charged, blended in by 1 − e^(−dt/τ)
+    config = _config(spec="random", tracking="yaw_rate", yaw_rate_tau=0.25, resample_seconds=60)
+    plan = commands.Plan(commands.validate(config), config)
+    command = plan.start(jax.random.PRNGKey(0)).replace(velocity=jnp.asarray([0.5, 0.3]))
+    tracking, after = plan.step(
+        command, jnp.float32(0.02), jnp.float32(0.0), 0.05, 0.0, 0.05, jnp.float32(0.02)
+    )
+    first = (1 - np.exp(-0.05 / 0.25)) * 0.02 / 0.05
+    assert float(after.yaw_rate) == pytest.approx(first, rel=1e-5)
+    assert float(tracking["yaw_rate_error"]) == pytest.approx(first - 0.3, rel=1e-5)
     assert errors[0.0] == pytest.approx(sway, rel=0.01)
     assert errors[0.25] < 0.3 * errors[0.0]
     with pytest.raises(ValueError, match="yaw_rate_tau needs commands.tracking='yaw_rate'"):

@@ -125,6 +125,9 @@ def test_host_tracking_equals_the_envs(tracking):
         assert set(host_tracking) == set(env_tracking)
         for key, value in host_tracking.items():
             assert value == pytest.approx(float(env_tracking[key]), abs=1e-5), (step, key)
+    assert (follower.yaw_rate != 0) == (tracking == "yaw_rate")  # low-passed only with τ > 0
+    follower.start(1)  # a new episode starts from rest, as the env's reset
+    assert (follower.speed, follower.gain, follower.correction, follower.yaw_rate) == (0, 1, 0, 0)
 
 
 def test_advance_heading_twin_equals_the_envs():

@@ -92,12 +92,12 @@ class HostCommands:
         self.correction = float(
             env_commands.steering(self.heading, yaw, self.config.heading_gain, np)
         )
-        turn, tau = twins.wrap_angle(yaw - yaw_before), self.config.yaw_rate_tau
-        self.yaw_rate = env_commands.low_passed_speed(self.yaw_rate, turn, dt, tau)
+        turn, yaw_tau = twins.wrap_angle(yaw - yaw_before), self.config.yaw_rate_tau
+        self.yaw_rate = env_commands.low_passed_speed(self.yaw_rate, turn, dt, yaw_tau)
         tracking = {"heading": self.heading, "commanded_progress": progress}
         if self.config.tracking == "yaw_rate":
             tracking["heading"] = yaw_before
-            turned = env_commands.tracked_yaw_rate(self.yaw_rate, turn, dt, tau)
+            turned = env_commands.tracked_yaw_rate(self.yaw_rate, turn, dt, yaw_tau)
             tracking["yaw_rate_error"] = turned - yaw_rate
         if self.held:
             return tracking

@@ -17,8 +17,9 @@ the leash, ψ* stays exactly 0 and the yaw term is Eq. 12's −w4 |yaw|.
 
 `tracking="yaw_rate"` tracks what the policy can see instead: the step's progress along the
 robot's own heading at the step's start, and the yaw term is −w4 |ω − ω*| for the step's yaw rate ω
-(rad/s). ψ* is a state the policy does not observe; a reward that depends on it leaves the critic
-guessing (experiments/commands).
+(rad/s), or with `yaw_rate_tau` > 0 that rate low-passed over τ (`tracked_yaw_rate`). ψ* is a
+state the policy does not observe; a reward that depends on it leaves the critic guessing
+(experiments/commands).
 
 Pure functions of arrays (jit / vmap-able, one robot; batch with `jax.vmap`) and the host-side
 parser; nothing here touches MuJoCo.
@@ -307,7 +308,7 @@ class Command:
     # () rad/s: the drive's heading correction (`steering`), added to ω*; 0 at a reset
     correction: jax.Array
     # () rad/s: the robot's yaw rate low-passed over `yaw_rate_tau` (`low_passed_speed`); 0 at a
-    # reset
+    # reset, and throughout for τ = 0
     yaw_rate: jax.Array
 
     def driven(self) -> jax.Array:
@@ -429,7 +430,8 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
     """The observed speed (m/s) after a control step of `dt` s that moved the robot `progress` m
     along its heading: `speed` moved towards progress / dt by 1 − exp(−dt / τ), a first-order
     filter of time constant `tau` s that smooths a gait's speed over its strides; `speed` as it
-    was for τ = 0 (not observed). NumPy or JAX alike."""
+    was for τ = 0 (not observed). The yaw rate (rad/s) of a turn of `progress` rad alike
+    (`Command.yaw_rate`). NumPy or JAX alike."""
     if tau <= 0:
         return speed
     return speed + (1.0 - math.exp(-dt / tau)) * (progress / dt - speed)
