@@ -134,6 +134,8 @@ def test_readme_course_distribution_command_builds_its_lanes(tmp_path, monkeypat
     with (
         mock.patch.object(training.loop, "train", side_effect=fake_train),
         mock.patch.object(gait_search, "find_gait", side_effect=fake_search),
+        # no trainer compiled during the (replaced) search: tests/test_ahead.py covers that
+        mock.patch.object(training.ahead, "applies", return_value=False),
     ):
         assert train.main(command[3:] + [f"--output_dir={tmp_path / 'run'}"]) == 0
     assert built["terrain"].num_lanes == 64 and built["config"].curriculum.enabled
