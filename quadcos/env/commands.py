@@ -438,9 +438,8 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
 
 
 def tracked_yaw_rate(low_passed: Any, turn: Any, dt: float, tau: float) -> Any:
-    """rad/s: the yaw rate the reward's yaw term tracks after a control step of `dt` s that
-    turned the robot `turn` rad: the `low_passed` yaw rate (`low_passed_speed` of the turns over
-    `tau` s, this step's included) for τ > 0, else the step's own turn / dt."""
+    """rad/s: the yaw rate the yaw term tracks after a control step of `dt` s that turned the robot
+    `turn` rad: the `low_passed` rate (this step's turn included) for `tau` > 0, else turn / dt."""
     return low_passed if tau > 0 else turn / dt
 
 
