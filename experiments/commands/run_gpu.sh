@@ -14,7 +14,9 @@
 # the GPU's memory. The runs work from a copy of the tree under
 # /tmp/qc (the tree a later call brings may differ), their folders under /tmp/qc_runs/NAME; the
 # summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
-# NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json and the policies;
+# NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json (the kept policy's
+# four conditions), NAME/gait_robustness.json (its step-0 gait's), NAME/last_robustness.json
+# and the policies;
 # pack tars NAME/ with the run's logs as NAME.tgz. MEM (default 0.9): the share of each GPU's memory
 # the call's processes take together, less where another call's runs share the GPUs.
 set -uo pipefail
@@ -72,18 +74,22 @@ evaluate)
       [ -d "$runs/$NAME/$p" ] && cp -r "$runs/$NAME/$p" "$OUT/$NAME/"
     done
     (
-      # The kept policy's random-command evaluation and its robustness conditions, and the last
-      # policy's evaluation, side by side on the run's GPU.
+      # The kept policy's random-command evaluation and its robustness conditions, the last
+      # policy's evaluation, and the conditions of the step-0 gait (gait:DIR) and of the last
+      # policy (issue 58, item 4: does SAC beat its gait?), side by side on the run's GPU.
       export CUDA_VISIBLE_DEVICES=$((i % gpus))
-      export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem * 0.3 / $share, 2))")
+      export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem * 0.18 / $share, 2))")
       python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=$envs \
         --seconds=20 --commands=random --out="$OUT/$NAME/eval.json" > "$runs/${NAME}_eval.log" 2>&1 &
       python3 -m quadcos.evaluate --no_progress --policy="$runs/$NAME/policy" --terrain=flat \
         --num_envs=$envs --seconds=20 --commands=random --out="$OUT/$NAME/last_eval.json" \
         > "$runs/${NAME}_last_eval.log" 2>&1 &
-      python3 experiments/robustness/measure.py --policy="$kept" --num_envs=$envs --commands=random \
-        --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" "friction 0.4" \
-        --out="$OUT/$NAME/robustness.json" > "$runs/${NAME}_robustness.log" 2>&1 &
+      for which in "$kept=robustness" "gait:$kept=gait_robustness" \
+          "$runs/$NAME/policy=last_robustness"; do
+        python3 experiments/robustness/measure.py --policy="${which%=*}" --num_envs=$envs \
+          --commands=random --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" \
+          "friction 0.4" --out="$OUT/$NAME/${which##*=}.json" > "$runs/${NAME}_${which##*=}.log" 2>&1 &
+      done
       wait
       echo "$(date +%T) $NAME evaluated: $(ls "$OUT/$NAME" | tr '\n' ' ')"
     ) &

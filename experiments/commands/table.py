@@ -15,6 +15,20 @@ import sys
 import tempfile
 from pathlib import Path
 
+from runs import (
+    ANYMAL,
+    CAMPAIGN,
+    GO1_LEVERS,
+    LEVERS,
+    NO_PRESET,
+    SAC_LEVERS,
+    SEEDS,
+    SEEDS_540,
+    SEEDS_GAIN,
+    SEEDS_NO_LOOPS,
+    WARP,
+)
+
 HERE = Path(__file__).parent
 POLICIES = HERE.parent / "policies"
 # column -> the policy folder it evaluates (None: the policy is not kept)
@@ -86,18 +100,6 @@ def table() -> str:
     return "\n".join(lines)
 
 
-LEVERS = {  # run in training_feed_forward.json -> its change from the preset
-    "go1_s0": "—",
-    "go1_s1": "— (seed 1)",
-    "go2_s0": "— (Go2)",
-    "go1_s0_leash": "`heading_leash` 0.1",
-    "scale05_go1_s0": "`action_scale` 0.5",
-    "scale05_go1_s1": "`action_scale` 0.5 (seed 1)",
-    "scale05_go2_s0": "`action_scale` 0.5 (Go2)",
-    "scale05_anymal_s0": "`action_scale` 0.5 (ANYmal C)",
-}
-
-
 def levers() -> str:
     """The rows of the levers table: each run's last evaluation in training."""
     runs = json.loads((HERE / "training_feed_forward.json").read_text())["runs"]
@@ -152,106 +154,6 @@ def gain() -> str:
     )
 
 
-CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
-    "go1_s0": "v_ref",
-    "go2_s0": "v_ref",
-    "go1_map_s0": "map, b from its last segment",
-    "go2_map_s0": "map, b from its last segment",
-    "go2_map2_s0": "map",
-    "go1_map2_s1": "map",
-    "go2_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
-    "go1_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
-    "go1_rate_s1": "the preset, loops open (seed 1)",
-    "go1_rate_s2": "the preset, loops open (seed 2)",
-    "anymal_rate_s0": "the preset, loops open (ANYmal C): its gait stands, v_ref 0.80 kept",
-    "anymal_ms_s0": "the preset, loops open, gait search `min_speed` 0.15 (ANYmal C): its gait"
-    " falls, v_ref 0.80 kept",
-    "go1path_s0": "Go1's MJCF by its path (no preset): the probe chose a 10-ms step; its gait falls"
-    " in C MuJoCo, v_ref 1.00 kept",
-    "go1path5_s0": "Go1's MJCF by its path, the probe's 5 ms (the preset's physics), 225 s: v_ref"
-    " 0.68, no map (its gait falls in C MuJoCo at one of three frictions)",
-    "go1long_s0": "the preset, loops open (seed 0), 540 s: the ten minutes of the targets",
-    "go1long_s1": "the preset, loops open (seed 1), 540 s",
-    "go1long_s2": "the preset, loops open (seed 2), 540 s",
-    "go1utd2_s1": "the preset, loops open (seed 1), 540 s, two SAC updates per env step",
-    "go1utd2_s2": "the preset, loops open (seed 2), 540 s, two SAC updates per env step",
-    "go1spd_s0": "the preset, loops open (seed 0), its speed observed"
-    " (`commands.observed_speed_tau` 0.25 s), 450 s, two runs sharing one GPU: its gait barely"
-    " turns (b 6.69 m) and falls",
-    "go1spd_s1": "as `go1spd_s0`, seed 1",
-    "go1gain_s0": "the preset, heading loop open (seed 0), with the drive's gain"
-    " (`commands.speed_gain_rate` 1), 300 s: its feed-forward measured under the gain (map 0.25"
-    " … 1.01 m/s, v_ref 1.01)",
-    "go1gain_s1": "as `go1gain_s0`, seed 1",
-    "go1gain_s2": "as `go1gain_s0`, seed 2",
-    "go1gain2_s0": "the preset, heading loop open (seed 0), with the drive's gain, 300 s, its"
-    " feed-forward measured with the gain off",
-    "go1gain2_s1": "as `go1gain2_s0`, seed 1",
-    "go1gain2_s2": "as `go1gain2_s0`, seed 2",
-    "go1loops_s0": "the preset (seed 0): the drive's gain (1/s) and heading loop (2/s) closed,"
-    " 300 s",
-    "go1loops_s1": "as `go1loops_s0`, seed 1: `../policies/unitree_go1_command`",
-    "go1loops_s2": "as `go1loops_s0`, seed 2",
-    "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
-    "go2loops_s0": "the preset (Go2, seed 0): the drive's loops closed, 300 s",
-    "go2loops540_s0": "as `go2loops_s0`, 540 s",
-    "go1loops540_s0": "as `go1loops_s0`, 540 s: its best evaluation the searched gait (step 0)",
-    "anymal_conf_s0": "the preset, loops open, gait search `min_speed` 0.15, its 16 best confirmed"
-    " on 256 robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
-    "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
-    " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
-    "anymal_cmd_s0": "the preset with its ANYmal C settings (servos kp 300, kd 4; 20 / 20"
-    " iterations; search floored at 0.15 m/s, confirmed on 256 robots), 540 s, MJX-Warp",
-    "anymal_cap_s0": "as `anymal_cmd_s0` with the drive's turn capped at 0.4 rad/s, 420 s",
-    "anymal_reward_s0": "as `anymal_cap_s0`, the yaw term on the yaw rate low-passed over 0.25 s,"
-    " \"moving\" along the heading (the preset), 480 s: its best evaluation the searched gait"
-    " (step 0): `../policies/anybotics_anymal_c_command`",
-    "go1warp_s0": "the preset (seed 0), 300 s, MJX-Warp, two runs sharing one GPU",
-    "go2warp_s0": "as `go1warp_s0`, Go2",
-}
-ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (first row)
-    "anymal_it20_300_s0": "— (alone on the GPU)",
-    "anymal_ref_s0": "search under the trained scales: v_ref 0.4, `scale_max` 1.0; 540 s, 3 runs"
-    " on one GPU",
-    "anymal_per_s0": "period floor 0.25 s; 540 s, 3 runs on one GPU",
-    "anymal_refper_s0": "both; 540 s, 3 runs on one GPU",
-    "anymal_per25_300_s0": "period floor 0.25 s; 2 runs on one GPU",
-    "anymal_per30_300_s0": "period floor 0.30 s; 2 runs on one GPU",
-    "anymal_per30ms30_300_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 2 runs on one"
-    " GPU",
-    "anymal_per30as40_300_s0": "period floor 0.30 s, action bounds 0.4; 2 runs on one GPU",
-    "anymal_per30ms30_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 540 s, alone,"
-    " 1024 episodes",
-    "anymal_trot_s0": "from the open-loop trot below (no search), its feed-forward measured on it,"
-    " period floor 0.25 s; 540 s, a GPU each, 1024 episodes",
-    "anymal_trot_as10_s0": "as `anymal_trot_s0`, action bounds 0.1",
-    "anymal_servo300_s0": "servos kp 300, kd 4 (the MJCF's: kp 100); 540 s, MJX-JAX, 2 runs on"
-    " one GPU: the search took 776 s, SAC 270 k env steps with its actor not yet learning",
-    "anymal_servo300rhythm_s0": "servos kp 300, kd 4, from `servo_gains.py`'s fastest kp-300"
-    " rhythm (no search), its feed-forward measured on it; as `anymal_servo300_s0`",
-    "anymal_cmd_s0": "`--preset=command` without the turn cap (servos kp 300, kd 4, the drive's"
-    " loops closed); 540 s, alone, 1024 episodes",
-    "anymal_cap_s0": "`--preset=command` with the drive's turn capped at 0.4 rad/s; 420 s, alone,"
-    " 1024 episodes",
-    "anymal_tau_s0": "from `anymal_cap_s0`'s gait and feed-forward (no search), the yaw term on"
-    " the yaw rate low-passed over 0.25 s; 420 s, 2 runs on one GPU, 1024 episodes",
-    "anymal_tauhd_s0": "as `anymal_tau_s0`, r_s's \"moving\" along the heading",
-    "anymal_reward_s0": "`--preset=command` as it is: both (the yaw rate low-passed, \"moving\""
-    " along the heading), its gait searched under them; 480 s, alone, 1024 episodes",
-}
-NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
-    "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics, loops open",
-    "go1ref200_s0": "`menagerie:unitree_go1`: the preset's physics (rate only, 200 s)",
-    "go1pathloops_s0": "Go1's MJCF by its path, the drive's loops closed (the preset)",
-}
-WARP = ("go1warp_s0", "go2warp_s0")  # Go1 and Go2 from nothing on MJX-Warp, sharing one GPU
-SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
-# the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
-SEEDS_NO_LOOPS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")
-SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")
-SEEDS_GAIN = ("go1gain2_s0", "go1gain2_s1", "go1gain2_s2")
-
-
 def _flag(argv: list[str], name: str) -> str:
     """The value of `name`=VALUE in a run's recorded train flags."""
     return next(arg.split("=", 1)[1] for arg in argv if arg.startswith(f"{name}="))
@@ -279,21 +181,6 @@ def seeds(names: tuple[str, ...] = SEEDS, label: str = "seed") -> str:
             f" {kept['mean_max_abs_pitch_error']:.3f}, {kept['mean_max_abs_roll']:.3f} |"
         )
     return "\n".join(rows)
-SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
-    "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
-    "go2_ln": "LayerNorm critics",
-    "go2_rate": "yaw rate tracked",
-    "go2_rate_ln": "yaw rate, LayerNorm",
-    "go2_rate_fw3": "yaw rate, w1 450",
-    "go2_rate_fw6": "yaw rate, w1 900",
-    "go2_rate_ln_fw3": "yaw rate, w1 450, LayerNorm",
-    "go2_rate_ln_fw3_d2": "yaw rate, w1 450, LayerNorm, actor every 2nd update",
-}
-GO1_LEVERS = {  # run in campaign.json (run_gpu.sh go1) -> its change from the preset
-    "go1_base_s0": "— (the preset from `go1loops540_s0`'s searched gait)",
-    "go1_lr_s0": "critic and temperature learning rates 3e-4 (the preset: 1e-3)",
-    "go1_warm_s0": "the actor's warm-up 20,000 updates (2,000): about 10 M env steps",
-}
 
 
 def sac_levers(levers: dict[str, str] = SAC_LEVERS) -> str:
@@ -335,6 +222,52 @@ def versus_gait() -> str:
                     f"{c['success_rate']:.3f}; {_tracking(c)}" for c in conditions.values()
                 )
                 + " |"
+            )
+    return "\n".join(rows)
+
+
+AGAINST_GAIT = ("success_rate", "speed_tracking_rms", "yaw_rate_tracking_rms")
+
+
+def shortfalls(kept: dict, gait: dict) -> list[str]:
+    """Where a policy does not beat its step-0 gait: "condition: measure" for each condition (of
+    `kept` and `gait`, a measure.py record's conditions) where it survives less often or tracks
+    speed or the yaw rate worse (issue 58, item 4: the kept policy must beat its gait in every
+    condition); none where it is no worse in any of the three anywhere."""
+    worse = []
+    for name, row in kept.items():
+        for key in AGAINST_GAIT:
+            sign = -1 if key == "success_rate" else 1  # survival: more is better
+            if sign * (row[key] - gait[name][key]) > 0:
+                worse.append(f"{name}: {key.split('_')[0]}")
+    return worse
+
+
+def against_gait() -> str:
+    """The rows of the kept-against-gait table: each run of campaign.json whose step-0 gait was
+    measured in the four conditions beside its kept and last policies (run_gpu.sh evaluate):
+    survival; speed, yaw-rate tracking per condition, and where each policy falls short of it."""
+    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    rows = []
+    for name, run in runs.items():
+        if "gait_robustness" not in run:
+            continue
+        gait = run["gait_robustness"]
+        last = run["last"]["policy_env_steps"] if run["last"] else None
+        policies = [
+            ("step-0 gait", 0, gait),
+            ("kept policy", run["kept"]["policy_env_steps"], run["robustness"]),
+            ("last policy", last, run.get("last_robustness")),
+        ]
+        for label, steps, conditions in policies:
+            if conditions is None:
+                continue
+            verdict = "; ".join(shortfalls(conditions, gait)) or "no worse anywhere"
+            if steps == 0:  # the gait itself
+                verdict = "—"
+            cells = (f"{c['success_rate']:.3f}; {_tracking(c)}" for c in conditions.values())
+            rows.append(
+                f"| `{name}` | {label}, {steps / 1e6:.1f} M | " + " | ".join(cells) + f" | {verdict} |"
             )
     return "\n".join(rows)
 
@@ -450,15 +383,19 @@ def figure() -> None:
     plots.plot_command_tracking(traces, path=HERE.parent.parent / "docs" / "command_tracking.png")
 
 
+def blocks() -> tuple[str, ...]:
+    """Every table's rows, in README.md's order."""
+    return (
+        table(), seeds(), seeds(SEEDS_NO_LOOPS), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(),
+        campaign(), anymal(), seeds(WARP, "run"), sac_levers(), sac_levers(GO1_LEVERS),
+        versus_gait(), against_gait(), engines(), levers(), no_preset(),
+    )
+
+
 def check() -> list[str]:
     """The generated table rows that README.md lacks (none: its tables are the records')."""
     readme = set((HERE / "README.md").read_text().splitlines())
-    blocks = (
-        table(), seeds(), seeds(SEEDS_NO_LOOPS), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(),
-        campaign(), anymal(), seeds(WARP, "run"),
-        sac_levers(), sac_levers(GO1_LEVERS), versus_gait(), engines(), levers(), no_preset(),
-    )
-    return [line for block in blocks for line in block.splitlines() if line not in readme]
+    return [line for block in blocks() for line in block.splitlines() if line not in readme]
 
 
 if __name__ == "__main__":
@@ -470,32 +407,4 @@ if __name__ == "__main__":
     if sys.argv[1:] == ["--figure"]:
         figure()
     else:
-        print(table())
-        print()
-        print(seeds())
-        print()
-        print(seeds(SEEDS_NO_LOOPS))
-        print()
-        print(seeds(SEEDS_540))
-        print()
-        print(seeds(SEEDS_GAIN))
-        print()
-        print(gain())
-        print()
-        print(campaign())
-        print()
-        print(anymal())
-        print()
-        print(seeds(WARP, "run"))
-        print()
-        print(sac_levers())
-        print()
-        print(sac_levers(GO1_LEVERS))
-        print()
-        print(versus_gait())
-        print()
-        print(engines())
-        print()
-        print(levers())
-        print()
-        print(no_preset())
+        print("\n\n".join(block for block in blocks() if block))

@@ -9,8 +9,9 @@ replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_d
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
 rate, the env-steps/s of the window it ends), the training rate at the last evaluation, the
 solver probe's physics (a robot without a preset), and the key numbers of the kept policy's
-random-command evaluation and robustness conditions and of the last policy's evaluation, with the
-physics they ran on where recorded (per-episode data left out).
+random-command evaluation and robustness conditions, of its step-0 gait's conditions and of the last
+policy's evaluation and conditions (where measured), with the physics they ran on where recorded
+(per-episode data left out).
 """
 
 import io
@@ -77,7 +78,6 @@ def summary(path: Path) -> dict:
     probe = PROBE.search(log)
     rows = STEP.findall(log)
     rounds, found = SEARCH_ROUND.findall(log), SEARCH_END.search(log)
-    robust = files.get("robustness.json")
     config = json.loads(files.get("config.json", "{}"))
     argv = config.get("run_info", {}).get("argv")
     centre = config.get("run_info", {}).get("env", {}).get("action_centre")
@@ -116,11 +116,22 @@ def summary(path: Path) -> dict:
         "stopped": stopped[1] if stopped else None,
         "kept": _evaluation(files.get("eval.json")),
         "last": _evaluation(files.get("last_eval.json")),
-        "robustness": robust and {
-            name: {key: row[key] for key in KEYS[:5]}
-            for name, row in json.loads(robust)["conditions"].items()
+        "robustness": _conditions(files.get("robustness.json")),
+        # its step-0 gait's and its last policy's conditions (runs evaluated with them)
+        **{
+            key: _conditions(files[f"{key}.json"])
+            for key in ("gait_robustness", "last_robustness")
+            if f"{key}.json" in files
         },
     }
+
+
+def _conditions(text: str | None) -> dict | None:
+    """Survival, tracking and attitude per condition of a measure.py record (None: none)."""
+    if text is None:
+        return None
+    rows = json.loads(text)["conditions"]
+    return {name: {key: row[key] for key in KEYS[:5]} for name, row in rows.items()}
 
 
 if __name__ == "__main__":

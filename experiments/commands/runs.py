@@ -1,0 +1,127 @@
+"""What each run of the commanded-gait campaign changed, by the table it appears in
+(experiments/commands/README.md; table.py reads the runs' numbers from campaign.json and
+training_feed_forward.json and these labels from here)."""
+
+LEVERS = {  # run in training_feed_forward.json -> its change from the preset
+    "go1_s0": "—",
+    "go1_s1": "— (seed 1)",
+    "go2_s0": "— (Go2)",
+    "go1_s0_leash": "`heading_leash` 0.1",
+    "scale05_go1_s0": "`action_scale` 0.5",
+    "scale05_go1_s1": "`action_scale` 0.5 (seed 1)",
+    "scale05_go2_s0": "`action_scale` 0.5 (Go2)",
+    "scale05_anymal_s0": "`action_scale` 0.5 (ANYmal C)",
+}
+CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
+    "go1_s0": "v_ref",
+    "go2_s0": "v_ref",
+    "go1_map_s0": "map, b from its last segment",
+    "go2_map_s0": "map, b from its last segment",
+    "go2_map2_s0": "map",
+    "go1_map2_s1": "map",
+    "go2_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
+    "go1_rate_s0": "map; yaw-rate reward, w1 450, LayerNorm critics, actor every 2nd update",
+    "go1_rate_s1": "the preset, loops open (seed 1)",
+    "go1_rate_s2": "the preset, loops open (seed 2)",
+    "anymal_rate_s0": "the preset, loops open (ANYmal C): its gait stands, v_ref 0.80 kept",
+    "anymal_ms_s0": "the preset, loops open, gait search `min_speed` 0.15 (ANYmal C): its gait"
+    " falls, v_ref 0.80 kept",
+    "go1path_s0": "Go1's MJCF by its path (no preset): the probe chose a 10-ms step; its gait falls"
+    " in C MuJoCo, v_ref 1.00 kept",
+    "go1path5_s0": "Go1's MJCF by its path, the probe's 5 ms (the preset's physics), 225 s: v_ref"
+    " 0.68, no map (its gait falls in C MuJoCo at one of three frictions)",
+    "go1long_s0": "the preset, loops open (seed 0), 540 s: the ten minutes of the targets",
+    "go1long_s1": "the preset, loops open (seed 1), 540 s",
+    "go1long_s2": "the preset, loops open (seed 2), 540 s",
+    "go1utd2_s1": "the preset, loops open (seed 1), 540 s, two SAC updates per env step",
+    "go1utd2_s2": "the preset, loops open (seed 2), 540 s, two SAC updates per env step",
+    "go1spd_s0": "the preset, loops open (seed 0), its speed observed"
+    " (`commands.observed_speed_tau` 0.25 s), 450 s, two runs sharing one GPU: its gait barely"
+    " turns (b 6.69 m) and falls",
+    "go1spd_s1": "as `go1spd_s0`, seed 1",
+    "go1gain_s0": "the preset, heading loop open (seed 0), with the drive's gain"
+    " (`commands.speed_gain_rate` 1), 300 s: its feed-forward measured under the gain (map 0.25"
+    " … 1.01 m/s, v_ref 1.01)",
+    "go1gain_s1": "as `go1gain_s0`, seed 1",
+    "go1gain_s2": "as `go1gain_s0`, seed 2",
+    "go1gain2_s0": "the preset, heading loop open (seed 0), with the drive's gain, 300 s, its"
+    " feed-forward measured with the gain off",
+    "go1gain2_s1": "as `go1gain2_s0`, seed 1",
+    "go1gain2_s2": "as `go1gain2_s0`, seed 2",
+    "go1loops_s0": "the preset (seed 0): the drive's gain (1/s) and heading loop (2/s) closed,"
+    " 300 s",
+    "go1loops_s1": "as `go1loops_s0`, seed 1: `../policies/unitree_go1_command`",
+    "go1loops_s2": "as `go1loops_s0`, seed 2",
+    "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
+    "go2loops_s0": "the preset (Go2, seed 0): the drive's loops closed, 300 s",
+    "go2loops540_s0": "as `go2loops_s0`, 540 s",
+    "go1loops540_s0": "as `go1loops_s0`, 540 s: its best evaluation the searched gait (step 0)",
+    "anymal_conf_s0": "the preset, loops open, gait search `min_speed` 0.15, its 16 best confirmed"
+    " on 256 robots each (ANYmal C), 540 s: the best fell in 11.7 %, v_ref 0.80 kept",
+    "anymal_it20_300_s0": "as `anymal_conf_s0` with 20 / 20 solver iterations, 300 s, MJX-Warp:"
+    " the best confirmed fell in 4.7 %, v_ref 0.44 with a map",
+    "anymal_cmd_s0": "the preset with its ANYmal C settings (servos kp 300, kd 4; 20 / 20"
+    " iterations; search floored at 0.15 m/s, confirmed on 256 robots), 540 s, MJX-Warp",
+    "anymal_cap_s0": "as `anymal_cmd_s0` with the drive's turn capped at 0.4 rad/s, 420 s",
+    "anymal_reward_s0": "as `anymal_cap_s0`, the yaw term on the yaw rate low-passed over 0.25 s,"
+    " \"moving\" along the heading (the preset), 480 s: its best evaluation the searched gait"
+    " (step 0): `../policies/anybotics_anymal_c_command`",
+    "go1warp_s0": "the preset (seed 0), 300 s, MJX-Warp, two runs sharing one GPU",
+    "go2warp_s0": "as `go1warp_s0`, Go2",
+}
+ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (first row)
+    "anymal_it20_300_s0": "— (alone on the GPU)",
+    "anymal_ref_s0": "search under the trained scales: v_ref 0.4, `scale_max` 1.0; 540 s, 3 runs"
+    " on one GPU",
+    "anymal_per_s0": "period floor 0.25 s; 540 s, 3 runs on one GPU",
+    "anymal_refper_s0": "both; 540 s, 3 runs on one GPU",
+    "anymal_per25_300_s0": "period floor 0.25 s; 2 runs on one GPU",
+    "anymal_per30_300_s0": "period floor 0.30 s; 2 runs on one GPU",
+    "anymal_per30ms30_300_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 2 runs on one"
+    " GPU",
+    "anymal_per30as40_300_s0": "period floor 0.30 s, action bounds 0.4; 2 runs on one GPU",
+    "anymal_per30ms30_s0": "period floor 0.30 s, gait search `min_speed` 0.3; 540 s, alone,"
+    " 1024 episodes",
+    "anymal_trot_s0": "from the open-loop trot below (no search), its feed-forward measured on it,"
+    " period floor 0.25 s; 540 s, a GPU each, 1024 episodes",
+    "anymal_trot_as10_s0": "as `anymal_trot_s0`, action bounds 0.1",
+    "anymal_servo300_s0": "servos kp 300, kd 4 (the MJCF's: kp 100); 540 s, MJX-JAX, 2 runs on"
+    " one GPU: the search took 776 s, SAC 270 k env steps with its actor not yet learning",
+    "anymal_servo300rhythm_s0": "servos kp 300, kd 4, from `servo_gains.py`'s fastest kp-300"
+    " rhythm (no search), its feed-forward measured on it; as `anymal_servo300_s0`",
+    "anymal_cmd_s0": "`--preset=command` without the turn cap (servos kp 300, kd 4, the drive's"
+    " loops closed); 540 s, alone, 1024 episodes",
+    "anymal_cap_s0": "`--preset=command` with the drive's turn capped at 0.4 rad/s; 420 s, alone,"
+    " 1024 episodes",
+    "anymal_tau_s0": "from `anymal_cap_s0`'s gait and feed-forward (no search), the yaw term on"
+    " the yaw rate low-passed over 0.25 s; 420 s, 2 runs on one GPU, 1024 episodes",
+    "anymal_tauhd_s0": "as `anymal_tau_s0`, r_s's \"moving\" along the heading",
+    "anymal_reward_s0": "`--preset=command` as it is: both (the yaw rate low-passed, \"moving\""
+    " along the heading), its gait searched under them; 480 s, alone, 1024 episodes",
+}
+NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path against the preset
+    "go1path5_300_s0": "Go1's MJCF by its path: the solver probe's physics, loops open",
+    "go1ref200_s0": "`menagerie:unitree_go1`: the preset's physics (rate only, 200 s)",
+    "go1pathloops_s0": "Go1's MJCF by its path, the drive's loops closed (the preset)",
+}
+WARP = ("go1warp_s0", "go2warp_s0")  # Go1 and Go2 from nothing on MJX-Warp, sharing one GPU
+SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
+# the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
+SEEDS_NO_LOOPS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")
+SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")
+SEEDS_GAIN = ("go1gain2_s0", "go1gain2_s1", "go1gain2_s2")
+SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
+    "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
+    "go2_ln": "LayerNorm critics",
+    "go2_rate": "yaw rate tracked",
+    "go2_rate_ln": "yaw rate, LayerNorm",
+    "go2_rate_fw3": "yaw rate, w1 450",
+    "go2_rate_fw6": "yaw rate, w1 900",
+    "go2_rate_ln_fw3": "yaw rate, w1 450, LayerNorm",
+    "go2_rate_ln_fw3_d2": "yaw rate, w1 450, LayerNorm, actor every 2nd update",
+}
+GO1_LEVERS = {  # run in campaign.json (run_gpu.sh go1) -> its change from the preset
+    "go1_base_s0": "— (the preset from `go1loops540_s0`'s searched gait)",
+    "go1_lr_s0": "critic and temperature learning rates 3e-4 (the preset: 1e-3)",
+    "go1_warm_s0": "the actor's warm-up 20,000 updates (2,000): about 10 M env steps",
+}
