@@ -68,6 +68,9 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " (step 0): `../policies/anybotics_anymal_c_command`",
     "go1warp_s0": "the preset (seed 0), 300 s, MJX-Warp, two runs sharing one GPU",
     "go2warp_s0": "as `go1warp_s0`, Go2",
+    "go1tau_s0": "the preset (seed 0) with ANYmal C's reward: the yaw rate low-passed over 0.25 s,"
+    ' "moving" along the heading; 450 s, MJX-Warp, two runs sharing one GPU',
+    "go2tau_s0": "as `go1tau_s0`, Go2",
 }
 ANYMAL = {  # run in campaign.json -> its change from `anymal_it20_300_s0` (first row)
     "anymal_it20_300_s0": "— (alone on the GPU)",
