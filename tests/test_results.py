@@ -32,10 +32,11 @@ def test_the_pages_agree_with_their_records(capsys):
     assert results.main(["--root", str(ROOT), "--check"]) == 0, capsys.readouterr().out
 
 
-def test_the_commanded_gait_page_agrees_with_its_records():
+def test_the_commanded_gait_page_agrees_with_its_records(monkeypatch):
     """experiments/commands/README.md's tables are table.py's rows of the JSONs beside it."""
     import importlib.util
 
+    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))  # its run_labels.py, as a script
     spec = importlib.util.spec_from_file_location("table", ROOT / "experiments/commands/table.py")
     table = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(table)

@@ -15,7 +15,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from runs import (
+from run_labels import (
     ANYMAL,
     CAMPAIGN,
     GO1_LEVERS,
