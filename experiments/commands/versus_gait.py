@@ -49,6 +49,22 @@ def _run_and_policy(text: str) -> tuple[str, str]:
     return run, policy
 
 
+def dumps(record: dict) -> str:
+    """`record` as JSON with one line per condition: a small record that diffs run by run."""
+    lines = ["{"] + [f" {json.dumps(k)}: {json.dumps(v)}," for k, v in record.items() if k != "runs"]
+    runs = []
+    for run, entry in record["runs"].items():
+        parts = []
+        for key, value in entry.items():
+            if not isinstance(value, dict):
+                parts.append(f"   {json.dumps(key)}: {json.dumps(value)}")
+                continue
+            rows = ",\n".join(f"    {json.dumps(c)}: {json.dumps(v)}" for c, v in value.items())
+            parts.append(f"   {json.dumps(key)}: {{\n{rows}\n   }}")
+        runs.append(f"  {json.dumps(run)}: {{\n" + ",\n".join(parts) + "\n  }")
+    return "\n".join(lines) + '\n "runs": {\n' + ",\n".join(runs) + "\n }\n}\n"
+
+
 def main() -> None:
     """Measures each RUN (gait, then kept policy) into --out, written after each RUN."""
     parser = argparse.ArgumentParser(description=__doc__)
@@ -75,7 +91,7 @@ def main() -> None:
             entry["policy_env_steps"] = evaluation.PolicySpec.parse(policy).env_steps
             entry["kept"] = measure(policy, args.num_envs, args.seconds)
         record["runs"][run] = entry
-        out.write_text(json.dumps(record, indent=1) + "\n")
+        out.write_text(dumps(record))
         print(f"versus_gait.py: {run} measured -> {out}", flush=True)
 
 
