@@ -214,16 +214,16 @@ def versus_gait() -> str:
         policies = [("step-0 gait", 0, run["gait"])]
         if "kept" in run:
             policies.append(("kept policy", run["policy_env_steps"], run["kept"]))
-        for label, steps, conditions in policies:
-            steps = "—" if steps is None else f"{steps / 1e6:.1f} M"
-            rows.append(
-                f"| `{name}` | {label}, {steps} | "
-                + " | ".join(
-                    f"{c['success_rate']:.3f}; {_tracking(c)}" for c in conditions.values()
-                )
-                + " |"
-            )
+        rows += [_policy_row(name, *policy) + " |" for policy in policies]
     return "\n".join(rows)
+
+
+def _policy_row(name: str, label: str, steps: int | None, conditions: dict) -> str:
+    """A step-0 table row without its closing bar: the run, the policy and its env steps of
+    SAC, then survival; speed, yaw-rate tracking in each condition."""
+    steps = "—" if steps is None else f"{steps / 1e6:.1f} M"
+    cells = (f"{c['success_rate']:.3f}; {_tracking(c)}" for c in conditions.values())
+    return f"| `{name}` | {label}, {steps} | " + " | ".join(cells)
 
 
 AGAINST_GAIT = ("success_rate", "speed_tracking_rms", "yaw_rate_tracking_rms")
@@ -253,22 +253,15 @@ def against_gait() -> str:
         if "gait_robustness" not in run:
             continue
         gait = run["gait_robustness"]
-        last = run["last"]["policy_env_steps"] if run["last"] else None
         policies = [
             ("step-0 gait", 0, gait),
             ("kept policy", run["kept"]["policy_env_steps"], run["robustness"]),
-            ("last policy", last, run.get("last_robustness")),
         ]
+        if run["last"] and run.get("last_robustness"):
+            policies.append(("last policy", run["last"]["policy_env_steps"], run["last_robustness"]))
         for label, steps, conditions in policies:
-            if conditions is None:
-                continue
             verdict = "; ".join(shortfalls(conditions, gait)) or "no worse anywhere"
-            if steps == 0:  # the gait itself
-                verdict = "—"
-            cells = (f"{c['success_rate']:.3f}; {_tracking(c)}" for c in conditions.values())
-            rows.append(
-                f"| `{name}` | {label}, {steps / 1e6:.1f} M | " + " | ".join(cells) + f" | {verdict} |"
-            )
+            rows.append(_policy_row(name, label, steps, conditions) + f" | {verdict if steps else '—'} |")
     return "\n".join(rows)
 
 
