@@ -185,6 +185,11 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
     [eval2]="--config.sac.eval_interval=2000000"  # the kept policy chosen every 2 M, not 10 M
+    # the yaw term against SAC trading turning for speed (item 4): its weight w4 ×3, its yaw rate
+    # low-passed over 0.25 s (the tracking metric's windows, not each step's stride sway), both
+    [yaw3]="--config.env.reward.yaw=120"
+    [tau]="--config.env.commands.yaw_rate_tau=0.25"
+    [tauyaw3]="--config.env.commands.yaw_rate_tau=0.25 --config.env.reward.yaw=120"
   )
   specs=()
   for name in "$@"; do
