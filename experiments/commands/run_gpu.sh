@@ -190,6 +190,11 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
     [yaw3]="--config.env.reward.yaw=120"
     [tau]="--config.env.commands.yaw_rate_tau=0.25"
     [tauyaw3]="--config.env.commands.yaw_rate_tau=0.25 --config.env.reward.yaw=120"
+    # tighter action bounds (0.1, the preset 0.2), and the kept policy chosen every 2 M env steps
+    [as10]="--config.env.action_scale=0.1"
+    [tauas10]="--config.env.commands.yaw_rate_tau=0.25 --config.env.action_scale=0.1"
+    [taueval2]="--config.env.commands.yaw_rate_tau=0.25 --config.sac.eval_interval=2000000"
+    [tauyaw3eval2]="--config.env.commands.yaw_rate_tau=0.25 --config.env.reward.yaw=120 --config.sac.eval_interval=2000000"
   )
   specs=()
   for name in "$@"; do
