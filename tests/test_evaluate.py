@@ -418,7 +418,7 @@ def test_plots_write_pngs(fixed_trot_files, policy_evaluation, tmp_path):
     for name, figure in figures.items():
         png = tmp_path / f"{name}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
-        assert Image.open(png).mode == "P", name  # 256 colours, as the docs' figures
+        assert Image.open(png).mode == "P", name  # a palette, as the docs' figures
         assert figure.axes, name
     assert len(figures["cog"].axes) == 3 and len(figures["controller"].axes) == 4
 

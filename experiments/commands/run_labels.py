@@ -127,4 +127,11 @@ GO1_LEVERS = {  # run in campaign.json (run_gpu.sh go1) -> its change from the p
     "go1_base_s0": "— (the preset from `go1loops540_s0`'s searched gait)",
     "go1_lr_s0": "critic and temperature learning rates 3e-4 (the preset: 1e-3)",
     "go1_warm_s0": "the actor's warm-up 20,000 updates (2,000): about 10 M env steps",
+    "go1_yaw3_s0": "the yaw term's weight w4 ×3 (120)",
+    "go1_tau_s0": "the yaw term on the yaw rate low-passed over 0.25 s (`commands.yaw_rate_tau`)",
+    "go1_tauyaw3_s0": "both",
+    "go1_as10_s0": "action bounds 0.1 (`env.action_scale`; the preset 0.2)",
+    "go1_tauas10_s0": "the yaw rate low-passed, action bounds 0.1",
+    "go1_taueval2_s0": "the yaw rate low-passed, an evaluation every 2 M env steps (10 M)",
+    "go1_tauyaw3eval2_s0": "the yaw rate low-passed, w4 ×3, an evaluation every 2 M env steps",
 }

@@ -183,26 +183,65 @@ def seeds(names: tuple[str, ...] = SEEDS, label: str = "seed") -> str:
     return "\n".join(rows)
 
 
-def sac_levers(levers: dict[str, str] = SAC_LEVERS) -> str:
+def sac_levers(levers: dict[str, str] = SAC_LEVERS, gait: bool = False) -> str:
     """The rows of a SAC levers table: the trainer's reward from the start to its last
     evaluation, the kept policy, and its survival and tracking (speed, yaw rate) in each
-    condition."""
+    condition; with `gait`, a first row of the runs' common start (step-0 gait) and where each
+    run's kept and last policies do worse than it (`_worse`)."""
     runs = json.loads((HERE / "campaign.json").read_text())["runs"]
-    rows = []
+    rows = [_gait_row(levers, runs)] if gait else []
     for name, change in levers.items():
         run = runs[name]
         first, last = run["evaluations"][0], run["evaluations"][-1]
         conditions = run["robustness"].values()
+        verdicts = ""
+        if gait:
+            start, final = run.get("gait_robustness"), run.get("last_robustness")
+            verdicts = (
+                f" {_worse(run['robustness'], start)} |"
+                f" {run['last']['policy_env_steps'] / 1e6:.1f} M: {_worse(final, start)} |"
+            )
         rows.append(
             f"| `{name}` | {change} | {first['eval_reward']:.0f} → {last['eval_reward']:.0f}"
             f" ({last['env_steps'] / 1e6:.1f} M) | {run['kept']['policy_env_steps'] / 1e6:.1f} M | "
             + _rates(conditions) + " | "
-            + " | ".join(
-                f"{_tracking(c)}"
-                for c in conditions
-            ) + " |"
+            + " | ".join(_tracking(c) for c in conditions) + " |" + verdicts
         )
     return "\n".join(rows)
+
+
+def _gait_row(levers: dict[str, str], runs: dict) -> str:
+    """The step-0 gait's row of a levers table from one start: its conditions as measured beside
+    the first run, and the most its measurements beside the runs differ (the GPU's
+    repeatability)."""
+    measured = [runs[name]["gait_robustness"] for name in levers if "gait_robustness" in runs[name]]
+    spread = max(
+        max(m[c][key] for m in measured) - min(m[c][key] for m in measured)
+        for c in measured[0] for key in AGAINST_GAIT
+    )
+    first = measured[0].values()
+    return (
+        f"| step-0 gait | the start of every run: measured beside each of {len(measured)}, the"
+        f" measurements differ by at most {spread:.4f} | — | 0.0 M | {_rates(first)} | "
+        + " | ".join(_tracking(c) for c in first) + " | — | — |"
+    )
+
+
+# measure.py's conditions and `shortfalls`' measures as the levers tables' verdicts name them
+SHORT = {"latency 40 ms": "40 ms", "pushes 50 N, 0.1 s": "pushes", "success": "survival"}
+
+
+def _worse(policy: dict | None, gait: dict | None) -> str:
+    """`shortfalls` by measure, its conditions named short ("yaw: 40 ms, pushes"); "none" where
+    the policy does no worse than its gait anywhere, "not measured" without both."""
+    if not policy or not gait:
+        return "not measured"
+    conditions: dict[str, list[str]] = {}
+    for item in shortfalls(policy, gait):
+        condition, measure = item.rsplit(": ", 1)
+        named = SHORT.get(measure, measure)
+        conditions.setdefault(named, []).append(SHORT.get(condition, condition))
+    return "; ".join(f"{m}: {', '.join(c)}" for m, c in conditions.items()) or "none"
 
 
 def versus_gait() -> str:
@@ -250,7 +289,7 @@ def against_gait() -> str:
     runs = json.loads((HERE / "campaign.json").read_text())["runs"]
     rows = []
     for name, run in runs.items():
-        if "gait_robustness" not in run:
+        if "gait_robustness" not in run or name in GO1_LEVERS:  # those: in their levers table
             continue
         gait = run["gait_robustness"]
         policies = [
@@ -380,7 +419,7 @@ def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
         table(), seeds(), seeds(SEEDS_NO_LOOPS), seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(),
-        campaign(), anymal(), seeds(WARP, "run"), sac_levers(), sac_levers(GO1_LEVERS),
+        campaign(), anymal(), seeds(WARP, "run"), sac_levers(), sac_levers(GO1_LEVERS, gait=True),
         versus_gait(), against_gait(), engines(), levers(), no_preset(),
     )
 

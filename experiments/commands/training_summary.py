@@ -126,6 +126,18 @@ def summary(path: Path) -> dict:
     }
 
 
+def rounded(value, digits: int = 6):
+    """`value` with every float in it rounded to `digits` decimals: the tables quote three, the
+    strict comparisons against a run's gait (table.py, `shortfalls`) resolve 1e-6."""
+    if isinstance(value, float):
+        return round(value, digits)
+    if isinstance(value, dict):
+        return {key: rounded(item, digits) for key, item in value.items()}
+    if isinstance(value, list):
+        return [rounded(item, digits) for item in value]
+    return value
+
+
 def _conditions(text: str | None) -> dict | None:
     """Survival, tracking and attitude per condition of a measure.py record (None: none)."""
     if text is None:
@@ -148,7 +160,7 @@ if __name__ == "__main__":
     # One line per run and per part of a run: a small record that diffs run by run.
     parts = ",\n".join(
         f"  {json.dumps(name)}: {{\n"
-        + ",\n".join(f"   {json.dumps(key)}: {json.dumps(value)}" for key, value in run.items())
+        + ",\n".join(f"   {json.dumps(key)}: {json.dumps(rounded(value), separators=(',', ':'))}" for key, value in run.items())
         + "\n  }"
         for name, run in runs.items()
     )

@@ -62,8 +62,8 @@ def _series(trace: Mapping[str, Any], name: str) -> np.ndarray:
 
 
 def save(figure: Figure, path: str | os.PathLike[str], dpi: int = 120) -> None:
-    """Writes `figure` to `path`; a .png in 256 colours (a plot has few: a third of the bytes of
-    matplotlib's RGBA, the same picture), any other suffix as matplotlib writes it."""
+    """Writes `figure` to `path`; a .png in 32 colours (a plot has few: a fraction of the bytes
+    of matplotlib's RGBA, the same picture), any other suffix as matplotlib writes it."""
     if pathlib.Path(path).suffix.lower() != ".png":
         figure.savefig(path, dpi=dpi)
         return
@@ -72,7 +72,7 @@ def save(figure: Figure, path: str | os.PathLike[str], dpi: int = 120) -> None:
     buffer = io.BytesIO()
     figure.savefig(buffer, dpi=dpi, format="png")
     buffer.seek(0)
-    Image.open(buffer).convert("RGB").quantize(256).save(path, optimize=True)
+    Image.open(buffer).convert("RGB").quantize(32).save(path, optimize=True)
 
 
 def _finish(figure: Figure, path: str | os.PathLike[str] | None) -> Figure:
