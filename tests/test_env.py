@@ -138,6 +138,18 @@ def test_sizes(flat_env):
     assert flat_env.dt == pytest.approx(0.05)
 
 
+def test_the_gyro_is_observed_after_the_filtered_action():
+    env = quadcos.make_env("flat", observe_angular_velocity=True)
+    assert env.observation_size == 14 + 5 + 3
+    state = jax.jit(env.reset)(jax.random.PRNGKey(0))
+    step = jax.jit(env.step)
+    for _ in range(3):
+        state = step(state, jnp.full(5, 0.3))
+    gyro = np.asarray(state.obs[19:22])
+    np.testing.assert_array_equal(gyro, np.asarray(state.pipeline_state.qvel[3:6]))
+    assert np.abs(gyro).max() > 1e-3  # the trot rocks the torso: the gyro reads it
+
+
 def test_only_the_feet_touch_the_ground(flat_env):
     # A torso contact only ever acts on a fallen robot (the env ends those episodes), and box vs
     # heightfield collisions dominated MJX's cost on slopes.

@@ -155,6 +155,17 @@ def test_observation_layout_follows_the_config():
     np.testing.assert_allclose(obs[14:], 1 - math.exp(-0.05 / 0.25), rtol=1e-6)
 
 
+def test_the_host_robot_observes_the_gyro_where_the_env_does():
+    """`observe_angular_velocity`: the torso's angular velocity in its own frame (the free
+    joint's qvel[3:6]) after the filtered action, as `quadcos.env.observation.observe` has it."""
+    host = host_robot.HostRobot("flat", evaluation.env_config({"observe_angular_velocity": True}))
+    assert host.reset(0).shape == (14 + 5 + 3,)
+    for _ in range(3):
+        obs = host.step(np.full(5, 0.3)).obs
+    np.testing.assert_array_equal(obs[19:22], host.data.qvel[3:6])
+    assert np.abs(obs[19:22]).max() > 1e-3
+
+
 def test_a_rolled_robot_falls():
     host = host_robot.HostRobot("flat", evaluation.env_config({}))
     host.reset(0)

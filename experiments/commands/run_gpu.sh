@@ -195,6 +195,10 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
     [tauas10]="--config.env.commands.yaw_rate_tau=0.25 --config.env.action_scale=0.1"
     [taueval2]="--config.env.commands.yaw_rate_tau=0.25 --config.sac.eval_interval=2000000"
     [tauyaw3eval2]="--config.env.commands.yaw_rate_tau=0.25 --config.env.reward.yaw=120 --config.sac.eval_interval=2000000"
+    # the torso's angular velocity observed (a gyro): the yaw rate the term tracks, not its integral
+    [gyro]="--config.env.observe_angular_velocity=True"
+    [taugyro]="--config.env.commands.yaw_rate_tau=0.25 --config.env.observe_angular_velocity=True"
+    [tauyaw3gyro]="--config.env.commands.yaw_rate_tau=0.25 --config.env.reward.yaw=120 --config.env.observe_angular_velocity=True --config.sac.eval_interval=2000000"
   )
   specs=()
   for name in "$@"; do

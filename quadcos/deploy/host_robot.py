@@ -333,6 +333,8 @@ class HostRobot:
             parts.append([math.cos(self.phase), math.sin(self.phase)])
         if self.config.action_filter_tau > 0:
             parts.append(self.command)
+        if self.config.observe_angular_velocity:
+            parts.append(self.data.qvel[layout.angular_velocity])
         if self.commands is not None:
             if self.config.commands.observed_speed_tau > 0:
                 parts.append([self.commands.speed])

@@ -95,6 +95,9 @@ def default_config() -> ml_collections.ConfigDict:
     config.reward = ml_collections.ConfigDict(reward.RewardWeights()._asdict())
     config.observe_slope = False  # append the slope estimate to the paper's 14-d state
     config.observe_phase = False  # append (cos ψ, sin ψ) of the oscillator
+    # append the torso's angular velocity (rad/s, its own frame: an IMU's gyro) after the filtered
+    # action: the yaw rate a commanded turn tracks, which the paper's state shows only as a yaw
+    config.observe_angular_velocity = False
     # s: time constant of a first-order low-pass filter between the action and the controller,
     # run at every physics substep; 0 = the paper's literal, instantaneous parameter change.
     # A trot topples under per-step action noise of std 0.06 (79 % of robots in 10 s) but not

@@ -24,7 +24,8 @@ class Layout:
     xp: ModuleType  # jax.numpy or numpy: what the arrays below are
     position: Any  # (3,) qpos indices of the base position
     quaternion: Any  # (4,) qpos indices of the base orientation (w, x, y, z)
-    linear_velocity: Any  # (3,) qvel indices
+    linear_velocity: Any  # (3,) qvel indices (world frame)
+    angular_velocity: Any  # (3,) qvel indices (the torso's frame, as a gyro reads it)
     orientation_sensor: Any | None  # (4,) sensordata indices of a framequat on the base
     joint_qpos: Any  # (J,)
     joint_qvel: Any  # (J,)
@@ -69,6 +70,7 @@ class Layout:
             position=array(np.arange(root_qpos, root_qpos + 3), xp.int32),
             quaternion=array(np.arange(root_qpos + 3, root_qpos + 7), xp.int32),
             linear_velocity=array(np.arange(root_qvel, root_qvel + 3), xp.int32),
+            angular_velocity=array(np.arange(root_qvel + 3, root_qvel + 6), xp.int32),
             orientation_sensor=None if sensor is None else array(sensor, xp.int32),
             joint_qpos=array(description.joint_qpos, xp.int32),
             joint_qvel=array(description.joint_qvel, xp.int32),

@@ -1,6 +1,7 @@
 """What the policy observes of one robot, in order: torso velocity (3), pitch / yaw / roll (3),
 the leg joints, the slope estimate (Eq. 5; `observe_slope`), cos ψ / sin ψ (`observe_phase`), the
-filtered action (`action_filter_tau` > 0), then, with commands, the observed speed
+filtered action (`action_filter_tau` > 0), the torso's angular velocity in its own frame (3;
+`observe_angular_velocity`), then, with commands, the observed speed
 (`commands.observed_speed_tau` > 0) and (v*, ω*)."""
 
 from typing import Any, NamedTuple
@@ -33,7 +34,8 @@ def size(
     filtered = action_size if config.action_filter_tau > 0 else 0
     command = (2 + (config.commands.observed_speed_tau > 0)) * commanded
     joints = len(layout.joint_qpos)
-    return 6 + joints + config.observe_slope + 2 * config.observe_phase + filtered + command
+    gyro = 3 * config.observe_angular_velocity
+    return 6 + joints + config.observe_slope + 2 * config.observe_phase + filtered + gyro + command
 
 
 def observe(
@@ -61,6 +63,8 @@ def observe(
         parts.append(jnp.stack([jnp.cos(phase), jnp.sin(phase)]))
     if config.action_filter_tau > 0:
         parts.append(command)
+    if config.observe_angular_velocity:
+        parts.append(data.qvel[layout.angular_velocity])
     return Observed(obs=jnp.concatenate(parts), attitude=body, slope_estimate=slope_estimate)
 
 
