@@ -31,9 +31,8 @@ def default_config() -> ml_collections.ConfigDict:
     config.impl = "auto"
     config.warp = backends.default_warp_config()
     # s: one env step = one SAC action (20 Hz; CoppeliaSim's default 50 ms step, the paper's
-    # simulator). The paper's per-step rewards (r_s = 10, r_y = w1 Δy) only favour walking over
-    # standing still when a step is long enough for Δy to matter: at 50 Hz a good trot scores
-    # less per step than standing (measured; see experiments/README.md).
+    # simulator). The paper's r_s = 10, r_y = w1 Δy favour walking over standing only when Δy
+    # matters in a step: at 50 Hz a trot scores less per step than standing (experiments/README.md).
     config.control_dt = 0.05
     # s: MJX step; control_dt must be a multiple. 0 = the robot's (quadcos.robot.presets: the
     # paper's robot 0.005 s, 200 Hz).
@@ -95,9 +94,7 @@ def default_config() -> ml_collections.ConfigDict:
     config.reward = ml_collections.ConfigDict(reward.RewardWeights()._asdict())
     config.observe_slope = False  # append the slope estimate to the paper's 14-d state
     config.observe_phase = False  # append (cos ψ, sin ψ) of the oscillator
-    # append the torso's angular velocity (rad/s, its own frame: an IMU's gyro) after the filtered
-    # action: the yaw rate a commanded turn tracks, which the paper's state shows only as a yaw
-    config.observe_angular_velocity = False
+    config.observe_angular_velocity = False  # append the torso's gyro (rad/s, its own frame)
     # s: time constant of a first-order low-pass filter between the action and the controller,
     # run at every physics substep; 0 = the paper's literal, instantaneous parameter change.
     # A trot topples under per-step action noise of std 0.06 (79 % of robots in 10 s) but not
