@@ -138,6 +138,11 @@ def rounded(value, digits: int = 6):
     return value
 
 
+def _part(key: str, value) -> str:
+    """One part of a run as the record's line: its floats `rounded`, no spaces inside."""
+    return f"   {json.dumps(key)}: {json.dumps(rounded(value), separators=(',', ':'))}"
+
+
 def _conditions(text: str | None) -> dict | None:
     """Survival, tracking and attitude per condition of a measure.py record (None: none)."""
     if text is None:
@@ -160,7 +165,7 @@ if __name__ == "__main__":
     # One line per run and per part of a run: a small record that diffs run by run.
     parts = ",\n".join(
         f"  {json.dumps(name)}: {{\n"
-        + ",\n".join(f"   {json.dumps(key)}: {json.dumps(rounded(value), separators=(',', ':'))}" for key, value in run.items())
+        + ",\n".join(_part(key, value) for key, value in run.items())
         + "\n  }"
         for name, run in runs.items()
     )
