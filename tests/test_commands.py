@@ -12,7 +12,7 @@ import pytest
 
 import quadcos
 from quadcos.deploy import twins
-from quadcos.env import commands
+from quadcos.env import commands, tracking
 from quadcos.equations import oscillator, reward
 from quadcos.evaluation import metrics, rollout
 from quadcos.robot import presets
@@ -590,7 +590,7 @@ def test_gait_metrics_on_a_synthetic_trace():
     # averaged over each window of 5 steps (0.5 s)
     speeds = (0.5 * np.cos(0.02 * np.arange(1, 11))).reshape(2, 5).mean(-1)
     rms = np.sqrt(np.mean((speeds - 0.6) ** 2))
-    assert int(host.windows[0]) == 2 and int(host.windows[1]) == 0
+    assert int(host.tracking.windows[0]) == 2 and int(host.tracking.windows[1]) == 0
     assert values[0]["speed_tracking_rms"] == pytest.approx(rms, rel=1e-4)
     assert values[0]["yaw_rate_tracking_rms"] == pytest.approx(0.2, rel=1e-3)
     assert values[1]["speed_tracking_rms"] is None  # it fell before a window closed
@@ -601,6 +601,10 @@ def test_gait_metrics_on_a_synthetic_trace():
     assert int(host.steps[1]) == 1 and float(host.energy[1]) == pytest.approx(0.6)
     pooled = metrics.gait_aggregate(host)
     assert pooled["speed_tracking_rms"] == pytest.approx(rms, rel=1e-4)  # robot 0's windows
+    # The trainer's evaluation pools the same sums in JAX (quadcos.env.tracking.pooled_rms).
+    speed_rms, yaw_rate_rms = tracking.pooled_rms(gait.tracking)
+    assert float(speed_rms) == pytest.approx(pooled["speed_tracking_rms"], rel=1e-5)
+    assert float(yaw_rate_rms) == pytest.approx(pooled["yaw_rate_tracking_rms"], rel=1e-5)
     assert pooled["cost_of_transport"] == pytest.approx(6.6 / (4.0 * 9.81 * 0.55), rel=1e-4)
     assert pooled["peak_joint_torque_ratio"] == pytest.approx(0.2)
     # A fall's energy is left out of the pooled cost of transport (robot 1 fell, blown up).

@@ -1,7 +1,7 @@
 """Where a command policy's speed-tracking error sits: its 0.5-s windows (the evaluation's,
-`rollout.TRACKING_WINDOW_S`) grouped by the time since the command was last drawn (the episode's
-start included), in C MuJoCo under random commands (resampled every `commands.resample_seconds`),
-nothing randomised.
+`quadcos.env.tracking.TRACKING_WINDOW_S`) grouped by the time since the command was last drawn
+(the episode's start included), in C MuJoCo under random commands (resampled every
+`commands.resample_seconds`), nothing randomised.
 
     MENAGERIE_ROOT=DIR python experiments/commands/tracking_windows.py \
         --policy=experiments/policies/unitree_go2_command --episodes=32 \
@@ -25,7 +25,7 @@ import ml_collections
 import numpy as np
 
 from quadcos.deploy import host_robot
-from quadcos.evaluation import rollout
+from quadcos.env import tracking
 
 SPEED_BIN = 0.2  # m/s: the width of the commanded-speed bins of `by_speed`
 
@@ -36,7 +36,7 @@ def window_errors(
     """(seconds since the command changed, commanded v* m/s, speed error m/s) of each whole
     window of one episode."""
     obs, steps = robot.reset(seed), round(seconds / robot.dt)
-    window = rollout.tracking_window_steps(robot.dt)
+    window = tracking.window_steps(robot.dt)
     period = robot.config.commands.resample_seconds
     commanded, progress = [], []
     for _ in range(steps):

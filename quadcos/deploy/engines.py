@@ -32,6 +32,7 @@ from quadcos._util.overrides import parse_overrides
 from quadcos.deploy import host_robot, solver, twins
 from quadcos.deploy.onnx_policy import OnnxPolicy
 from quadcos.env import commands as env_commands
+from quadcos.env import tracking
 from quadcos.equations import reward
 from quadcos.evaluation import report, rollout, sources
 
@@ -40,7 +41,9 @@ ENGINES = ("mjx", "mujoco")
 _MAXIMA = ("max_lateral_deviation", "max_abs_roll", "max_abs_yaw", "max_abs_pitch_error")
 # GaitEpisodeStats fields that the host episodes do not sum: the end-of-step samples (only the
 # rollout's next step reads them) and the flags.
-_NOT_SUMMED = ("reward_terms", "command", "yaw", "foot_xy", "foot_contact", "commanded", "mass")
+_NOT_SUMMED = (
+    "reward_terms", "command", "yaw", "foot_xy", "foot_contact", "commanded", "mass", "tracking"
+)
 _MUJOCO_ONLY = {"obs_noise": 0.0, "latency_s": 0.0, "physics": "reference", "friction": 0.0}
 
 
@@ -171,9 +174,9 @@ class _GaitSums:
         self.sums = dict.fromkeys(
             ("speed_sq_error", "yaw_rate_sq_error", "slip_sum", "energy", "path"), 0.0
         )
-        self.sums |= dict.fromkeys(("window_speed_error", "window_yaw_rate_error"), 0.0)
+        self.sums |= dict.fromkeys(("open_speed_error", "open_yaw_rate_error"), 0.0)
         self.sums |= {"slip_steps": 0, "peak_torque_ratio": 0.0, "windows": 0}
-        self.steps, self.window = 0, rollout.tracking_window_steps(host.dt)
+        self.steps, self.window = 0, tracking.window_steps(host.dt)
         self.sample = self._sample(host)
 
     @staticmethod
@@ -197,13 +200,13 @@ class _GaitSums:
         if command is not None:
             speed = (step_x * math.cos(yaw) + step_y * math.sin(yaw)) / dt
             yaw_rate = twins.wrap_angle(yaw - last["yaw"]) / dt
-            sums["window_speed_error"] += speed - command[0]
-            sums["window_yaw_rate_error"] += yaw_rate - command[1]
+            sums["open_speed_error"] += speed - command[0]
+            sums["open_yaw_rate_error"] += yaw_rate - command[1]
         self.steps += 1
         if command is not None and self.steps % self.window == 0:
             for name in ("speed", "yaw_rate"):
-                sums[f"{name}_sq_error"] += (sums[f"window_{name}_error"] / self.window) ** 2
-                sums[f"window_{name}_error"] = 0.0
+                sums[f"{name}_sq_error"] += (sums[f"open_{name}_error"] / self.window) ** 2
+                sums[f"open_{name}_error"] = 0.0
             sums["windows"] += 1
         slipping = now["touching"] & last["touching"]
         foot_speed = np.linalg.norm(now["feet"] - last["feet"], axis=-1) / dt
@@ -245,8 +248,13 @@ def _mujoco_episodes(
         if name not in _NOT_SUMMED
     }
     terms = {t: np.array([r["reward_terms"][t] for r in records]) for t in reward.TERM_NAMES}
+    windows = {
+        name: np.array([record[name] for record in records])
+        for name in tracking.Windows.__dataclass_fields__
+    }
     stats = rollout.GaitEpisodeStats(
         **fields,
+        tracking=tracking.Windows(**windows),
         command=np.zeros((episodes, 2)),
         yaw=np.zeros(episodes),
         foot_xy=np.zeros((episodes, 4, 2)),

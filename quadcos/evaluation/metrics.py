@@ -62,15 +62,18 @@ def _ratio(numerator: float, denominator: float) -> float | None:
 def gait_values(stats: GaitEpisodeStats, i: int) -> dict[str, Any]:
     """Episode i's gait quality: `speed_tracking_rms` (m/s) and `yaw_rate_tracking_rms` (rad/s)
     of the speed and yaw rate averaged over each of its closed tracking windows
-    (`rollout.TRACKING_WINDOW_S`; None without commands or a closed window), `foot_slip_m_per_s` (the mean, over its steps with a
+    (`quadcos.env.tracking.TRACKING_WINDOW_S`; None without commands or a closed window), `foot_slip_m_per_s` (the mean, over its steps with a
     foot in contact at both ends, of the horizontal speed of the feet in contact),
     `cost_of_transport` (Σ|τ·q̇|·dt / (m g · horizontal distance travelled)) and
     `peak_joint_torque_ratio` (the largest |τ| / torque limit of any leg joint at any step; None
     where no joint has a finite limit). None where a value is undefined (no step, no distance)."""
-    steps, windows = int(stats.steps[i]), int(stats.windows[i])
+    tracking = stats.tracking
+    steps, windows = int(stats.steps[i]), int(tracking.windows[i])
     return {
-        "speed_tracking_rms": _rms(stats.speed_sq_error[i], windows) if stats.commanded else None,
-        "yaw_rate_tracking_rms": _rms(stats.yaw_rate_sq_error[i], windows)
+        "speed_tracking_rms": _rms(tracking.speed_sq_error[i], windows)
+        if stats.commanded
+        else None,
+        "yaw_rate_tracking_rms": _rms(tracking.yaw_rate_sq_error[i], windows)
         if stats.commanded
         else None,
         "foot_slip_m_per_s": _ratio(float(stats.slip_sum[i]), int(stats.slip_steps[i])),
@@ -98,14 +101,15 @@ def gait_aggregate(stats: GaitEpisodeStats) -> dict[str, Any]:
         kept = np.isfinite(values) & keep
         return float(values[kept].sum()), float(counts[kept].sum())
 
+    tracking = stats.tracking
     peaks = np.asarray(stats.peak_torque_ratio, dtype=float)
     peaks = peaks[np.isfinite(peaks) & (np.asarray(stats.steps) > 0)]
     energy, distance = pooled(stats.energy, stats.path, ~np.asarray(stats.fell, dtype=bool))
     return {
-        "speed_tracking_rms": _rms(*pooled(stats.speed_sq_error, stats.windows))
+        "speed_tracking_rms": _rms(*pooled(tracking.speed_sq_error, tracking.windows))
         if stats.commanded
         else None,
-        "yaw_rate_tracking_rms": _rms(*pooled(stats.yaw_rate_sq_error, stats.windows))
+        "yaw_rate_tracking_rms": _rms(*pooled(tracking.yaw_rate_sq_error, tracking.windows))
         if stats.commanded
         else None,
         "foot_slip_m_per_s": _ratio(*pooled(stats.slip_sum, stats.slip_steps)),

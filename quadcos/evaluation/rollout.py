@@ -16,6 +16,7 @@ import numpy as np
 
 from quadcos import env as env_lib
 from quadcos.env import episodes
+from quadcos.env import tracking as tracking_lib
 from quadcos.equations import oscillator, reward, slope
 from quadcos.evaluation import sources
 from quadcos.robot import constants
@@ -48,17 +49,6 @@ class EpisodeStats:
     reward_terms: dict[str, jax.Array]  # Σ of each term
 
 
-# s: command tracking is measured on the speed and yaw rate averaged over windows this long — a
-# stride or more of the gaits the presets find (periods 0.15-0.4 s), so that the sway within a
-# stride (the yaw rate of a trot swings by about ±0.5 rad/s) is not counted as tracking error.
-TRACKING_WINDOW_S = 0.5
-
-
-def tracking_window_steps(dt: float) -> int:
-    """Control steps of `dt` s in a tracking window (at least 1)."""
-    return max(1, round(TRACKING_WINDOW_S / dt))
-
-
 @flax.struct.dataclass
 class GaitEpisodeStats(EpisodeStats):
     """EpisodeStats with running sums of gait quality, each (n,) unless said; what `rollout`
@@ -69,14 +59,7 @@ class GaitEpisodeStats(EpisodeStats):
     yaw: jax.Array  # rad, after the last step taken
     foot_xy: jax.Array  # (n, 4, 2) m: the feet after the last step taken
     foot_contact: jax.Array  # (n, 4) bool
-    # Tracking, over windows of TRACKING_WINDOW_S: Σ over the windows closed of the squared mean
-    # error in the window, (m/s)² and (rad/s)² (v the speed along the robot's heading, ω its yaw
-    # rate); the open window's sums of errors; the windows closed.
-    speed_sq_error: jax.Array
-    yaw_rate_sq_error: jax.Array
-    window_speed_error: jax.Array
-    window_yaw_rate_error: jax.Array
-    windows: jax.Array  # int32
+    tracking: tracking_lib.Windows  # the command tracking's window sums
     slip_sum: jax.Array  # m/s: Σ over steps of the mean horizontal speed of the feet in contact
     slip_steps: jax.Array  # int32: steps with a foot in contact at both ends
     energy: jax.Array  # J: Σ |τ·q̇| dt over the leg joints
@@ -191,11 +174,7 @@ def _initial_gait_stats(
         yaw=slope.attitude(data.qpos[:, constants.QPOS_QUATERNION]).yaw,
         foot_xy=feet,
         foot_contact=touching,
-        speed_sq_error=zeros,
-        yaw_rate_sq_error=zeros,
-        window_speed_error=zeros,
-        window_yaw_rate_error=zeros,
-        windows=jnp.zeros(num_envs, jnp.int32),
+        tracking=tracking_lib.Windows.zeros(num_envs),
         slip_sum=zeros,
         slip_steps=jnp.zeros(num_envs, jnp.int32),
         energy=zeros,
@@ -220,10 +199,10 @@ def _update_gait_stats(
     def unless_blown_up(value):  # a step whose physics blew up leaves the episode's sums NaN
         return jnp.where(jnp.isfinite(state.reward), value, jnp.nan)
 
-    yaw = slope.attitude(data.qpos[:, constants.QPOS_QUATERNION]).yaw
-    step_x, step_y = data.qpos[:, 0] - gait.x, data.qpos[:, 1] - gait.y
-    speed = unless_blown_up((step_x * jnp.cos(yaw) + step_y * jnp.sin(yaw)) / dt)
-    yaw_rate = unless_blown_up(reward.wrap_angle(yaw - gait.yaw) / dt)
+    x, y, yaw = tracking_lib.pose(data.qpos)
+    step_x, step_y = x - gait.x, y - gait.y
+    speed, yaw_rate = tracking_lib.velocity((gait.x, gait.y, gait.yaw), (x, y, yaw), dt)
+    speed, yaw_rate = unless_blown_up(speed), unless_blown_up(yaw_rate)
     feet, touching = _feet(env, data)
     slipping = touching & gait.foot_contact
     foot_speed = jnp.linalg.norm(feet - gait.foot_xy, axis=-1) / dt
@@ -237,25 +216,17 @@ def _update_gait_stats(
     def add(total, value):
         return jnp.where(counts, total + value, total)
 
-    window = tracking_window_steps(dt)
-    speed_error = add(gait.window_speed_error, speed - gait.command[:, 0])
-    yaw_rate_error = add(gait.window_yaw_rate_error, yaw_rate - gait.command[:, 1])
-    closed = counts & (stats.steps % window == 0)
-
-    def close(total, errors):
-        return jnp.where(closed, total + (errors / window) ** 2, total)
-
+    window = tracking_lib.window_steps(dt)
+    windows = tracking_lib.advance(
+        gait.tracking, speed, yaw_rate, gait.command, counts, stats.steps, window
+    )
     return GaitEpisodeStats(
         **{field.name: getattr(stats, field.name) for field in dataclasses.fields(EpisodeStats)},
         command=state.info["velocity_command"].velocity if env.commanded else gait.command,
         yaw=yaw,
         foot_xy=feet,
         foot_contact=touching,
-        speed_sq_error=close(gait.speed_sq_error, speed_error),
-        yaw_rate_sq_error=close(gait.yaw_rate_sq_error, yaw_rate_error),
-        window_speed_error=jnp.where(closed, 0.0, speed_error),
-        window_yaw_rate_error=jnp.where(closed, 0.0, yaw_rate_error),
-        windows=gait.windows + closed.astype(jnp.int32),
+        tracking=windows,
         slip_sum=add(gait.slip_sum, slip),
         slip_steps=add(gait.slip_steps, slipping.any(-1).astype(jnp.int32)),
         energy=add(gait.energy, power * dt),
