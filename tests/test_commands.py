@@ -9,13 +9,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from brax.envs.wrappers import training as training_wrappers
 
 import quadcos
 from quadcos.deploy import twins
 from quadcos.env import commands, tracking
 from quadcos.equations import oscillator, reward
-from quadcos.evaluation import metrics, rollout
+from quadcos.evaluation import metrics, rollout, sources
 from quadcos.robot import presets
+from quadcos.training import periodic_eval
 from quadcos.training import presets as training_presets
 
 # --- the spec ---------------------------------------------------------------------------------
@@ -507,6 +509,28 @@ def test_a_commanded_env_follows_its_schedule(commanded_env):
     np.testing.assert_allclose(headings[1], 0.0, atol=1e-7)  # ω* = 0 in the first two steps
     # third step: ψ* = 0.3 rad/s × 0.05 s, within the leash of the robot's yaw
     np.testing.assert_allclose(headings[2], 0.015, rtol=1e-4)
+
+
+def test_the_trainers_evaluation_tracks_commands_as_quadcos_evaluate_does(commanded_env):
+    """`periodic_eval` and `quadcos.evaluation`'s rollout from the same keys (the same episodes)
+    measure the same speed and yaw-rate tracking (both count with `quadcos.env.tracking`)."""
+    env, n, steps = commanded_env, 2, 20  # two 0.5-s windows
+    zeros = jnp.zeros(env.action_size)
+    source = sources.ActionSource(
+        name="zero action", kind="gait", act=lambda p, obs: jnp.broadcast_to(p, (len(obs), p.size)),
+        params=zeros, env_overrides={}, training_terrain="flat",
+    )
+    expected = metrics.gait_aggregate(rollout.rollout(env, source, num_envs=n, num_steps=steps).stats)
+    batched = training_wrappers.VmapWrapper(env)
+    measured = jax.jit(
+        lambda keys: periodic_eval.evaluate(
+            batched, lambda obs: jnp.broadcast_to(zeros, (len(obs), zeros.size)), keys,
+            episode_length=steps,
+        )
+    )(jax.random.split(jax.random.PRNGKey(0), n))
+    assert expected["speed_tracking_rms"] > 0.05  # the schedule asks 0.5, then 1.0 m/s
+    for key in ("speed_tracking_rms", "yaw_rate_tracking_rms"):
+        assert float(measured[f"eval/{key}"]) == pytest.approx(expected[key], rel=1e-4)
 
 
 # --- metrics ----------------------------------------------------------------------------------

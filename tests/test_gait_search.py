@@ -81,6 +81,9 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert config["sac"]["gait_search"].pop("compile_trainer") is True
     # ... and the search's share of the time budget, which came later.
     assert config["sac"]["gait_search"].pop("max_fraction") == 0.5
+    # ... and the kept policy ranked by tracking, an option: by reward, as the runs ranked it.
+    assert config["sac"].pop("best_policy_by") == "reward"
+    assert config["sac"].pop("best_policy_tracking_targets") == [0.1, 0.15]
     assert config["sac"] == recorded["config"]
     env = config["env"]
     assert env.pop("action_centre") == "search"

@@ -200,6 +200,43 @@ def test_best_policy_prefers_an_evaluation_that_does_not_fall(tmp_path):
     assert not plain.offer(_STATE, {"step": 40, "eval/episode_reward": 4.0, "eval/fall_rate": 0.0})
 
 
+def test_best_policy_by_tracking_keeps_the_evaluation_nearest_its_targets(tmp_path):
+    """`best_policy_by` "tracking": the worse of speed / 0.10 m/s and yaw rate / 0.15 rad/s
+    ranks evaluations that fall alike; rows without tracking (step 0 of another run) never win."""
+    path = tmp_path / "policy_best" / "policy.json"
+    speed, yaw_rate = best_policy.TRACKING
+    history = [{"step": 0, "eval/episode_reward": 9.0}]  # no tracking measured
+    best = best_policy.BestPolicy(path.parent, _SPEC, {}, history, 0.01, "tracking", (0.1, 0.15))
+    assert best.rank is None
+    assert best.offer(_STATE, {"step": 10, "eval/episode_reward": 1.0, speed: 0.12, yaw_rate: 0.12})
+    # speed 0.9 of its target, the yaw rate 1.07: its worse ratio beats the first row's 1.2
+    assert best.offer(_STATE, {"step": 20, "eval/episode_reward": 0.5, speed: 0.09, yaw_rate: 0.16})
+    assert not best.offer(_STATE, {"step": 30, "eval/episode_reward": 9.0, speed: 0.11, yaw_rate: 0.1})
+    assert not best.offer(
+        _STATE, {"step": 40, speed: 0.05, yaw_rate: 0.05, "eval/fall_rate": 0.02}
+    )  # falls more than the bound
+    saved = json.loads(path.read_text())["config"]["best_of_run"]
+    assert saved == {
+        "step": 20, "eval/episode_reward": 0.5, speed: 0.09, yaw_rate: 0.16, "eval/fall_rate": 0.0
+    }
+    assert best.score == pytest.approx(-0.16 / 0.15)
+
+
+def test_a_tracking_rank_needs_robots_that_follow_commands():
+    from quadcos import train  # the command line's config builder
+
+    with pytest.raises(ValueError, match="best_policy_by 'tracking' .* needs config.env.commands"):
+        tracked = {"sac.keep_best_policy": True, "sac.best_policy_by": "tracking"}
+        train.build_config(train.PRESETS["smoke"], tracked)
+    with pytest.raises(ValueError, match="best_policy_by must be one of reward, tracking"):
+        train.build_config(train.PRESETS["smoke"], {"sac.best_policy_by": "speed"})
+    with pytest.raises(ValueError, match="best_policy_tracking_targets must be two"):
+        train.build_config(train.PRESETS["smoke"], {"sac.best_policy_tracking_targets": (0.1, 0)})
+    config = toy_config(keep_best_policy=True, best_policy_by="tracking")
+    with pytest.raises(training.ConfigError, match="must follow velocity commands"):
+        training.train(PointEnv(), config, progress=False)
+
+
 # --- Resume -----------------------------------------------------------------
 
 

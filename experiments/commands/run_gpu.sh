@@ -183,10 +183,11 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
   # the yaw term against SAC trading turning for speed (item 4): its weight w4 ×3, its yaw rate
   # low-passed over 0.25 s (the tracking metric's windows, not each step's stride sway); tighter
   # action bounds (the preset 0.2); the kept policy chosen every 2 M env steps, not 10 M; the
-  # torso's angular velocity observed (a gyro: the yaw rate the term tracks, not its integral)
+  # torso's angular velocity observed (a gyro: the yaw rate the term tracks, not its integral);
+  # the kept policy ranked by its evaluation's tracking, not its reward
   yaw3="--config.env.reward.yaw=120" tau="--config.env.commands.yaw_rate_tau=0.25"
   as10="--config.env.action_scale=0.1" eval2="--config.sac.eval_interval=2000000"
-  gyro="--config.env.observe_angular_velocity=True"
+  gyro="--config.env.observe_angular_velocity=True" track="--config.sac.best_policy_by=tracking"
   declare -A lever=(
     [base]=""  # the same start on the same machine, no lever
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
@@ -194,6 +195,7 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
     [eval2]="$eval2" [yaw3]="$yaw3" [tau]="$tau" [tauyaw3]="$tau $yaw3" [as10]="$as10"
     [tauas10]="$tau $as10" [taueval2]="$tau $eval2" [tauyaw3eval2]="$tau $yaw3 $eval2"
     [gyro]="$gyro" [taugyro]="$tau $gyro" [tauyaw3gyro]="$tau $yaw3 $gyro $eval2"
+    [tauyaw3track]="$tau $yaw3 $eval2 $track" [tauyaw3gyrotrack]="$tau $yaw3 $gyro $eval2 $track"
   )
   specs=()
   for name in "$@"; do

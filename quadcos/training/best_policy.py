@@ -7,22 +7,39 @@ from typing import Any
 from quadcos.training import policy as policy_lib
 from quadcos.training import sac
 
-# The training-time evaluation metrics that rank a run's policies for `keep_best_policy`.
+# The training-time evaluation metrics that rank a run's policies for `keep_best_policy`: the
+# episode reward, or (`best_policy_by` "tracking", robots that follow commands) their tracking.
 _BEST_BY = "eval/episode_reward"
 _FALLS = "eval/fall_rate"
+TRACKING = ("eval/speed_tracking_rms", "eval/yaw_rate_tracking_rms")
+RANKS = ("reward", "tracking")  # what `best_policy_by` may name
 
 
-def rank(row: dict[str, Any], max_fall_rate: float) -> tuple[bool, float]:
+def rank(
+    row: dict[str, Any],
+    max_fall_rate: float,
+    by: str = "reward",
+    targets: tuple[float, float] = (0.10, 0.15),
+) -> tuple[bool, float]:
     """How an evaluation row ranks for `policy_best` (higher is better): whether it falls in at
-    most `max_fall_rate` of its episodes, then its episode reward."""
-    return row.get(_FALLS, 0.0) <= max_fall_rate, row[_BEST_BY]
+    most `max_fall_rate` of its episodes, then its episode reward (`by` "reward"), or (`by`
+    "tracking") minus its worse tracking relative to `targets` (m/s, rad/s): −max(speed RMS /
+    targets[0], yaw-rate RMS / targets[1]), > −1 where both are within their targets. NaN where
+    the row has no such evaluation."""
+    if by == "reward":
+        value = row.get(_BEST_BY, math.nan)
+    else:
+        ratios = [row.get(key, math.nan) / target for key, target in zip(TRACKING, targets)]
+        value = -max(ratios) if all(math.isfinite(r) for r in ratios) else math.nan
+    return row.get(_FALLS, 0.0) <= max_fall_rate, value
 
 
 class BestPolicy:
     """The policy of the best training-time evaluation of a run (`keep_best_policy`).
 
     An evaluation whose fall rate is at most `max_fall_rate` beats every one above it; among
-    evaluations on the same side, the higher episode reward wins (`max_fall_rate` 1: reward alone).
+    evaluations on the same side, the higher episode reward wins (`max_fall_rate` 1: reward alone),
+    or with `by` "tracking" the better command tracking (`rank`).
     `offer` saves the state's policy to `directory` when its evaluation beats every earlier one of
     the run (rows before a resume included), its step, reward and fall rate added to the saved
     config under "best_of_run" (with `written_at_s`, the run's wall time at the write, if given).
@@ -35,17 +52,19 @@ class BestPolicy:
         run_info: dict[str, Any],
         history: list[dict[str, Any]],
         max_fall_rate: float = 1.0,
+        by: str = "reward",
+        targets: tuple[float, float] = (0.10, 0.15),
     ):
         self.directory = directory
         self._spec = spec
         self._run_info = run_info
-        self._max_fall_rate = max_fall_rate
-        self.rank = max(
-            (rank(row, max_fall_rate) for row in history if _BEST_BY in row), default=None
-        )
+        self._rank = lambda row: rank(row, max_fall_rate, by, targets)
+        ranked = (self._rank(row) for row in history)
+        self.rank = max((r for r in ranked if math.isfinite(r[1])), default=None)
 
     @property
-    def reward(self) -> float:
+    def score(self) -> float:
+        """The best evaluation's reward, or its tracking score (`rank`)."""
         return -math.inf if self.rank is None else self.rank[1]
 
     def offer(
@@ -55,17 +74,14 @@ class BestPolicy:
         written_at_s: float | None = None,
     ) -> bool:
         """Saves the policy if `row` (its evaluation) is the best so far; True if it did."""
-        if not math.isfinite(row.get(_BEST_BY, math.nan)):
-            return False
-        ranked = rank(row, self._max_fall_rate)
-        if self.rank is not None and not ranked > self.rank:
+        ranked = self._rank(row)
+        if not math.isfinite(ranked[1]) or (self.rank is not None and not ranked > self.rank):
             return False
         self.rank = ranked
-        best_of_run = {
-            "step": int(row["step"]),
-            _BEST_BY: float(row[_BEST_BY]),
-            _FALLS: float(row.get(_FALLS, 0.0)),
+        best_of_run = {"step": int(row["step"])} | {
+            key: float(row[key]) for key in (_BEST_BY, *TRACKING) if key in row
         }
+        best_of_run[_FALLS] = float(row.get(_FALLS, 0.0))
         if written_at_s is not None:
             best_of_run["written_at_s"] = round(written_at_s, 3)
         config = {**self._run_info, "best_of_run": best_of_run}

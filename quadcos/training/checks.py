@@ -9,8 +9,8 @@ import jax
 import ml_collections
 
 from quadcos._util.overrides import flat_keys
+from quadcos.training import best_policy, sac
 from quadcos.training import config as config_lib
-from quadcos.training import sac
 
 # Config fields that size device arrays (or index them with int32).
 _SHAPES = (
@@ -108,6 +108,17 @@ def check_config(config: ml_collections.ConfigDict) -> None:
         raise ConfigError(str(error)) from None
 
 
+def check_tracked(config: ml_collections.ConfigDict, env: Any) -> None:
+    """Raises ConfigError where a trainer `config` keeps the best evaluation's policy ranked by
+    command tracking (`best_policy_by` "tracking") but the robots of `env` follow no commands."""
+    tracked = config.keep_best_policy and config.best_policy_by == "tracking"
+    if tracked and not getattr(env, "commanded", False):
+        raise ConfigError(
+            "config.best_policy_by 'tracking' ranks evaluations by command tracking: the env's"
+            " robots must follow velocity commands (env.commands.spec)"
+        )
+
+
 def check_memory(trainer: sac.SACTrainer) -> None:
     """Raises ConfigError when the training state would not fit in the device's memory.
 
@@ -180,6 +191,17 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
         raise ValueError(
             "config.best_policy_max_fall_rate must be a fraction in [0, 1], got"
             f" {config.best_policy_max_fall_rate}"
+        )
+    if config.best_policy_by not in best_policy.RANKS:
+        raise ValueError(
+            f"config.best_policy_by must be one of {', '.join(best_policy.RANKS)}, got"
+            f" {config.best_policy_by!r}"
+        )
+    targets = tuple(config.best_policy_tracking_targets)
+    if len(targets) != 2 or not all(0 < t < math.inf for t in targets):
+        raise ValueError(
+            "config.best_policy_tracking_targets must be two finite speeds > 0 (m/s, rad/s), got"
+            f" {targets}"
         )
     if config.actor_warmup_steps < 0:
         raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")

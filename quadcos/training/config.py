@@ -18,6 +18,8 @@ HOST_FIELDS = frozenset(
         "checkpoint_interval",
         "keep_checkpoints",
         "save_replay",
+        "best_policy_by",
+        "best_policy_tracking_targets",
     }
 )
 
@@ -206,5 +208,10 @@ def _host_loop(config: ml_collections.ConfigDict) -> None:
     # With keep_best_policy: an evaluation that falls in at most this fraction of its episodes
     # beats every one that falls more, whatever their rewards (1.0: the reward alone ranks).
     config.best_policy_max_fall_rate = 1.0
+    # With keep_best_policy: what ranks the evaluations on the same side of that bound: "reward"
+    # (eval/episode_reward), or "tracking" for robots that follow velocity commands: the worse of
+    # speed and yaw-rate tracking RMS relative to best_policy_tracking_targets (m/s, rad/s).
+    config.best_policy_by = "reward"
+    config.best_policy_tracking_targets = (0.10, 0.15)
     # Store the replay buffer in checkpoints (exact resume, large files).
     config.save_replay = False

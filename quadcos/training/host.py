@@ -187,6 +187,8 @@ class Progress:
             for key, label, unit in (
                 ("eval/forward_speed", "speed", " m/s"),
                 ("eval/fall_rate", "fall rate", ""),
+                ("eval/speed_tracking_rms", "speed RMS", " m/s"),
+                ("eval/yaw_rate_tracking_rms", "yaw-rate RMS", " rad/s"),
             )
             if key in row
         )

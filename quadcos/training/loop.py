@@ -28,7 +28,7 @@ from quadcos._util import provenance
 from quadcos.training import best_policy, checkpoint, host, metrics_log, parallel, run_files, sac
 from quadcos.training import config as config_lib
 from quadcos.training import policy as policy_lib
-from quadcos.training.checks import check_config, check_memory
+from quadcos.training.checks import check_config, check_memory, check_tracked
 
 logger = logging.getLogger(__name__)
 
@@ -121,15 +121,15 @@ def train(
       The final policy, state and metrics.
 
     Raises:
-      ConfigError: invalid config, a training state (replay buffer, envs) larger than the
-        device's memory, or (resuming) a checkpoint of other shapes; nothing was written.
+      ConfigError: invalid config (a tracking rank without commands too), a training state
+        larger than the device's memory, or (resuming) a checkpoint of other shapes; no files.
       ValueError: `resume` without `run_dir`.
       FileExistsError: `run_dir` holds a run and `resume` is False.
-      NonFiniteLossError: a loss became non-finite; the newest checkpoint is the
-        last one before that chunk.
+      NonFiniteLossError: a loss became non-finite; the newest checkpoint is the last before it.
     """
     config = config_lib.default_config() if config is None else config
     check_config(config)
+    check_tracked(config, eval_env or env)
     if resume and run_dir is None:
         raise ValueError("resume=True needs a run_dir")
     startup = host.StartUp(started_at) if startup is None else startup
@@ -300,7 +300,7 @@ def _train_loop(
             log.append(row)
         progress.log_row(row)
         if best is not None and best.offer(state, row, written_at_s=clock()):
-            logger.info("best evaluation so far (%.0f): saved to %s", best.reward, best.directory)
+            logger.info("best evaluation so far (%.4g): saved to %s", best.score, best.directory)
 
     def record_evaluation(
         row: dict[str, Any], state: sac.TrainingState | policy_lib.PolicyPart

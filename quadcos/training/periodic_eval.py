@@ -8,8 +8,20 @@ import jax.numpy as jnp
 from brax import envs
 
 from quadcos.env import episodes
+from quadcos.env import tracking as tracking_lib
 
 Metrics = dict[str, jax.Array]
+
+
+@flax.struct.dataclass
+class Followed:
+    """What command tracking carries from step to step (`quadcos.env.tracking`): the robots' pose
+    (x, y, yaw) after the last step, the command (v*, ω*) they follow in the next, and the window
+    sums."""
+
+    pose: tuple[jax.Array, jax.Array, jax.Array]
+    command: jax.Array
+    windows: tracking_lib.Windows
 
 
 @flax.struct.dataclass
@@ -21,6 +33,7 @@ class EvalTotals:
     metrics: dict[str, jax.Array]
     alive: jax.Array
     diverged: jax.Array
+    followed: Followed | None  # robots that follow velocity commands; None otherwise
 
 
 def evaluate(
@@ -36,23 +49,32 @@ def evaluate(
     are ignored. An episode whose physics diverged (a non-finite reward: the env ends it as a
     fall) counts in `eval/fall_rate` and `eval/diverged_rate`, and its non-finite step is left
     out of the sums, so that one blown-up robot does not turn the mean reward into NaN (as
-    `quadcos.evaluation.metrics.aggregate` does for quadcos.evaluate).
+    `quadcos.evaluation.metrics.aggregate` does for quadcos.evaluate). Robots that follow
+    velocity commands (a quadcos env with `commands.spec` set) are measured as quadcos.evaluate
+    measures them too: speed and yaw-rate tracking over 0.5-s windows (`quadcos.env.tracking`).
 
     Returns:
       Averages over the episodes of: `eval/episode_reward` (sum of rewards),
       `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode ended with done
       before the time limit), `eval/diverged_rate` (1 if it ended non-finite), and for each key
       of the env's `state.metrics`, `eval/<key>`: the per-episode sum for keys starting with
-      `reward/`, else the per-episode mean over alive steps.
+      `reward/`, else the per-episode mean over alive steps; with commands
+      `eval/speed_tracking_rms` (m/s) and `eval/yaw_rate_tracking_rms` (rad/s), every closed
+      window of every episode pooled.
     """
     env_state = eval_env.reset(keys)
     zeros = jnp.zeros((keys.shape[0],))
+    commanded = "velocity_command" in env_state.info
+    window = tracking_lib.window_steps(eval_env.dt) if commanded else 0
     totals = EvalTotals(
         reward=zeros,
         length=zeros,
         metrics={name: zeros for name in env_state.metrics},
         alive=jnp.ones((keys.shape[0],), bool),
         diverged=jnp.zeros((keys.shape[0],), bool),
+        followed=_followed(env_state, tracking_lib.Windows.zeros(keys.shape[0]))
+        if commanded
+        else None,
     )
 
     def update(totals: EvalTotals, next_env_state: envs.State, _) -> EvalTotals:
@@ -62,12 +84,23 @@ def evaluate(
         alive_sum = lambda total, value: (
             total + jnp.where(counted & jnp.isfinite(value), value, 0.0)
         )
+        length = alive_sum(totals.length, 1.0)
+        followed = totals.followed
+        if followed is not None:
+            pose = tracking_lib.pose(next_env_state.pipeline_state.qpos)
+            speed, yaw_rate = tracking_lib.velocity(followed.pose, pose, eval_env.dt)
+            steps = length.astype(jnp.int32)
+            windows = tracking_lib.advance(
+                followed.windows, speed, yaw_rate, followed.command, counted, steps, window
+            )
+            followed = _followed(next_env_state, windows)
         return EvalTotals(
             reward=alive_sum(totals.reward, next_env_state.reward),
-            length=alive_sum(totals.length, 1.0),
+            length=length,
             metrics=jax.tree.map(alive_sum, totals.metrics, next_env_state.metrics),
             alive=totals.alive & (next_env_state.done == 0) & ~blown_up,
             diverged=totals.diverged | (totals.alive & blown_up),
+            followed=followed,
         )
 
     _, totals, _ = episodes.run_episodes(
@@ -83,4 +116,13 @@ def evaluate(
         if not name.startswith("reward/"):
             per_episode = per_episode / jnp.maximum(totals.length, 1.0)
         metrics[f"eval/{name}"] = jnp.mean(per_episode)
+    if totals.followed is not None:
+        speed, yaw_rate = tracking_lib.pooled_rms(totals.followed.windows)
+        metrics |= {"eval/speed_tracking_rms": speed, "eval/yaw_rate_tracking_rms": yaw_rate}
     return metrics
+
+
+def _followed(state: envs.State, windows: tracking_lib.Windows) -> Followed:
+    """The robots' pose after `state`'s step and the command they follow next."""
+    command = state.info["velocity_command"].velocity
+    return Followed(tracking_lib.pose(state.pipeline_state.qpos), command, windows)

@@ -300,6 +300,12 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
             checks.check_config(config.sac)
         except checks.ConfigError as error:  # it names fields as config.<sac key>
             raise ValueError(re.sub(r"\bconfig\.", "config.sac.", str(error))) from None
+        tracked = config.sac.keep_best_policy and config.sac.best_policy_by == "tracking"
+        if tracked and not config.env.commands.spec:
+            raise ValueError(
+                "config.sac.best_policy_by 'tracking' ranks evaluations by command tracking: it"
+                " needs config.env.commands.spec"
+            )
         if non_finite:  # in range, as far as the checks above know
             key, value = next(iter(non_finite.items()))
             raise ValueError(f"bad value {value} for config key {key!r}: it must be finite")

@@ -81,6 +81,8 @@ def open_run_dir(
                 run_info,
                 run.log.rows,
                 config.best_policy_max_fall_rate,
+                config.best_policy_by,
+                tuple(config.best_policy_tracking_targets),
             )
     return run
 
