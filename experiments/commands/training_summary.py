@@ -7,7 +7,7 @@
 replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
 --no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
-rate, the env-steps/s of the window it ends), the training rate at the last evaluation, the
+rate, the env-steps/s of the window it ends, its tracking RMS where logged), the training rate at the last evaluation, the
 solver probe's physics (a robot without a preset), and the key numbers of the kept policy's
 random-command evaluation and robustness conditions, of its step-0 gait's conditions and of the last
 policy's evaluation and conditions (where measured), with the physics they ran on where recorded
@@ -23,7 +23,7 @@ from pathlib import Path
 
 STEP = re.compile(
     r"step ([\d,]+)/[\d,]+\s+([\d,]+) env steps/s\s+eval reward (\S+)\s+speed (\S+) m/s"
-    r"\s+fall rate (\S+)"
+    r"\s+fall rate (\S+)(?:\s+speed RMS (\S+) m/s\s+yaw-rate RMS (\S+) rad/s)?"
 )
 FEED_FORWARD = re.compile(r"feed-forward: v_ref (\S+) m/s, b (\S+) m(?: .*?speed map \(([^)]*)\))?")
 DROPPED = ("--output_dir", "--no_progress")  # argv flags that say nothing of the run
@@ -99,8 +99,11 @@ def summary(path: Path) -> dict:
                 "fall_rate": float(falls),
                 # the trainer's rate over the window since the row before (0 at step 0)
                 "env_steps_per_s": int(rate.replace(",", "")),
+                # the evaluation's tracking RMS (runs that logged it)
+                **({"speed_rms": float(speed_rms), "yaw_rate_rms": float(yaw_rms)}
+                   if speed_rms else {}),
             }
-            for steps, rate, reward, speed, falls in rows
+            for steps, rate, reward, speed, falls, speed_rms, yaw_rms in rows
         ],
         # the trainer's env steps per second at its last evaluation (runs that logged it)
         **({"env_steps_per_s": int(rows[-1][1].replace(",", ""))} if len(rows) > 1 else {}),
