@@ -7,11 +7,11 @@
 replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
 --no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
-rate, the env-steps/s of the window it ends, its tracking RMS where logged), the training rate at the last evaluation, the
-solver probe's physics (a robot without a preset), and the key numbers of the kept policy's
-random-command evaluation and robustness conditions, of its step-0 gait's conditions and of the last
-policy's evaluation and conditions (where measured), with the physics they ran on where recorded
-(per-episode data left out).
+rate, the env-steps/s of the window it ends, its tracking RMS where logged), the training rate
+at the last evaluation, the solver probe's physics (a robot without a preset), and the key
+numbers of the kept policy's random-command evaluation and robustness conditions, of its step-0
+gait's conditions and of the last policy's evaluation and conditions (where measured), with the
+physics they ran on where recorded (per-episode data left out).
 """
 
 import io
