@@ -60,7 +60,7 @@ def evaluate(
       of the env's `state.metrics`, `eval/<key>`: the per-episode sum for keys starting with
       `reward/`, else the per-episode mean over alive steps; with commands
       `eval/speed_tracking_rms` (m/s) and `eval/yaw_rate_tracking_rms` (rad/s), every closed
-      window of every episode pooled.
+      window of every episode pooled (over several devices the trainer averages each device's).
     """
     env_state = eval_env.reset(keys)
     zeros = jnp.zeros((keys.shape[0],))
