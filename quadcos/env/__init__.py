@@ -2,8 +2,8 @@
 
 Modules, lowest first: `backends` (the MJX implementation: JAX or Warp), `randomization` (a
 robot's physics drawn per episode), `config` (the env's options, defaults and checks), `episodes`
-(the one deterministic rollout loop), `layout` (where the robot's state sits, and its
-controls), `quadruped` (the env itself).
+(the one deterministic rollout loop), `tracking` (command tracking as evaluations measure it),
+`layout` (where the robot's state sits, and its controls), `quadruped` (the env itself).
 """
 
 from typing import Any
