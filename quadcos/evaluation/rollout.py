@@ -171,7 +171,7 @@ def _initial_gait_stats(
     return GaitEpisodeStats(
         **{field.name: getattr(stats, field.name) for field in dataclasses.fields(EpisodeStats)},
         command=command,
-        yaw=slope.attitude(data.qpos[:, constants.QPOS_QUATERNION]).yaw,
+        yaw=tracking_lib.pose(data.qpos)[2],
         foot_xy=feet,
         foot_contact=touching,
         tracking=tracking_lib.Windows.zeros(num_envs),
