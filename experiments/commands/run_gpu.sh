@@ -9,6 +9,7 @@
 #   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
 #   bash experiments/commands/run_gpu.sh anymal LEVER...  # all four for ANYmal C's (below)
 #   bash experiments/commands/run_gpu.sh go1 LEVER...     # all four for Go1's SAC levers (below)
+#   bash experiments/commands/run_gpu.sh go1seeds LEVER SEED...  # all four: a Go1 lever from nothing
 # RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
 # go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
 # the GPU's memory. The runs work from a copy of the tree under
@@ -34,7 +35,7 @@ split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops 
   [[ $NAME =~ ^[A-Za-z0-9_.-]+$ && -n $ROBOT && $SEED =~ ^[0-9]+$ ]] || {
     echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
 }
-case $verb in levers|anymal|go1|stop) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
+case $verb in levers|anymal|go1|go1seeds|stop) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
 # the levers were measured with the drive's loops open (the command preset closes them)
 loops_open="--config.env.commands.speed_gain_rate=0 --config.env.commands.heading_gain=0"
 
@@ -174,9 +175,11 @@ anymal)  # ANYmal C's levers (experiments/commands/README.md, "ANYmal C levers")
   for next in train wait; do bash "$0" $next "${specs[@]}"; done
   EVAL_ENVS=${EVAL_ENVS:-512} bash "$0" evaluate "${specs[@]}"
   bash "$0" pack "${specs[@]}" ;;
-go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go1loops540_s0
-  # (its centre, speed map and b given: nothing searched or measured), whose SAC never beat that
-  # gait on MJX-JAX; the command preset (the drive's loops closed) for 450 s; runs share GPUs.
+go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searched gait of
+  # go1loops540_s0 (its centre, speed map and b given: nothing searched or measured), whose SAC
+  # never beat that gait on MJX-JAX; the command preset (the drive's loops closed) for 450 s.
+  # go1seeds LEVER SEED...: the lever from nothing (the command preset, its search and 480 s) on
+  # each seed, as go1cmd_LEVER_sSEED (MAX_SECONDS: another budget). Runs share GPUs.
   gait="--config.env.action_centre=0.223638,-0.149431,0.15185,-2.06857,-5.21017"
   gait+=" --config.env.commands.reference_speed=1.03 --config.env.commands.half_track=0.442"
   gait+=" --config.env.commands.speed_map=0.2165,0.4605,0.696,0.9307 --config.sac.max_seconds=450"
@@ -198,10 +201,18 @@ go1)  # Go1's SAC levers on one fixed start: seed 0 from the searched gait of go
     [tauyaw3track]="$tau $yaw3 $eval2 $track" [tauyaw3gyrotrack]="$tau $yaw3 $gyro $eval2 $track"
   )
   specs=()
-  for name in "$@"; do
+  if [ "$verb" = go1seeds ]; then
+    name=${1:?usage: run_gpu.sh go1seeds LEVER SEED...}; shift
     [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
-    specs+=("go1_${name}_s0@menagerie:unitree_go1@0@$gait ${lever[$name]}")
-  done
+    for seed in "$@"; do
+      specs+=("go1cmd_${name}_s$seed@menagerie:unitree_go1@$seed@${lever[$name]}${MAX_SECONDS:+ --config.sac.max_seconds=$MAX_SECONDS}")
+    done
+  else
+    for name in "$@"; do
+      [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
+      specs+=("go1_${name}_s0@menagerie:unitree_go1@0@$gait ${lever[$name]}")
+    done
+  fi
   for next in train wait evaluate pack; do bash "$0" $next "${specs[@]}"; done ;;
 stop)  # the bracketed first letters keep each pattern from matching a shell that names it
   pkill -f "[q]uadcos.train .*--output_dir=$runs/"
