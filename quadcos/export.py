@@ -5,7 +5,6 @@ The formats and the library behind them: `quadcos.deploy.export`.
 """
 
 import argparse
-import sys
 from collections.abc import Sequence
 
 from quadcos._util import cli
