@@ -3,7 +3,8 @@
 Modules, lowest first: `backends` (the MJX implementation: JAX or Warp), `randomization` (a
 robot's physics drawn per episode), `config` (the env's options, defaults and checks), `episodes`
 (the one deterministic rollout loop), `tracking` (command tracking as evaluations measure it),
-`layout` (where the robot's state sits, and its controls), `quadruped` (the env itself).
+`layout` (where the robot's state sits, and its controls), `controller` (an action → joint
+targets: the oscillator of Eq. 3, or the joint controller), `quadruped` (the env itself).
 """
 
 from typing import Any
@@ -21,8 +22,9 @@ from quadcos.env.config import (
     servo_gains,
     validate_config,
 )
+from quadcos.env.controller import JOINT_TARGET_BOUND
 from quadcos.env.layout import MAX_SPEED
-from quadcos.env.quadruped import _SPAWN_CLEARANCE, JOINT_TARGET_BOUND, QuadrupedEnv
+from quadcos.env.quadruped import _SPAWN_CLEARANCE, QuadrupedEnv
 
 __all__ = [
     "CONTROLLERS",

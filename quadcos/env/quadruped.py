@@ -4,6 +4,7 @@ One step (paper Fig. 3): action → (low-pass command filter) → rhythm-control
 (§3.3) → joint targets at every physics substep (Eq. 3) → MJX physics → proprioceptive slope
 estimate (Eq. 5) → reward (Eqs. 8–13) and fall check. `controller="joint"` replaces the
 oscillator by joint targets straight from the (filtered) action (the "DRL-only" baseline of §5).
+The action → joint targets part is `quadcos.env.controller`'s.
 """
 
 import functools
@@ -18,7 +19,7 @@ import numpy as np
 from quadcos import robot
 from quadcos import terrain as terrain_lib
 from quadcos._util.quiet import warp_absence_unprinted
-from quadcos.env import backends, commands, observation, randomization
+from quadcos.env import backends, commands, controller, observation, randomization
 from quadcos.env.config import (
     action_size,
     default_config,
@@ -34,9 +35,6 @@ from quadcos.equations import oscillator, reward, slope
 with warp_absence_unprinted():
     from brax.envs import base
     from mujoco import mjx
-
-JOINT_TARGET_BOUND = oscillator.AMPLITUDE_BOUND  # rad: the joint controller's target range
-
 
 class QuadrupedEnv(base.Env):
     """The paper's quadruped on a terrain, as a Brax env. Holds only fixed data.
@@ -257,98 +255,39 @@ class QuadrupedEnv(base.Env):
     def action_for(self, params: oscillator.RhythmParameters) -> jax.Array:
         """The (..., action_size) action that commands rhythm parameters `params` in this env (no
         posture offset)."""
-        action = oscillator.mapped_action(params, self.action_map, self.config.action_scale)
-        padding = [(0, 0)] * (action.ndim - 1) + [(0, self.action_size - oscillator.RHYTHM_SIZE)]
-        return jnp.pad(action, padding)
+        return controller.action_for(self.config, self.action_map, params)
 
     def rhythm_parameters(self, action: jax.Array) -> oscillator.RhythmParameters:
         """The rhythm parameters (§3.3) that the oscillator controller's `action` sets."""
-        return oscillator.mapped_parameters(
-            action[..., : oscillator.RHYTHM_SIZE], self.action_map, self.config.action_scale
-        )
+        return controller.rhythm_parameters(self.config, self.action_map, action)
 
     def zero_action_targets(self, time: jax.Array) -> jax.Array:
-        """(J,) joint targets of a robot that has held the zero action (the action centre) since
-        its reset, at time t (s since the episode's start): its command stays at the centre and its
-        phase is 2π·t/T, T the centre's period."""
-        command = jnp.zeros(self.action_size)
-        phase = oscillator.advance_phase(jnp.zeros(()), self._period(command), time)
-        return self.joint_targets(command, phase, time)
+        """(J,) joint targets of a robot that has held the zero action since its reset, at time t
+        (s since the episode's start): `controller.zero_action_targets`."""
+        return controller.zero_action_targets(self.config, self.layout, self.action_map, time)
 
     # --- pieces of a step ---------------------------------------------------------------------
 
     def joint_targets(
         self, action: jax.Array, phase: jax.Array, time: jax.Array, drive: jax.Array | None = None
     ) -> jax.Array:
-        """(J,) joint targets (rad; the robot's leg joints, `RobotDescription.joint_names`) that
-        `action` commands at oscillator phase ψ / time t (s since the episode's start): the home
-        pose moved by the rhythm; `drive`: the command's feed-forward (`drive_for`)."""
-        if self.config.controller == "joint":
-            return self.layout.home + JOINT_TARGET_BOUND * jnp.clip(action, -1.0, 1.0)
-        targets = self.layout.rhythm_targets(self.rhythm(action, phase, time, drive))
-        if self.config.turn_mode == "abduction_stride":
-            swing = self._swing(action, phase, time, drive) * self._ramp(time)
-            turn = action[..., self._turn_index]
-            abduction = oscillator.abduction_stride(swing, turn, self.config.turn_bound)
-            targets = targets + self.layout.abduction_targets(abduction)
-        return targets
+        """(J,) joint targets (rad) that `action` commands at oscillator phase ψ / time t (s since
+        the episode's start), `drive` the command's feed-forward: `controller.joint_targets`."""
+        return controller.joint_targets(
+            self.config, self.layout, self.action_map, action, phase, time, drive
+        )
 
     def rhythm(
         self, action: jax.Array, phase: jax.Array, time: jax.Array, drive: jax.Array | None = None
     ) -> jax.Array:
-        """(8,) Eq. 3's oscillator outputs (rad; LF hip, LF knee, ..., RB knee) that the oscillator
-        controller's `action` commands at phase ψ / time t (s since the episode's start), hip
-        offsets included and, with `start_ramp_s`, a growing share of it in the first seconds
-        (the "abduction_stride" turn acts on other joints: `joint_targets`)."""
-        targets = self._swing(action, phase, time, drive)
-        if self.config.posture_bound > 0:
-            targets += oscillator.posture_offsets(
-                action[..., oscillator.RHYTHM_SIZE :], self.config.posture_bound
-            )
-        return targets * self._ramp(time)
-
-    @property
-    def _turn_index(self) -> int:
-        """Where the turn value sits in an action (after the rhythm and the posture values)."""
-        posture = oscillator.POSTURE_SIZE if self.config.posture_bound > 0 else 0
-        return oscillator.RHYTHM_SIZE + posture
-
-    def _ramp(self, time: jax.Array) -> jax.Array | float:
-        """The share of the rhythm acting at time t (`start_ramp_s`; 1 without a ramp)."""
-        if self.config.start_ramp_s > 0:  # a growing share in an episode's first seconds
-            return oscillator.start_ramp(time, self.config.start_ramp_s)
-        return 1.0
-
-    def _swing(
-        self, action: jax.Array, phase: jax.Array, time: jax.Array, drive: jax.Array | None
-    ) -> jax.Array:
-        """(8,) Eq. 3's outputs for `action`, left and right hips apart with the
-        "hip_amplitude_difference" turn and the feed-forward's `drive`; no posture offsets, no
-        ramp."""
-        params = self.rhythm_parameters(action)
-        phases = oscillator.trot_phases(params.phi1, params.phi3)
-        if self.config.oscillator_form == "literal":
-            targets = oscillator.cosine_rhythm(
-                time, params.amplitude_hip, params.amplitude_knee, params.period, phases
-            )
-        else:
-            targets = oscillator.rhythm_at_phase(
-                phase, params.amplitude_hip, params.amplitude_knee, phases
-            )
-        if self.config.turn_mode == "hip_amplitude_difference":
-            turn = action[..., self._turn_index]
-            targets = oscillator.hip_amplitude_difference(targets, turn, self.config.turn_bound)
-        if drive is not None:
-            targets = oscillator.side_scaled(targets, drive)
-        return targets
+        """(8,) Eq. 3's oscillator outputs (rad) that the oscillator controller's `action`
+        commands at phase ψ / time t: `controller.rhythm`."""
+        return controller.rhythm(self.config, self.action_map, action, phase, time, drive)
 
     def drive_for(self, velocity: jax.Array) -> jax.Array | None:
-        """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set
-        (`commands.drive`; a command's loops closed: `commands.Command.driven`), or None without
-        commands or the feed-forward."""
-        if self.drive_map is None:
-            return None
-        return commands.drive(self.config.commands, velocity, self.drive_map)
+        """(..., 2) the left and right hip-swing scales that velocity commands (..., 2) set, or
+        None without commands or the feed-forward: `controller.drive_for`."""
+        return controller.drive_for(self.config, self.drive_map, velocity)
 
     def _model(self, info: dict[str, Any]) -> mjx.Model:
         """The MJX model this robot steps: the env's, or with its randomised physics."""
@@ -412,7 +351,7 @@ class QuadrupedEnv(base.Env):
             targets = self.joint_targets(command, phase, data.time, drive)
             data = data.replace(ctrl=self.layout.controls(targets, data))
             data = backends.step(model, data)
-            period = self._period(command)
+            period = controller.period(self.config, self.action_map, command)
             return (data, oscillator.advance_phase(phase, period, dt), command), period
 
         (data, phase, command), periods = jax.lax.scan(
@@ -498,13 +437,6 @@ class QuadrupedEnv(base.Env):
         if tracking:
             threshold = jnp.minimum(threshold, 0.5 * tracking["commanded_progress"] / self.dt)
         return mean_speed >= threshold
-
-    def _period(self, command: jax.Array) -> jax.Array:
-        """The oscillator period T (s) that `command` sets; the joint controller has none, so its
-        phase runs at the fixed trot's period (it is observable with `observe_phase` only)."""
-        if self.config.controller == "joint":
-            return jnp.asarray(oscillator.FIXED_TROT.period, jnp.float32)
-        return self.rhythm_parameters(command).period
 
     def _observe(
         self, data: mjx.Data, phase: jax.Array, command: jax.Array
