@@ -688,18 +688,18 @@ def test_only_quadcos_envs_on_one_device_with_mjx_jax_keep_their_programs(tmp_pa
 
 def test_an_env_that_counts_its_observation_is_not_traced_for_it(monkeypatch):
     import quadcos  # noqa: PLC0415 (the rest of this module needs no MJX)
-    from quadcos.training import sac  # noqa: PLC0415
+    from quadcos.training import batched_envs  # noqa: PLC0415
 
     traced = []
     monkeypatch.setattr(jax, "eval_shape", lambda *args: traced.append(args))
     env = quadcos.make_env("flat", observe_slope=True)
-    assert sac.observation_size(env, None, 4) == env.observation_size == 20
-    assert sac.observation_size(PointEnv(), None, 4) == PointEnv().observation_size
+    assert batched_envs.observation_size(env, None, 4) == env.observation_size == 20
+    assert batched_envs.observation_size(PointEnv(), None, 4) == PointEnv().observation_size
     assert traced == []
 
     class Uncounted(PointEnv):  # Brax's `observation_size`, a reset run: read off its trace
         observation_size = envs.PipelineEnv.observation_size
 
     with pytest.raises(AttributeError):  # the stand-in eval_shape returned None
-        sac.observation_size(Uncounted(), "reset", 4)
+        batched_envs.observation_size(Uncounted(), "reset", 4)
     assert traced and traced[0][0] == "reset"

@@ -32,8 +32,8 @@ from brax.training.agents.sac import networks as sac_networks
 from jax.sharding import PartitionSpec
 
 from quadcos._util import caches
+from quadcos.training import batched_envs, curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import config as config_lib
-from quadcos.training import curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import replay as replay_lib
 from quadcos.training import state as state_lib
 
@@ -42,23 +42,6 @@ PREFILL_ACTIONS = ("uniform", "policy")
 MIN_STD = networks.MIN_STD
 make_networks = networks.make_networks
 TrainingState = state_lib.TrainingState
-
-
-def env_keys(num_envs: int) -> jax.ShapeDtypeStruct:
-    """The shape of the keys a batched env's reset takes."""
-    return jax.ShapeDtypeStruct((num_envs,) + jax.random.PRNGKey(0).shape, jnp.uint32)
-
-
-def observation_size(env: envs.Env, reset_envs: Any, num_envs: int) -> int:
-    """Length of `env`'s flat observation vector: its own count (`QuadrupedEnv`'s: no trace), or,
-    for Brax's (a reset, run), read off the trace of the batched `reset_envs` (keys → states)."""
-    counted = type(getattr(env, "unwrapped", env)).observation_size
-    if counted is not envs.PipelineEnv.observation_size:
-        return env.observation_size
-    obs = jax.eval_shape(reset_envs, env_keys(num_envs)).obs
-    if not hasattr(obs, "shape") or len(obs.shape) != 2:
-        raise ValueError(f"SAC needs a flat observation vector; got {obs}")
-    return obs.shape[1]
 
 
 class SACTrainer:
@@ -98,8 +81,12 @@ class SACTrainer:
         self.layout = parallel.make_layout(config.num_devices)
         parallel.check_divisible(config, self.layout.shards)
         shards = self.layout.shards
-        self._reset_envs, self._step_envs = self._batched_env(getattr(env, "impl", "jax"))
-        self.observation_size = observation_size(env, self._reset_envs, config.num_envs)
+        self._reset_envs, self._step_envs = batched_envs.reset_and_step(
+            self.env, self.layout, self.config.num_envs, self._gait, getattr(env, "impl", "jax")
+        )
+        self.observation_size = batched_envs.observation_size(
+            env, self._reset_envs, config.num_envs
+        )
         self.action_size = env.action_size
         self.networks = make_networks(
             self.observation_size,
@@ -182,22 +169,6 @@ class SACTrainer:
                     replicated,
                 )
             )
-
-    def _batched_env(self, impl: str) -> tuple[Any, Any]:
-        """The jitted reset (keys → states) and step of all training envs. On several devices
-        with MJX-Warp, each device resets and steps its own envs (`parallel.per_device`); the
-        JAX physics is split by the SPMD partitioner with the rest of the program."""
-        if self.layout.mesh is None or impl != "warp":
-            return jax.jit(self.env.reset), jax.jit(self.env.step)
-        num_envs = self.config.num_envs
-        fresh = jax.eval_shape(self.env.reset, env_keys(num_envs))
-        specs = parallel.env_specs(fresh, num_envs)
-        mapped = jax.eval_shape(state_lib.with_gait, fresh, self._gait)
-        step_specs = parallel.env_specs(mapped, num_envs)  # the states the trainer steps
-        envs_axis = PartitionSpec(parallel.AXIS)
-        reset = parallel.per_device(self.env.reset, self.layout, envs_axis, specs)
-        step = parallel.per_device(self.env.step, self.layout, (step_specs, envs_axis), step_specs)
-        return jax.jit(reset), jax.jit(step)
 
     def init(self) -> TrainingState:
         """Returns the initial training state (empty replay buffer), committed to the default
