@@ -134,4 +134,10 @@ GO1_LEVERS = {  # run in campaign.json (run_gpu.sh go1) -> its change from the p
     "go1_tauas10_s0": "the yaw rate low-passed, action bounds 0.1",
     "go1_taueval2_s0": "the yaw rate low-passed, an evaluation every 2 M env steps (10 M)",
     "go1_tauyaw3eval2_s0": "the yaw rate low-passed, w4 ×3, an evaluation every 2 M env steps",
+    "go1_gyro_s0": "the torso's angular velocity observed (`env.observe_angular_velocity`)",
+    "go1_tauyaw3gyro_s0": "`go1_tauyaw3eval2_s0`'s, the angular velocity observed",
+    "go1_tauyaw3track_s0": "`go1_tauyaw3eval2_s0`'s, the kept policy ranked by tracking"
+    " (`sac.best_policy_by=tracking`)",
+    "go1_tauyaw3gyrotrack_s0": "`go1_tauyaw3eval2_s0`'s, the angular velocity observed, ranked"
+    " by tracking",
 }
