@@ -9,7 +9,8 @@
 #   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
 #   bash experiments/commands/run_gpu.sh anymal LEVER...  # all four for ANYmal C's (below)
 #   bash experiments/commands/run_gpu.sh go1 LEVER...     # all four for Go1's SAC levers (below)
-#   bash experiments/commands/run_gpu.sh go1seeds LEVER SEED...  # all four: a Go1 lever from nothing
+#   [MAX_SECONDS=S] bash experiments/commands/run_gpu.sh go1seeds LEVER SEED...  # all four: a Go1
+#                                                         # lever from nothing (S: its budget)
 # RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
 # go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
 # the GPU's memory. The runs work from a copy of the tree under
@@ -203,6 +204,9 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   specs=()
   if [ "$verb" = go1seeds ]; then
     name=${1:?usage: run_gpu.sh go1seeds LEVER SEED...}; shift
+    (( $# )) || { echo "usage: run_gpu.sh go1seeds LEVER SEED...: no SEED" >&2; exit 2; }
+    [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
+      { echo "bad MAX_SECONDS '$MAX_SECONDS': whole seconds" >&2; exit 2; }
     [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
     for seed in "$@"; do
       specs+=("go1cmd_${name}_s$seed@menagerie:unitree_go1@$seed@${lever[$name]}${MAX_SECONDS:+ --config.sac.max_seconds=$MAX_SECONDS}")

@@ -36,6 +36,7 @@ with warp_absence_unprinted():
     from brax.envs import base
     from mujoco import mjx
 
+
 class QuadrupedEnv(base.Env):
     """The paper's quadruped on a terrain, as a Brax env. Holds only fixed data.
 

@@ -82,7 +82,7 @@ class SACTrainer:
         parallel.check_divisible(config, self.layout.shards)
         shards = self.layout.shards
         self._reset_envs, self._step_envs = batched_envs.reset_and_step(
-            self.env, self.layout, self.config.num_envs, self._gait, getattr(env, "impl", "jax")
+            self.env, self.layout, config.num_envs, self._gait, getattr(env, "impl", "jax")
         )
         self.observation_size = batched_envs.observation_size(
             env, self._reset_envs, config.num_envs
