@@ -436,6 +436,56 @@ def test_a_gait_that_barely_turns_by_its_strides_is_warned_of(monkeypatch, caplo
     assert "turns above 0.10 rad/s saturate" in caplog.text
 
 
+def test_the_run_keeps_the_searched_gait_that_turns_both_ways(monkeypatch, caplog):
+    from quadcos.deploy import calibration
+    from quadcos.evaluation import gait_search
+    from quadcos.training import presets
+
+    # the search's ranking (best first): a gait that turns only right, one that fell, one that
+    # turns both ways walking backwards, one that turns both ways, one that turns them better
+    one_way, fell, backwards, both, better = (
+        f"0.1,0.2,0.3,{phi},{phi - 3.14:g}" for phi in (0, 1, 1.5, 2, 3)
+    )
+    ranking = [
+        {"parameters": dict(zip("abcde", map(float, centre.split(",")), strict=True)),
+         "score": score}
+        for centre, score in
+        ((one_way, 9.0), (fell, None), (backwards, 8.0), (both, 7.0), (better, 6.0))
+    ]  # fmt: skip
+    turning = {one_way: (0.007, -0.5), fell: (0.3, -0.3), backwards: (0.3, -0.3), both: (0.2, -0.25),
+               better: (0.4, -0.4)}  # fmt: skip
+    walked = []
+
+    def walk(config, schedule, seed, robots, friction=None):  # (speed, yaw rate) by side scales
+        walked.append((config.action_centre, schedule))
+        side = float(schedule.split(",")[1].split("@")[0])
+        left, right = turning[config.action_centre]
+        speed = -0.1 if config.action_centre == backwards else 0.6 * float(schedule.split(",")[0])
+        return speed, {0.0: 0.0, 0.3: left, -0.3: right}[side]
+
+    monkeypatch.setattr(calibration, "_walk", walk)
+    search = {"action_centre": one_way, "ranking": ranking}
+    monkeypatch.setattr(gait_search, "find_gait", lambda config: search)
+    config = presets.build_config(presets.PRESETS["command"], {"env.robot": "menagerie:unitree_go1"})
+    with caplog.at_level("WARNING", logger=calibration.logger.name):
+        found = calibration.find_gait(config)
+    # the next in rank that walks and turns both ways, not the fallen one, the one walking
+    # backwards nor the better-turning lower one
+    assert found["action_centre"] == both
+    assert "turn one way at most with the sides at 1 -/+ 0.3 / 1 +/- 0.3 (+0.007 / -0.500" in (
+        caplog.text
+    )
+    assert f"its #3, {both}, turns +0.200 / -0.250 rad/s: kept" in caplog.text
+    assert fell not in {centre for centre, _ in walked} and better not in {c for c, _ in walked}
+    # its feed-forward is measured on that gait: b = 0.3 * 0.6 / 0.2
+    assert found["feed_forward"]["half_track"] == pytest.approx(0.9)
+    # where none turns both ways the best is kept, and said so
+    search["ranking"] = ranking[:2]
+    with caplog.at_level("WARNING", logger=calibration.logger.name):
+        assert calibration.find_gait(config)["action_centre"] == one_way
+    assert "none of the search's 1 best gaits turns both ways" in caplog.text
+
+
 def test_the_feed_forward_is_measured_on_the_gait_and_applied_to_the_run(monkeypatch, tmp_path):
     from quadcos.deploy import calibration
     from quadcos.training import presets, session

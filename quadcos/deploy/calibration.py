@@ -18,7 +18,10 @@ the longer strides of the right side turn it right). A fresh policy then walks n
 near ω*, and SAC learns what the drive misses.
 
 `find_gait` is `quadcos.evaluation.gait_search.find_gait` with this measurement added to its
-result ("feed_forward"), which `quadcos.training.run` applies to the run's config.
+result ("feed_forward"), which `quadcos.training.run` applies to the run's config. The gait it
+measures is the search's best that the sides turn both ways (at 1 ∓ δ and 1 ± δ): the search
+scores candidates under a drive whose b is the hips' half track, which barely turns them, so its
+best may be a gait that turns only one way, and no b steers that (`turning_centre`).
 """
 
 import logging
@@ -31,6 +34,7 @@ import numpy as np
 from quadcos import env as env_lib
 from quadcos.deploy import host_robot, twins
 from quadcos.env import commands as env_commands
+from quadcos.equations import oscillator
 from quadcos.evaluation import gait_search
 
 logger = logging.getLogger("quadcos.train")
@@ -52,8 +56,66 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     if not (commands.feed_forward and env_commands.parse_commands(commands.spec).enabled):
         return search
     env_config = ml_collections.ConfigDict(config.env.to_dict())
-    env_config.action_centre = search["action_centre"]
-    return search | {"feed_forward": measure(env_config, seed=config.sac.seed)}
+    env_config.action_centre = turning_centre(env_config, search, seed=config.sac.seed)
+    return search | {
+        "action_centre": env_config.action_centre,
+        "feed_forward": measure(env_config, seed=config.sac.seed),
+    }
+
+
+def turning_centre(
+    env_config: ml_collections.ConfigDict, search: dict[str, Any], seed: int = 0, robots: int = 2
+) -> str:
+    """The action centre of the best gait of `search` (its "action_centre", then its "ranking"'s
+    others without falls, in order) whose open-loop walk the sides at 1 ∓ δ and at 1 ± δ turn in
+    opposite directions, each at MIN_YAW_RATE or more, walking MIN_SPEED or more; the best, with
+    a warning, where none does."""
+    ranked = [
+        oscillator.centre_spec(c["parameters"].values())
+        for c in search.get("ranking", [])
+        if c.get("score") is not None
+    ]
+    centres = list(dict.fromkeys([search["action_centre"], *ranked]))
+    config, seconds = _open_loop(env_config), SETTLE_S + MEASURE_S
+    one_way = []  # how each better gait turned: "left / right rad/s"
+    for centre in centres:
+        config.action_centre = centre
+        (speed_left, left), (speed_right, right) = (
+            _walk(config, f"1,{side}@{seconds}", seed, robots)
+            for side in (SIDE_DIFFERENCE, -SIDE_DIFFERENCE)
+        )
+        turns = f"{left:+.3f} / {right:+.3f} rad/s"
+        walks = min(speed_left, speed_right) >= MIN_SPEED
+        if walks and min(abs(left), abs(right)) >= MIN_YAW_RATE and left * right < 0:
+            if one_way:
+                logger.warning(
+                    "feed-forward: the search's best gaits turn one way at most with the sides at"
+                    " 1 -/+ %g / 1 +/- %g (%s); its #%d, %s, turns %s: kept",
+                    SIDE_DIFFERENCE, SIDE_DIFFERENCE, "; ".join(one_way), len(one_way) + 1,
+                    centre, turns,
+                )  # fmt: skip
+            return centre
+        one_way.append(turns)
+    logger.warning(
+        "feed-forward: none of the search's %d best gaits turns both ways with the sides at"
+        " 1 -/+ %g / 1 +/- %g (%s): keeping its best",
+        len(centres), SIDE_DIFFERENCE, SIDE_DIFFERENCE, "; ".join(one_way),
+    )  # fmt: skip
+    return search["action_centre"]
+
+
+def _open_loop(env_config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
+    """`env_config` for the calibration's walks: no randomisation, the drive's loops open (its
+    gain would make every scale walk its command, its heading loop the sides' difference turn at
+    the command's ω*), the command (1, ω*) the side scales themselves."""
+    config = ml_collections.ConfigDict(env_config.to_dict())
+    config.randomization.enabled = False
+    config.commands.speed_gain_rate = 0.0
+    config.commands.heading_gain = 0.0
+    config.commands.reference_speed = 1.0
+    config.commands.half_track = 1.0
+    config.commands.speed_map = ()
+    return config
 
 
 def measure(
@@ -64,17 +126,11 @@ def measure(
     action centre) with `robots` robots each (reset seeds seed, seed + 1, ...). Where the gait is
     too slow, does not turn or its map does not grow with the scale, the config's resolved values
     are kept and a warning says why."""
-    config = ml_collections.ConfigDict(env_config.to_dict())
     frictions = [None]  # the MJCF's
-    if config.randomization.enabled:
-        low, high = config.randomization.friction
+    if env_config.randomization.enabled:
+        low, high = env_config.randomization.friction
         frictions = [low, (low + high) / 2, high]
-    config.randomization.enabled = False
-    config.commands.speed_gain_rate = 0.0  # the open-loop gait: the gain corrects this map's miss
-    config.commands.heading_gain = 0.0  # and the heading loop would turn the walk at its ω*
-    config.commands.reference_speed = 1.0  # the command (1, ω*) is then the scales themselves
-    config.commands.half_track = 1.0
-    config.commands.speed_map = ()
+    config = _open_loop(env_config)
     seconds = SETTLE_S + MEASURE_S
     speed = _walk(config, f"1,0@{seconds}", seed, robots)[0]
     yaw_rate = _walk(config, f"1,{SIDE_DIFFERENCE}@{seconds}", seed, robots)[1]
