@@ -466,7 +466,7 @@ def test_the_run_keeps_the_searched_gait_that_turns_both_ways(monkeypatch, caplo
     monkeypatch.setattr(calibration, "_walk", walk)
     search = {"action_centre": one_way, "ranking": ranking}
     monkeypatch.setattr(gait_search, "find_gait", lambda config: search)
-    config = presets.build_config(presets.PRESETS["command"], {"env.robot": "menagerie:unitree_go1"})
+    config = presets.build_config(presets.PRESETS["command"], {})
     with caplog.at_level("WARNING", logger=calibration.logger.name):
         found = calibration.find_gait(config)
     # the next in rank that walks and turns both ways, not the fallen one, the one walking
