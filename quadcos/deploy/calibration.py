@@ -56,20 +56,20 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     if not (commands.feed_forward and env_commands.parse_commands(commands.spec).enabled):
         return search
     env_config = ml_collections.ConfigDict(config.env.to_dict())
-    env_config.action_centre = turning_centre(env_config, search, seed=config.sac.seed)
+    env_config.action_centre, yaw_rate = turning_centre(env_config, search, seed=config.sac.seed)
     return search | {
         "action_centre": env_config.action_centre,
-        "feed_forward": measure(env_config, seed=config.sac.seed),
+        "feed_forward": measure(env_config, seed=config.sac.seed, yaw_rate=yaw_rate),
     }
 
 
 def turning_centre(
     env_config: ml_collections.ConfigDict, search: dict[str, Any], seed: int = 0, robots: int = 2
-) -> str:
-    """The action centre of the best gait of `search` (its "action_centre", then its "ranking"'s
-    others without falls, in order) whose open-loop walk the sides at 1 ∓ δ and at 1 ± δ turn in
-    opposite directions, each at MIN_YAW_RATE or more, walking MIN_SPEED or more; the best, with
-    a warning, where none does."""
+) -> tuple[str, float]:
+    """(action centre, its yaw rate with the sides at 1 ∓ δ) of the best gait of `search` (its
+    "action_centre", then its "ranking"'s others without falls, in order) whose open-loop walk
+    the sides at 1 ∓ δ and at 1 ± δ turn in opposite directions, each at MIN_YAW_RATE or more,
+    walking MIN_SPEED or more; of the best, with a warning, where none does."""
     ranked = [
         oscillator.centre_spec(c["parameters"].values())
         for c in search.get("ranking", [])
@@ -77,31 +77,35 @@ def turning_centre(
     ]
     centres = list(dict.fromkeys([search["action_centre"], *ranked]))
     config, seconds = _open_loop(env_config), SETTLE_S + MEASURE_S
-    one_way = []  # how each better gait turned: "left / right rad/s"
+    one_way = []  # (yaw rate at 1 ∓ δ, at 1 ± δ) of each better gait
     for centre in centres:
         config.action_centre = centre
         (speed_left, left), (speed_right, right) = (
             _walk(config, f"1,{side}@{seconds}", seed, robots)
             for side in (SIDE_DIFFERENCE, -SIDE_DIFFERENCE)
         )
-        turns = f"{left:+.3f} / {right:+.3f} rad/s"
         walks = min(speed_left, speed_right) >= MIN_SPEED
         if walks and min(abs(left), abs(right)) >= MIN_YAW_RATE and left * right < 0:
             if one_way:
                 logger.warning(
                     "feed-forward: the search's best gaits turn one way at most with the sides at"
                     " 1 -/+ %g / 1 +/- %g (%s); its #%d, %s, turns %s: kept",
-                    SIDE_DIFFERENCE, SIDE_DIFFERENCE, "; ".join(one_way), len(one_way) + 1,
-                    centre, turns,
+                    SIDE_DIFFERENCE, SIDE_DIFFERENCE, _turns(one_way), len(one_way) + 1, centre,
+                    _turns([(left, right)]),
                 )  # fmt: skip
-            return centre
-        one_way.append(turns)
+            return centre, left
+        one_way.append((left, right))
     logger.warning(
         "feed-forward: none of the search's %d best gaits turns both ways with the sides at"
         " 1 -/+ %g / 1 +/- %g (%s): keeping its best",
-        len(centres), SIDE_DIFFERENCE, SIDE_DIFFERENCE, "; ".join(one_way),
+        len(centres), SIDE_DIFFERENCE, SIDE_DIFFERENCE, _turns(one_way),
     )  # fmt: skip
-    return search["action_centre"]
+    return search["action_centre"], one_way[0][0]
+
+
+def _turns(yaw_rates: list[tuple[float, float]]) -> str:
+    """Gaits' turning walks for a log line: "left / right rad/s; ..."."""
+    return "; ".join(f"{left:+.3f} / {right:+.3f} rad/s" for left, right in yaw_rates)
 
 
 def _open_loop(env_config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
@@ -119,13 +123,17 @@ def _open_loop(env_config: ml_collections.ConfigDict) -> ml_collections.ConfigDi
 
 
 def measure(
-    env_config: ml_collections.ConfigDict, seed: int = 0, robots: int = 2
+    env_config: ml_collections.ConfigDict,
+    seed: int = 0,
+    robots: int = 2,
+    yaw_rate: float | None = None,
 ) -> dict[str, float]:
     """{"reference_speed" (m/s), "half_track" (m), "speed_map" (m/s at SPEED_MAP_SCALES, or ()),
     "yaw_rate" (rad/s, of the turning walk)} measured on the zero action of `env_config` (its
     action centre) with `robots` robots each (reset seeds seed, seed + 1, ...). Where the gait is
     too slow, does not turn or its map does not grow with the scale, the config's resolved values
-    are kept and a warning says why."""
+    are kept and a warning says why. `yaw_rate`: the turning walk's, where already walked
+    (`turning_centre`)."""
     frictions = [None]  # the MJCF's
     if env_config.randomization.enabled:
         low, high = env_config.randomization.friction
@@ -133,7 +141,8 @@ def measure(
     config = _open_loop(env_config)
     seconds = SETTLE_S + MEASURE_S
     speed = _walk(config, f"1,0@{seconds}", seed, robots)[0]
-    yaw_rate = _walk(config, f"1,{SIDE_DIFFERENCE}@{seconds}", seed, robots)[1]
+    if yaw_rate is None:
+        yaw_rate = _walk(config, f"1,{SIDE_DIFFERENCE}@{seconds}", seed, robots)[1]
     resolved = env_lib.resolve(env_config)
     result = {
         "reference_speed": resolved.commands.reference_speed,
