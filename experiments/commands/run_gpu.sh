@@ -47,7 +47,7 @@ train)
   for spec in "$@"; do
     split_run "$spec"
     extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
-    rm -rf "$runs/$NAME"
+    rm -rf "$runs/$NAME" "$runs/$NAME.log"  # a stale log would end `wait` at once
     (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$((i % gpus)) \
       XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem / $share, 2))") \
       setsid nohup python3 -m quadcos.train \
