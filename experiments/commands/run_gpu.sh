@@ -2,7 +2,8 @@
 # The commanded-gait campaign (experiments/commands/README.md) on a host of one or more GPUs, one
 # training run per GPU, from the repository root:
 #   bash experiments/commands/run_gpu.sh train RUN...     # start runs in the background, return
-#   bash experiments/commands/run_gpu.sh wait  RUN...     # until they have ended (their policies)
+#   bash experiments/commands/run_gpu.sh wait  RUN...     # until they have ended (their policies;
+#                                                         # a run that fails starts once more)
 #   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
 #   bash experiments/commands/run_gpu.sh pack RUN...      # $OUT/NAME.tgz
 #   bash experiments/commands/run_gpu.sh stop             # end every run and evaluation started
@@ -37,6 +38,14 @@ split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops 
     echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
 }
 case $verb in levers|anymal|go1|go1seeds|stop) ;; *) for spec in "$@"; do split_run "$spec"; done ;; esac  # each RUN
+launch() {  # NAME GPU FLAGS...: quadcos.train in the background from /tmp/qc, its log NAME.log
+  local name=$1 gpu=$2; shift 2
+  echo "$gpu" > "$runs/$name.gpu"
+  (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$gpu \
+    XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem / $share, 2))") \
+    setsid nohup python3 -m quadcos.train --output_dir="$runs/$name" --no_progress "$@" \
+    > "$runs/$name.log" 2>&1 < /dev/null &)
+}
 # the levers were measured with the drive's loops open (the command preset closes them)
 loops_open="--config.env.commands.speed_gain_rate=0 --config.env.commands.heading_gain=0"
 
@@ -47,24 +56,41 @@ train)
   for spec in "$@"; do
     split_run "$spec"
     extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
-    rm -rf "$runs/$NAME" "$runs/$NAME.log"  # a stale log would end `wait` at once
-    (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$((i % gpus)) \
-      XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem / $share, 2))") \
-      setsid nohup python3 -m quadcos.train \
-      --preset=command --robot="$ROBOT" --seed="$SEED" --output_dir="$runs/$NAME" --no_progress \
-      "${extra[@]}" > "$runs/$NAME.log" 2>&1 < /dev/null &)
+    rm -rf "$runs/$NAME" "$runs/$NAME".*  # a stale log would end `wait` at once
+    flags=(--preset=command --robot="$ROBOT" --seed="$SEED" "${extra[@]}")
+    printf '%s\n' "${flags[@]}" > "$runs/$NAME.flags"  # for `wait`'s relaunch
+    launch "$NAME" $((i % gpus)) "${flags[@]}"
     echo "$(date +%T) $NAME on GPU $((i % gpus)): $ROBOT seed $SEED ${extra[*]}"
     i=$((i + 1))
   done ;;
-wait)
-  for spec in "$@"; do
-    split_run "$spec"
-    # (a run launched a moment ago may not show in pgrep yet: its log is still empty)
-    while [ ! -s "$runs/$NAME.log" ] || pgrep -f "output_dir=$runs/$NAME " > /dev/null; do
-      sleep 5
+wait)  # until every run has ended; a run that died without its policy (e.g. a fault in Warp's
+  # graph capture where runs share a GPU) starts once more at once, on from its run folder where
+  # it has one (its config holds the searched gait; its newest checkpoint), else afresh
+  pending=("$@")
+  while (( ${#pending[@]} )); do
+    left=()
+    for spec in "${pending[@]}"; do
+      split_run "$spec"
+      # (a run launched a moment ago may not show in pgrep yet: its log is still empty)
+      if [ ! -s "$runs/$NAME.log" ] || pgrep -f "output_dir=$runs/$NAME " > /dev/null; then
+        left+=("$spec")
+      elif [ ! -d "$runs/$NAME/policy" ] && [ ! -e "$runs/$NAME.failed.log" ]; then
+        echo "$(date +%T) $NAME failed, started again: $(tail -n 1 "$runs/$NAME.log")"
+        mv "$runs/$NAME.log" "$runs/$NAME.failed.log"
+        mapfile -t flags < "$runs/$NAME.flags"  # (with --resume: the same values, recorded)
+        if [ -f "$runs/$NAME/config.json" ]; then
+          launch "$NAME" "$(cat "$runs/$NAME.gpu")" --resume "${flags[@]}"
+        else
+          rm -rf "${runs:?}/$NAME" && launch "$NAME" "$(cat "$runs/$NAME.gpu")" "${flags[@]}"
+        fi
+        left+=("$spec")
+      else
+        tail -n 5 "$runs/$NAME.log" > "$OUT/${NAME}_train.log"
+        echo "$(date +%T) $NAME ended: $(tail -n 1 "$runs/$NAME.log")"
+      fi
     done
-    tail -n 5 "$runs/$NAME.log" > "$OUT/${NAME}_train.log"
-    echo "$(date +%T) $NAME ended: $(tail -n 1 "$runs/$NAME.log")"
+    pending=("${left[@]}")
+    if (( ${#pending[@]} )); then sleep 5; fi
   done ;;
 evaluate)
   i=0

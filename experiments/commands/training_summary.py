@@ -46,7 +46,8 @@ KEYS = (
 
 
 def _files(path: Path) -> dict[str, str]:
-    """The run's text files by name (the train log as "train.log")."""
+    """The run's text files by name (the train log as "train.log": a failed first launch's,
+    `run_gpu.sh wait`'s NAME.failed.log, then its relaunch's)."""
     if path.suffix == ".tgz":
         with tarfile.open(path) as tar:
             members = [m for m in tar.getmembers() if m.isfile() and "/policy" not in m.name]
@@ -54,7 +55,7 @@ def _files(path: Path) -> dict[str, str]:
     else:
         texts = {p.name: p.read_text() for p in path.iterdir() if p.is_file()}
     name = path.name.removesuffix(".tgz")
-    texts["train.log"] = texts.get(f"{name}.log", "")
+    texts["train.log"] = texts.get(f"{name}.failed.log", "") + texts.get(f"{name}.log", "")
     return texts
 
 
