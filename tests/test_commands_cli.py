@@ -358,7 +358,10 @@ def test_tracking_reward_twin_equals_the_envs():
         tracking = dict(heading=angles[3], commanded_progress=abs(angles[4]) * 0.05)
         if rng.uniform() < 0.5:
             tracking["yaw_rate_error"] = angles[4]
-        weights, shared = reward.RewardWeights(), {**common, **tracking, "max_progress": 0.03}
+        if rng.uniform() < 0.5:  # the rate term beyond the paper
+            tracking["action_change"] = rng.normal(size=6).astype(np.float32) * 0.1
+        weights = reward.RewardWeights(action_rate=float(rng.uniform(0.0, 20.0)))
+        shared = {**common, **tracking, "max_progress": 0.03}
         host = twins.reward_terms(
             **shared, body=body, slope_estimate=0.0, weights=weights, variant="full"
         )

@@ -233,6 +233,7 @@ def test_reward_terms_while_walking(fixed_trot_run):
         metrics[f"reward/{t}"] for t in ("fall", "survival", "forward", "lateral", "orientation")
     )
     np.testing.assert_allclose(total, np.asarray(trace.reward), rtol=1e-5, atol=1e-4)
+    assert (metrics["reward/action_rate"] == 0.0).all()  # beyond the paper: off by default
     np.testing.assert_allclose(metrics["forward_speed"].mean(), 0.5, atol=0.3)
 
 
@@ -278,6 +279,26 @@ def test_command_follows_the_action_with_the_filter_time_constant(
     state = flat_step(state, action)
     reached = 1.0 - np.exp(-flat_env.dt / flat_env.config.action_filter_tau)
     np.testing.assert_allclose(state.obs[:, 14:], np.clip(action, -1, 1) * reached, atol=1e-5)
+
+
+def test_action_rate_charges_the_commands_change_in_the_step():
+    """With `reward.action_rate` w the step pays −w Σ Δc² for its command's change Δc (the
+    filtered action: the observation's last 5 values), the paper's terms as without it."""
+    env = quadcos.make_env("flat", **{"reward.action_rate": 10.0})
+    reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
+    state = reset(jax.random.split(jax.random.PRNGKey(3), 2))
+    action = jnp.array([[0.2, -0.1, 0.05, 0.1, -0.3], [0.0, 0.0, 0.0, 0.0, 0.0]])
+    first = step(state, action)
+    second = step(first, -action)
+    for before, after in ((state, first), (first, second)):
+        change = np.asarray(after.obs[:, 14:]) - np.asarray(before.obs[:, 14:])
+        np.testing.assert_allclose(
+            after.metrics["reward/action_rate"], -10.0 * (change**2).sum(1), rtol=1e-4, atol=1e-7
+        )
+    assert float(second.metrics["reward/action_rate"][0]) < float(
+        first.metrics["reward/action_rate"][0]
+    ) < 0  # turning back costs more than setting out
+    assert float(second.metrics["reward/action_rate"][1]) == 0.0  # a still command: nothing
 
 
 def test_zero_action_targets_are_the_envs_own_under_the_zero_action(

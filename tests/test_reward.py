@@ -12,13 +12,15 @@ WALK = dict(
 
 
 def test_paper_defaults():
-    assert reward.RewardWeights() == (-100.0, 10.0, 150.0, 100.0, 30.0, 40.0, 30.0)
+    # the paper's seven, then the action-rate weight beyond it, off
+    assert reward.RewardWeights() == (-100.0, 10.0, 150.0, 100.0, 30.0, 40.0, 30.0, 0.0)
 
 
 def test_walking_step_is_eq13_with_beta_one():
     terms = reward.reward_terms(**WALK, fell=False)
     expected = 10 + 150 * 0.01 - 100 * 0.002 - (30 * 0.02 + 40 * 0.05 + 30 * 0.02)
-    assert set(terms) == {"fall", "survival", "forward", "lateral", "orientation"}
+    assert set(terms) == {"fall", "survival", "forward", "lateral", "orientation", "action_rate"}
+    assert float(terms["action_rate"]) == 0.0
     np.testing.assert_allclose(float(sum(terms.values())), expected, rtol=1e-5)
     assert float(terms["fall"]) == 0.0
 
@@ -88,3 +90,18 @@ def test_progress_beyond_the_cap_earns_nothing_more():
     assert float(back["forward"]) == pytest.approx(-150 * 0.01)
     uncapped = reward.reward_terms(**WALK, fell=False)
     assert float(uncapped["forward"]) == pytest.approx(150 * 0.01)
+
+
+def test_action_rate_charges_the_commands_squared_change_while_walking():
+    change = np.array([0.1, -0.2, 0.0, 0.3, 0.0])  # 0.01 + 0.04 + 0.09 = 0.14
+    weights = reward.RewardWeights(action_rate=10.0)
+    terms = reward.reward_terms(**WALK, fell=False, weights=weights, action_change=change)
+    assert float(terms["action_rate"]) == pytest.approx(-1.4)
+    plain = reward.reward_terms(**WALK, fell=False, weights=weights)
+    assert float(plain["action_rate"]) == 0.0  # no change given: nothing charged
+    for name in reward.TERM_NAMES[:-1]:  # the paper's terms untouched
+        assert float(terms[name]) == float(plain[name])
+    fallen = reward.reward_terms(**WALK, fell=True, weights=weights, action_change=change)
+    assert float(fallen["action_rate"]) == 0.0  # a fall pays r_p alone
+    unweighted = reward.reward_terms(**WALK, fell=False, action_change=change)
+    assert float(unweighted["action_rate"]) == 0.0  # the paper's weights: off

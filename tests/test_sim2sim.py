@@ -197,6 +197,22 @@ def test_moving_is_judged_along_the_heading_where_the_frame_says(frame, survival
         evaluation.env_config({"survival_speed_frame": "y"})
 
 
+def test_the_host_robot_charges_the_commands_change_as_the_env_does():
+    """`reward.action_rate` w: −w Σ Δc² for the step's command change Δc (the env's
+    test_action_rate_charges_the_commands_change_in_the_step); off (0) by default."""
+    action = np.array([0.2, -0.1, 0.05, 0.1, -0.3])
+    for weight in (0.0, 10.0):
+        host = host_robot.HostRobot("flat", evaluation.env_config({"reward.action_rate": weight}))
+        host.reset(0)
+        terms = []
+        for step_action in (action, -action, -action):
+            before = host.command.copy()
+            paid = host.step(step_action).reward_terms["action_rate"]
+            terms.append(paid)
+            assert paid == pytest.approx(-weight * np.sum((host.command - before) ** 2))
+        assert (terms[1] < terms[0] < 0) if weight else terms == [0.0, 0.0, 0.0]
+
+
 def test_cli_writes_an_evaluation_json(tmp_path, capsys):
     out = tmp_path / "trot.json"
     args = ["--policy=fixed:trot", "--terrain=flat", "--episodes=2", "--seconds=2", f"--out={out}"]

@@ -214,8 +214,10 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   # low-passed over 0.25 s (the tracking metric's windows, not each step's stride sway); tighter
   # action bounds (the preset 0.2); the kept policy chosen every 2 M env steps, not 10 M; the
   # torso's angular velocity observed (a gyro: the yaw rate the term tracks, not its integral);
-  # the kept policy ranked by its evaluation's tracking, not its reward
+  # the kept policy ranked by its evaluation's tracking, not its reward; the command's change in
+  # a step charged (reward.action_rate W: the policies' actions chatter, docs/env.md)
   yaw3="--config.env.reward.yaw=120" tau="--config.env.commands.yaw_rate_tau=0.25"
+  rate30="--config.env.reward.action_rate=30" rate100="--config.env.reward.action_rate=100"
   as10="--config.env.action_scale=0.1" eval2="--config.sac.eval_interval=2000000"
   gyro="--config.env.observe_angular_velocity=True" track="--config.sac.best_policy_by=tracking"
   declare -A lever=(
@@ -226,6 +228,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [tauas10]="$tau $as10" [taueval2]="$tau $eval2" [tauyaw3eval2]="$tau $yaw3 $eval2"
     [gyro]="$gyro" [taugyro]="$tau $gyro" [tauyaw3gyro]="$tau $yaw3 $gyro $eval2"
     [tauyaw3track]="$tau $yaw3 $eval2 $track" [tauyaw3gyrotrack]="$tau $yaw3 $gyro $eval2 $track"
+    [rate30]="$rate30" [rate100]="$rate100" [tauyaw3trackrate30]="$tau $yaw3 $eval2 $track $rate30"
+    [tauyaw3trackrate100]="$tau $yaw3 $eval2 $track $rate100"
   )
   specs=()
   if [ "$verb" = go1seeds ]; then

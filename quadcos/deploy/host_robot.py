@@ -231,6 +231,7 @@ class HostRobot:
         time_before = self.data.time
         yaw_before = twins.attitude(self.layout.orientation(self.data)).yaw
         actions = [*self._pending, np.clip(np.asarray(action, np.float64), -1.0, 1.0)]
+        previous = self.command
         period = oscillator.FIXED_TROT.period
         for index in range(self.substeps):
             target = actions[self._queue_length + (index - self.latency_steps) // self.substeps]
@@ -272,6 +273,7 @@ class HostRobot:
             weights=self.weights,
             variant=self.config.reward_variant,
             max_progress=env_lib.max_progress(self.config, self.dt),
+            action_change=self.command - previous if self.weights.action_rate else None,
             **tracking,
         )
         return StepResult(obs, body, slope_estimate, slope_truth, forward_speed, terms, fell)

@@ -190,10 +190,12 @@ def reward_terms(
     heading: float | None = None,
     commanded_progress: float | None = None,
     yaw_rate_error: float | None = None,
+    action_change: np.ndarray | None = None,
 ) -> dict[str, float]:
     """`reward.reward_terms` (Eqs. 8–13), each term weighted by α (fell) or β (alive); with a
     commanded `heading` ψ* (rad), `commanded_progress` v*·dt (m) and `yaw_rate_error` (rad/s),
-    the tracking terms."""
+    the tracking terms; with the command's change over the step (`action_change`), its rate
+    term."""
     alpha = float(fell)
     beta = 1.0 - alpha
     walking = beta if variant == "full" else 0.0
@@ -218,4 +220,9 @@ def reward_terms(
         "forward": beta * weights.forward * progress,
         "lateral": beta * -weights.lateral * abs(sideways),
         "orientation": walking * orientation,
+        "action_rate": (
+            0.0
+            if action_change is None
+            else walking * -weights.action_rate * float(np.sum(np.square(action_change)))
+        ),
     }

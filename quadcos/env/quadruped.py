@@ -201,6 +201,7 @@ class QuadrupedEnv(base.Env):
             push = randomization.push_force(info["physics"])
             torso_force = before.xfrc_applied.at[self._torso_body, :3].set(push)
             before = before.replace(xfrc_applied=torso_force)
+        previous = command
         data, phase, command = self._actuate(before, phase, command, action, info)
         if self.randomized:
             info["action"] = jnp.clip(action, -1.0, 1.0)
@@ -234,6 +235,7 @@ class QuadrupedEnv(base.Env):
             weights=self.weights,
             variant=self.config.reward_variant,
             max_progress=max_progress(self.config, self.dt),
+            action_change=command - previous if self.weights.action_rate else None,
             **tracking,
         )
         metrics = {f"reward/{name}": value for name, value in terms.items()}

@@ -14,6 +14,9 @@ instead of along x and y; the forward term pays progress up to the commanded dis
 takes back what exceeds it (`forward_tracking`); the yaw term penalises the yaw relative to ψ*
 (`orientation`), or where a yaw-rate error ω − ω* is given, that error (rad/s). With ψ* = 0 (ω* = 0
 throughout) and no v*, every term is Eqs. 8–13 exactly.
+
+One more term, beyond the paper and 0 by default (`RewardWeights.action_rate`): the change of the
+controller's command (the filtered action) over the step, squared, charged while walking.
 """
 
 from typing import NamedTuple
@@ -22,7 +25,7 @@ import jax.numpy as jnp
 
 VARIANTS = ("full", "xy")
 # The keys of `reward_terms`, in Eq. 13's order; the env logs each as reward/<name>.
-TERM_NAMES = ("fall", "survival", "forward", "lateral", "orientation")
+TERM_NAMES = ("fall", "survival", "forward", "lateral", "orientation", "action_rate")
 
 
 class RewardWeights(NamedTuple):
@@ -35,6 +38,7 @@ class RewardWeights(NamedTuple):
     pitch: float = 30.0  # w3
     yaw: float = 40.0  # w4
     roll: float = 30.0  # w5
+    action_rate: float = 0.0  # not §3.3's: per unit of the command's squared change in a step
 
 
 def fall_penalty(weights: RewardWeights) -> jnp.ndarray:
@@ -100,6 +104,13 @@ def orientation(
     )
 
 
+def action_rate(change: jnp.ndarray, weights: RewardWeights) -> jnp.ndarray:
+    """−w_a Σ_i Δc_i²: the controller's command (the filtered action, in the action's units)
+    changed by `change` (..., A) over the step. Beyond the paper (w_a = 0 by default): a policy
+    whose action chatters from one step to the next shakes the rhythm it sets."""
+    return -weights.action_rate * jnp.sum(jnp.square(change), axis=-1)
+
+
 def wrap_angle(angle: jnp.ndarray) -> jnp.ndarray:
     """`angle` (rad) in [−π, π]: unchanged, bit for bit, where it already is."""
     wrapped = jnp.mod(angle + jnp.pi, 2 * jnp.pi) - jnp.pi
@@ -130,6 +141,7 @@ def reward_terms(
     heading: jnp.ndarray | None = None,
     commanded_progress: jnp.ndarray | None = None,
     yaw_rate_error: jnp.ndarray | None = None,
+    action_change: jnp.ndarray | None = None,
 ) -> dict[str, jnp.ndarray]:
     """Eq. 13's terms, each weighted by α or β; their sum is the step reward. `moving`: whether
     this step earns Eq. 9's r_s (see `survival`); `max_progress`: see `forward_progress`.
@@ -138,12 +150,15 @@ def reward_terms(
     commanded heading; `commanded_progress` v*·dt (m), where given, makes the forward term
     `forward_tracking`; `yaw_rate_error` ω − ω* (rad/s), where given, replaces the yaw relative to
     ψ* in the yaw term. Without them (as with ψ* = 0, bit for bit) the terms are Eqs. 8–13.
+    `action_change` (..., A), the command's change over the step, where given, is charged by
+    `action_rate` (the term is 0 without it).
 
     variant "full" is Eq. 13. variant "xy" is Fig. 9's r_xy: only r_y + r_x while walking (no r_s,
     no r_o); a fall still gives r_p and ends the episode, as in the full reward.
 
     Returns:
-      {"fall", "survival", "forward", "lateral", "orientation"} -> (...,) arrays.
+      {"fall", "survival", "forward", "lateral", "orientation", "action_rate"} -> (...,)
+      arrays.
     """
     if variant not in VARIANTS:
         raise ValueError(f"unknown reward variant {variant!r}; known: {', '.join(VARIANTS)}")
@@ -166,4 +181,9 @@ def reward_terms(
         "forward": beta * forward,
         "lateral": beta * lateral_drift(sideways, 0.0, weights),
         "orientation": walking * orientation(pitch, yaw, roll, slope, weights),
+        "action_rate": (
+            jnp.zeros_like(beta)
+            if action_change is None
+            else walking * action_rate(action_change, weights)
+        ),
     }
