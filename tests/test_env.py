@@ -138,16 +138,42 @@ def test_sizes(flat_env):
     assert flat_env.dt == pytest.approx(0.05)
 
 
-def test_the_gyro_is_observed_after_the_filtered_action():
-    env = quadcos.make_env("flat", observe_angular_velocity=True)
+@pytest.fixture(scope="module")
+def gyro_rate_env():
+    """An env with two options beyond the paper, one program for both tests: the gyro observed
+    and the action-rate term weighted 10; (env, its batched reset, its batched step)."""
+    env = quadcos.make_env("flat", observe_angular_velocity=True, **{"reward.action_rate": 10.0})
+    return env, jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
+
+
+def test_the_gyro_is_observed_after_the_filtered_action(gyro_rate_env):
+    env, reset, step = gyro_rate_env
     assert env.observation_size == 14 + 5 + 3
-    state = jax.jit(env.reset)(jax.random.PRNGKey(0))
-    step = jax.jit(env.step)
+    state = reset(jax.random.split(jax.random.PRNGKey(0), 2))
     for _ in range(3):
-        state = step(state, jnp.full(5, 0.3))
-    gyro = np.asarray(state.obs[19:22])
-    np.testing.assert_array_equal(gyro, np.asarray(state.pipeline_state.qvel[3:6]))
+        state = step(state, jnp.full((2, 5), 0.3))
+    gyro = np.asarray(state.obs[:, 19:22])
+    np.testing.assert_array_equal(gyro, np.asarray(state.pipeline_state.qvel[:, 3:6]))
     assert np.abs(gyro).max() > 1e-3  # the trot rocks the torso: the gyro reads it
+
+
+def test_action_rate_charges_the_commands_change_in_the_step(gyro_rate_env):
+    """With `reward.action_rate` w the step pays −w Σ Δc² for its command's change Δc (the
+    filtered action: observations 14 to 18)."""
+    _, reset, step = gyro_rate_env
+    state = reset(jax.random.split(jax.random.PRNGKey(3), 2))
+    action = jnp.array([[0.2, -0.1, 0.05, 0.1, -0.3], [0.0, 0.0, 0.0, 0.0, 0.0]])
+    first = step(state, action)
+    second = step(first, -action)
+    for before, after in ((state, first), (first, second)):
+        change = np.asarray(after.obs[:, 14:19]) - np.asarray(before.obs[:, 14:19])
+        np.testing.assert_allclose(
+            after.metrics["reward/action_rate"], -10.0 * (change**2).sum(1), rtol=1e-4, atol=1e-7
+        )
+    assert float(second.metrics["reward/action_rate"][0]) < float(
+        first.metrics["reward/action_rate"][0]
+    ) < 0  # turning back costs more than setting out
+    assert float(second.metrics["reward/action_rate"][1]) == 0.0  # a still command: nothing
 
 
 def test_only_the_feet_touch_the_ground(flat_env):
@@ -279,26 +305,6 @@ def test_command_follows_the_action_with_the_filter_time_constant(
     state = flat_step(state, action)
     reached = 1.0 - np.exp(-flat_env.dt / flat_env.config.action_filter_tau)
     np.testing.assert_allclose(state.obs[:, 14:], np.clip(action, -1, 1) * reached, atol=1e-5)
-
-
-def test_action_rate_charges_the_commands_change_in_the_step():
-    """With `reward.action_rate` w the step pays −w Σ Δc² for its command's change Δc (the
-    filtered action: the observation's last 5 values), the paper's terms as without it."""
-    env = quadcos.make_env("flat", **{"reward.action_rate": 10.0})
-    reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
-    state = reset(jax.random.split(jax.random.PRNGKey(3), 2))
-    action = jnp.array([[0.2, -0.1, 0.05, 0.1, -0.3], [0.0, 0.0, 0.0, 0.0, 0.0]])
-    first = step(state, action)
-    second = step(first, -action)
-    for before, after in ((state, first), (first, second)):
-        change = np.asarray(after.obs[:, 14:]) - np.asarray(before.obs[:, 14:])
-        np.testing.assert_allclose(
-            after.metrics["reward/action_rate"], -10.0 * (change**2).sum(1), rtol=1e-4, atol=1e-7
-        )
-    assert float(second.metrics["reward/action_rate"][0]) < float(
-        first.metrics["reward/action_rate"][0]
-    ) < 0  # turning back costs more than setting out
-    assert float(second.metrics["reward/action_rate"][1]) == 0.0  # a still command: nothing
 
 
 def test_zero_action_targets_are_the_envs_own_under_the_zero_action(
