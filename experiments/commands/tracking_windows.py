@@ -6,6 +6,9 @@
     MENAGERIE_ROOT=DIR python experiments/commands/tracking_windows.py \
         --policy=experiments/policies/unitree_go2_command --episodes=32 \
         --out=experiments/commands/unitree_go2_tracking_windows.json
+    MENAGERIE_ROOT=DIR python experiments/commands/tracking_windows.py \
+        --policy=experiments/policies/unitree_go1_command --episodes=32 --ablate \
+        --out=experiments/commands/unitree_go1_tracking_windows.json
 
 Each window: the mean forward speed along the heading against the mean commanded v*, and the
 mean yaw rate (the true base's, as the evaluation's) against the mean commanded ω*. A window
@@ -36,6 +39,7 @@ import numpy as np
 from quadcos.deploy import host_robot, twins
 from quadcos.env import tracking
 from quadcos.equations import oscillator
+from quadcos.robot import constants
 
 BIN = 0.2  # m/s, rad/s: the width of the commanded-speed and yaw-rate bins
 # the names of an oscillator policy's action values (§3.3's, then posture and turn where present)
@@ -52,7 +56,7 @@ class Window(NamedTuple):
 
 def _yaw(robot: host_robot.HostRobot) -> float:
     """The base's true yaw (rad), as the evaluation's tracking measures it."""
-    return twins.attitude(robot.data.qpos[3:7]).yaw
+    return twins.attitude(robot.data.qpos[constants.QPOS_QUATERNION]).yaw
 
 
 def window_errors(robot: host_robot.HostRobot, act, seed: int, seconds: float) -> list[Window]:

@@ -24,7 +24,8 @@ from typing import NamedTuple
 import jax.numpy as jnp
 
 VARIANTS = ("full", "xy")
-# The keys of `reward_terms`, in Eq. 13's order; the env logs each as reward/<name>.
+# The keys of `reward_terms`, in Eq. 13's order and then the action-rate term beyond it; the env logs
+# each as reward/<name>.
 TERM_NAMES = ("fall", "survival", "forward", "lateral", "orientation", "action_rate")
 
 
