@@ -217,7 +217,7 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   # the kept policy ranked by its evaluation's tracking, not its reward; the command's change in
   # a step charged (reward.action_rate W: the policies' actions chatter, docs/env.md)
   yaw3="--config.env.reward.yaw=120" tau="--config.env.commands.yaw_rate_tau=0.25"
-  rate30="--config.env.reward.action_rate=30" rate100="--config.env.reward.action_rate=100"
+  rate300="--config.env.reward.action_rate=300" rate1000="--config.env.reward.action_rate=1000"
   as10="--config.env.action_scale=0.1" eval2="--config.sac.eval_interval=2000000"
   gyro="--config.env.observe_angular_velocity=True" track="--config.sac.best_policy_by=tracking"
   declare -A lever=(
@@ -228,8 +228,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [tauas10]="$tau $as10" [taueval2]="$tau $eval2" [tauyaw3eval2]="$tau $yaw3 $eval2"
     [gyro]="$gyro" [taugyro]="$tau $gyro" [tauyaw3gyro]="$tau $yaw3 $gyro $eval2"
     [tauyaw3track]="$tau $yaw3 $eval2 $track" [tauyaw3gyrotrack]="$tau $yaw3 $gyro $eval2 $track"
-    [rate30]="$rate30" [rate100]="$rate100" [tauyaw3trackrate30]="$tau $yaw3 $eval2 $track $rate30"
-    [tauyaw3trackrate100]="$tau $yaw3 $eval2 $track $rate100"
+    [rate300]="$rate300" [rate1000]="$rate1000" [tauyaw3trackrate300]="$tau $yaw3 $eval2 $track $rate300"
+    [tauyaw3trackrate1000]="$tau $yaw3 $eval2 $track $rate1000"
   )
   specs=()
   if [ "$verb" = go1seeds ]; then
