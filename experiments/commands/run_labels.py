@@ -140,4 +140,9 @@ GO1_LEVERS = {  # run in campaign.json (run_gpu.sh go1) -> its change from the p
     " (`sac.best_policy_by=tracking`)",
     "go1_tauyaw3gyrotrack_s0": "`go1_tauyaw3eval2_s0`'s, the angular velocity observed, ranked"
     " by tracking",
+    "go1_rate300_s0": "the command's change charged, w_a 300 (`reward.action_rate`)",
+    "go1_rate1000_s0": "the command's change charged, w_a 1000",
+    "go1_tauyaw3trackrate300_s0": "`go1_tauyaw3track_s0`'s, the command's change charged, w_a 300",
+    "go1_tauyaw3trackrate1000_s0": "`go1_tauyaw3track_s0`'s, the command's change charged, w_a"
+    " 1000",
 }
