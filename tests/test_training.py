@@ -17,7 +17,7 @@ from brax import envs
 
 from quadcos import training
 from quadcos._util import caches
-from quadcos.training import best_policy, checkpoint, host, loop
+from quadcos.training import best_policy, checkpoint, host, loop, updates
 from quadcos.training import policy as policy_lib
 from quadcos.training import state as state_lib
 from tests.toy_env import CHUNK, PointEnv, toy_config
@@ -621,6 +621,54 @@ def test_a_delayed_actor_learns_every_second_update_beside_layer_norm_critics():
         assert not _trees_equal(before[1], state.q_params)  # the critics learn every update
         moved.append(not _trees_equal(before[0], state.policy_params))
     assert moved == [True, False, True]
+
+
+def test_the_smoothness_loss_charges_the_policys_change_and_its_update_shrinks_it():
+    """CAPS: temporal · mean ‖μ(s) − μ(s')‖² + spatial · the same to noisy s; off (0, 0) the
+    actor's loss is Brax's own function; on, a few updates bring μ(s) and μ(s') closer than
+    Brax's loss alone does from the same state and batches."""
+    from quadcos import train
+
+    with pytest.raises(ValueError, match="smoothness.temporal must be finite and >= 0, got -1"):
+        train.build_config(train.PRESETS["smoke"], {"sac.smoothness.temporal": -1.0})
+    plain = training.SACTrainer(PointEnv(), toy_config(actor_warmup_steps=0))
+    smooth_config = toy_config(actor_warmup_steps=0)
+    smooth_config.smoothness.temporal = 30.0
+    smooth = training.SACTrainer(PointEnv(), smooth_config)
+    assert plain._sgd_step.smoothness is None  # off: Brax's actor loss alone
+    state = plain.prefill(plain.init())
+    batch = plain.replay.sample(state.replay, jax.random.PRNGKey(0), 128)
+    networks, key = plain.networks, jax.random.PRNGKey(1)
+
+    def step_change(policy_params) -> jax.Array:  # mean ‖μ(s) − μ(s')‖² over the batch
+        def mean_action(observation):
+            normalizer = state.normalizer_params
+            logits = networks.policy_network.apply(normalizer, policy_params, observation)
+            return networks.parametric_action_distribution.mode(logits)
+
+        change = mean_action(batch.observation) - mean_action(batch.next_observation)
+        return jnp.mean(jnp.sum(change**2, axis=-1))
+
+    def loss(**weights) -> float:
+        return float(
+            updates.smoothness_loss(
+                networks, state.policy_params, state.normalizer_params, batch, key, **weights
+            )
+        )
+
+    start = float(step_change(state.policy_params))
+    assert start > 0
+    np.testing.assert_allclose(loss(temporal=2.0, spatial=0.0, sigma=0.1), 2 * start, rtol=1e-5)
+    assert loss(temporal=0.0, spatial=1.0, sigma=0.0) == 0.0
+    assert loss(temporal=0.0, spatial=1.0, sigma=0.5) > 0.0
+    after = []
+    for trainer in (plain, smooth):
+        learned, update = state, jax.jit(trainer._sgd_step)
+        for step in range(5):
+            learned, metrics = update(learned, (batch, jax.random.PRNGKey(step)))
+        after.append(float(step_change(learned.policy_params)))
+    assert after[1] < min(after[0], start), (start, after)
+    assert float(metrics["smoothness"]) > 0  # the term, beside Brax's actor loss
 
 
 # --- traced programs kept on disk ----------------------------------------------------------------

@@ -215,7 +215,10 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   # action bounds (the preset 0.2); the kept policy chosen every 2 M env steps, not 10 M; the
   # torso's angular velocity observed (a gyro: the yaw rate the term tracks, not its integral);
   # the kept policy ranked by its evaluation's tracking, not its reward; the command's change in
-  # a step charged (reward.action_rate W: the policies' actions chatter, docs/env.md)
+  # a step charged (reward.action_rate W: the policies' actions chatter, docs/env.md); the
+  # actor's own change from a state to the next and to a noisy state charged (CAPS W: the
+  # deterministic action's chatter, where the action rate charges the exploring actions')
+  caps() { echo "--config.sac.smoothness.temporal=$1 --config.sac.smoothness.spatial=$1"; }
   yaw3="--config.env.reward.yaw=120" tau="--config.env.commands.yaw_rate_tau=0.25"
   rate300="--config.env.reward.action_rate=300" rate1000="--config.env.reward.action_rate=1000"
   as10="--config.env.action_scale=0.1" eval2="--config.sac.eval_interval=2000000"
@@ -230,6 +233,9 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [tauyaw3track]="$tau $yaw3 $eval2 $track" [tauyaw3gyrotrack]="$tau $yaw3 $gyro $eval2 $track"
     [rate300]="$rate300" [rate1000]="$rate1000" [tauyaw3trackrate300]="$tau $yaw3 $eval2 $track $rate300"
     [tauyaw3trackrate1000]="$tau $yaw3 $eval2 $track $rate1000"
+    [caps10]="$(caps 10)" [tauyaw3trackcaps1]="$tau $yaw3 $eval2 $track $(caps 1)"
+    [tauyaw3trackcaps10]="$tau $yaw3 $eval2 $track $(caps 10)"
+    [tauyaw3trackcaps100]="$tau $yaw3 $eval2 $track $(caps 100)"
   )
   specs=()
   if [ "$verb" = go1seeds ]; then

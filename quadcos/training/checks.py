@@ -205,6 +205,9 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
         )
     if config.actor_warmup_steps < 0:
         raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")
+    for name, value in config.smoothness.items():
+        if not 0 <= value < math.inf:
+            raise ValueError(f"config.smoothness.{name} must be finite and >= 0, got {value}")
     if config.num_devices is not None and config.num_devices < 1:
         raise ValueError(f"config.num_devices must be >= 1 or None (all), got {config.num_devices}")
     if config.replay_size < config.num_envs:

@@ -91,6 +91,11 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     # LayerNorm after each hidden layer of the critics (FastTD3, SimBa): a Q that cannot grow
     # without bound under many updates per env step.
     config.critic_layer_norm = False
+    # CAPS (Mysore et al. 2021): the actor's loss also charges `temporal` · the squared change of
+    # its deterministic action from a state to the next and `spatial` · that to a state with
+    # observation noise of `sigma` normaliser stds (quadcos.training.updates.smoothness_loss);
+    # 0, 0: Brax's actor loss.
+    config.smoothness = ml_collections.ConfigDict(dict(temporal=0.0, spatial=0.0, sigma=0.05))
     # Gradient updates per vectorised env step, i.e. per `num_envs` new
     # transitions (replay ratio = updates_per_step * batch_size / num_envs).
     config.updates_per_step = 1

@@ -1,4 +1,5 @@
-"""One SAC update (Haarnoja et al. 2018, arXiv:1812.05905) with Brax's losses.
+"""One SAC update (Haarnoja et al. 2018, arXiv:1812.05905) with Brax's losses, and the actor's
+optional smoothness regulariser (CAPS: Mysore et al. 2021, arXiv:2012.06644).
 
 The temperature, critic and actor gradients are all taken at the state before the update, as in
 Brax's SAC. On several devices the batch is split over them and XLA sums the gradients (the
@@ -6,6 +7,7 @@ losses are means over the whole batch), so every device applies the same update.
 """
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -15,6 +17,7 @@ import ml_collections
 import optax
 from brax.training import types
 from brax.training.agents.sac import losses as sac_losses
+from brax.training.agents.sac import networks as sac_networks_lib
 
 Metrics = dict[str, jax.Array]
 
@@ -41,6 +44,7 @@ class SACUpdate:
     tau: float
     actor_warmup_steps: int
     policy_delay: int = 1
+    smoothness: Callable[..., jax.Array] | None = None
 
     @classmethod
     def from_config(
@@ -69,6 +73,7 @@ class SACUpdate:
             tau=config.tau,
             actor_warmup_steps=config.actor_warmup_steps,
             policy_delay=config.policy_delay,
+            smoothness=_smoothness(sac_networks, config.smoothness),
         )
 
     def __call__(
@@ -89,7 +94,8 @@ class SACUpdate:
             transitions,
             key_critic,
         )
-        actor_loss, policy_grad = jax.value_and_grad(self.actor_loss)(
+        actor_objective = jax.value_and_grad(self._actor_loss, has_aux=True)
+        (actor_loss, smoothness), policy_grad = actor_objective(
             state.policy_params,
             state.normalizer_params,
             state.q_params,
@@ -141,8 +147,70 @@ class SACUpdate:
             "actor_loss": actor_loss,
             "alpha_loss": alpha_loss,
             "alpha": jnp.exp(log_alpha),
+            **smoothness,
         }
         return state, metrics
+
+    def _actor_loss(
+        self, policy_params, normalizer_params, q_params, alpha, transitions, key
+    ) -> tuple[jax.Array, Metrics]:
+        """The actor's loss to descend, and its smoothness term as a metric where it has one."""
+        args = (policy_params, normalizer_params, q_params, alpha, transitions)
+        if self.smoothness is None:
+            return self.actor_loss(*args, key), {}
+        key_sac, key_near = jax.random.split(key)
+        sac = self.actor_loss(*args, key_sac)
+        smooth = self.smoothness(policy_params, normalizer_params, transitions, key_near)
+        return sac + smooth, {"smoothness": smooth}
+
+
+def smoothness_loss(
+    networks: sac_networks_lib.SACNetworks,
+    policy_params: Any,
+    normalizer_params: Any,
+    transitions: types.Transition,
+    key: jax.Array,
+    *,
+    temporal: float,
+    spatial: float,
+    sigma: float,
+) -> jax.Array:
+    """CAPS's regulariser of the deterministic policy μ (the tanh of the Gaussian's mean):
+
+        temporal · mean ‖μ(s) − μ(s')‖² + spatial · mean ‖μ(s) − μ(s̃)‖²,
+
+    s → s' a stored transition, s̃ = s + sigma · std ⊙ ε with ε ~ N(0, I) and std the observation
+    normaliser's (noise of `sigma` in the units the networks see). Squared distances (smooth at
+    0, where CAPS's Euclidean distance has no gradient)."""
+    distribution = networks.parametric_action_distribution
+
+    def mean_action(observation: jax.Array) -> jax.Array:
+        logits = networks.policy_network.apply(normalizer_params, policy_params, observation)
+        return distribution.mode(logits)
+
+    observation = transitions.observation
+    action = mean_action(observation)
+    std = getattr(normalizer_params, "std", 1.0)
+    nearby = observation + sigma * std * jax.random.normal(key, observation.shape)
+    step = jnp.sum((action - mean_action(transitions.next_observation)) ** 2, axis=-1)
+    near = jnp.sum((action - mean_action(nearby)) ** 2, axis=-1)
+    return temporal * jnp.mean(step) + spatial * jnp.mean(near)
+
+
+def _smoothness(
+    networks: sac_networks_lib.SACNetworks, weights: ml_collections.ConfigDict
+) -> Callable[..., jax.Array] | None:
+    """`smoothness_loss` of `networks` at `weights` (config.smoothness); None where both of its
+    weights are 0, so that the update is Brax's."""
+    if weights.temporal == 0 and weights.spatial == 0:
+        return None
+    return functools.partial(
+        smoothness_loss,
+        networks,
+        temporal=weights.temporal,
+        spatial=weights.spatial,
+        sigma=weights.sigma,
+    )
 
 
 def _apply(
