@@ -80,6 +80,7 @@ def summary(path: Path) -> dict:
     rows = STEP.findall(log)
     rounds, found = SEARCH_ROUND.findall(log), SEARCH_END.search(log)
     config = json.loads(files.get("config.json", "{}"))
+    smoothness = _smoothness(files.get("metrics.jsonl", ""))
     argv = config.get("run_info", {}).get("argv")
     centre = config.get("run_info", {}).get("env", {}).get("action_centre")
     return {
@@ -103,6 +104,9 @@ def summary(path: Path) -> dict:
                 # the evaluation's tracking RMS (runs that logged it)
                 **({"speed_rms": float(speed_rms), "yaw_rate_rms": float(yaw_rms)}
                    if speed_rms else {}),
+                # the actor's loss and its CAPS term over the chunk the evaluation ends (runs
+                # with `sac.smoothness` on)
+                **smoothness.get(int(steps.replace(",", "")), {}),
             }
             for steps, rate, reward, speed, falls, speed_rms, yaw_rms in rows
         ],
@@ -127,6 +131,17 @@ def summary(path: Path) -> dict:
             for key in ("gait_robustness", "last_robustness")
             if f"{key}.json" in files
         },
+    }
+
+
+def _smoothness(metrics: str) -> dict[int, dict]:
+    """{env step: its chunk's actor loss and smoothness term} of a metrics.jsonl's rows that
+    hold the term."""
+    rows = (json.loads(line) for line in metrics.splitlines() if line.strip())
+    return {
+        row["step"]: {"actor_loss": row["train/actor_loss"], "smoothness": row["train/smoothness"]}
+        for row in rows
+        if "train/smoothness" in row
     }
 
 
