@@ -217,7 +217,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   # the kept policy ranked by its evaluation's tracking, not its reward; the command's change in
   # a step charged (reward.action_rate W: the policies' actions chatter, docs/env.md); the
   # actor's own change from a state to the next and to a noisy state charged (CAPS W: the
-  # deterministic action's chatter, where the action rate charges the exploring actions')
+  # deterministic action's chatter); a faster filter between action and rhythm (the policies
+  # lose to their gaits most in the first 0.5 s after a command draw: lever_windows.py)
   caps() { echo "--config.sac.smoothness.temporal=$1 --config.sac.smoothness.spatial=$1"; }
   yaw3="--config.env.reward.yaw=120" tau="--config.env.commands.yaw_rate_tau=0.25"
   rate300="--config.env.reward.action_rate=300" rate1000="--config.env.reward.action_rate=1000"
@@ -236,6 +237,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [caps10]="$(caps 10)" [tauyaw3trackcaps1]="$tau $yaw3 $eval2 $track $(caps 1)"
     [tauyaw3trackcaps10]="$tau $yaw3 $eval2 $track $(caps 10)"
     [tauyaw3trackcaps100]="$tau $yaw3 $eval2 $track $(caps 100)"
+    [tauyaw3trackfilt10]="$tau $yaw3 $eval2 $track --config.env.action_filter_tau=0.1"
+    [tauyaw3trackfilt0]="$tau $yaw3 $eval2 $track --config.env.action_filter_tau=0"
   )
   specs=()
   if [ "$verb" = go1seeds ]; then
