@@ -1,7 +1,8 @@
 """Several command policies' tracking windows in one small record: where each loses to its gait
-(the first 0.5-s window after a command draw, or later; the bias per commanded ω*) and how its
-actions move (`tracking_windows.py`'s measures, C MuJoCo under random commands, nothing
-randomised; no per-window data). The policies: run folders of `run_gpu.sh` (NAME.tgz unpacked).
+(the first 0.5-s window after a command draw, or later; the bias per commanded ω*; the yaw rate's
+response step by step after a draw that turns) and how its actions move (`tracking_windows.py`'s
+measures, C MuJoCo under random commands, nothing randomised; no per-window data). The policies:
+run folders of `run_gpu.sh` (NAME.tgz unpacked).
 
     MENAGERIE_ROOT=DIR python experiments/commands/lever_windows.py --episodes=16 \
         --out=experiments/commands/go1_levers_tracking_windows.json \
@@ -16,19 +17,37 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
+import numpy as np  # noqa: E402
 from tracking_windows import (  # noqa: E402
     SPEED,
     YAW_RATE,
     Recorder,
     action_names,
     by_command,
+    episode_series,
     rms,
-    window_errors,
+    windows_of,
 )
 
-import numpy as np  # noqa: E402
-
 from quadcos.deploy import host_robot  # noqa: E402
+
+RESPONSE_STEPS = 10  # control steps after a command draw (0.5 s at Go1's 50 ms)
+TURN_CHANGE = 0.2  # rad/s: the draws whose ω* changes at least this much
+
+
+def draw_responses(robot: host_robot.HostRobot, commanded, moved) -> list[np.ndarray]:
+    """Per command draw of an episode (after its start) that changes ω* by ≥ TURN_CHANGE: the
+    yaw-rate error of its first RESPONSE_STEPS steps, signed by the change (< 0: behind it)."""
+    period = round(robot.config.commands.resample_seconds / robot.dt)
+    command = np.array(commanded)[:, YAW_RATE]
+    rate = np.array(moved)[:, YAW_RATE] if moved else np.zeros(0)
+    responses = []
+    for start in range(period, len(rate) - RESPONSE_STEPS + 1, period):
+        change = command[start] - command[start - 1]
+        if abs(change) >= TURN_CHANGE:
+            steps = slice(start, start + RESPONSE_STEPS)
+            responses.append(np.sign(change) * (rate[steps] - command[steps]))
+    return responses
 
 
 def measure(policy: str, episodes: int, seconds: float) -> dict:
@@ -38,11 +57,13 @@ def measure(policy: str, episodes: int, seconds: float) -> dict:
     recorder, zero = Recorder(pilot.actor()), np.zeros(robot.action_size)
     record = {"policy_env_steps": pilot.spec.env_steps}
     for prefix, act in (("", recorder), ("gait_", lambda obs: zero)):
-        windows = []
+        windows, responses = [], []
         for seed in range(episodes):
             if act is recorder:
                 recorder.start()
-            windows += window_errors(robot, act, seed, seconds)
+            series = episode_series(robot, act, seed, seconds)
+            windows += windows_of(robot, *series)
+            responses += draw_responses(robot, *series)
         first = [w for w in windows if w.since == 0]
         later = [w for w in windows if w.since > 0]
         record |= {
@@ -53,6 +74,11 @@ def measure(policy: str, episodes: int, seconds: float) -> dict:
             # past the first window, the mean yaw-rate error per 0.2-rad/s bin of ω*
             f"{prefix}yaw_rate_bias_by_command": [
                 round(row["mean_error"], 4) for row in by_command(windows, YAW_RATE)
+            ],
+            # the mean signed yaw-rate error per step after a draw that turns (`draw_responses`)
+            f"{prefix}turning_draws": len(responses),
+            f"{prefix}yaw_rate_error_after_turning_draw": [
+                round(float(value), 4) for value in np.mean(responses, axis=0)
             ],
         }
     record["action_stats"] = recorder.stats(action_names(robot.config))
@@ -74,13 +100,15 @@ def main() -> None:
     if args.into:
         record = json.loads(Path(args.into).read_text())
         if (record["episodes"], record["seconds"]) != (args.episodes, args.seconds):
-            parser.error(f"{args.into} holds {record['episodes']} episodes of {record['seconds']} s")
+            held = f"{record['episodes']} episodes of {record['seconds']} s"
+            parser.error(f"{args.into} holds {held}")
     for label, path in pairs:
         record["policies"][label] = row = measure(path, args.episodes, args.seconds)
+        rates = [row[f"{who}yaw_rate_tracking_rms"] for who in ("", "gait_")]
+        firsts = [row[f"{who}yaw_rate_rms_first_window"] for who in ("", "gait_")]
         print(
-            f"{label}: yaw rate {row['yaw_rate_tracking_rms']:.3f} (gait"
-            f" {row['gait_yaw_rate_tracking_rms']:.3f}), first window"
-            f" {row['yaw_rate_rms_first_window']:.3f} ({row['gait_yaw_rate_rms_first_window']:.3f})",
+            f"{label}: yaw rate {rates[0]:.3f} (gait {rates[1]:.3f}), first window"
+            f" {firsts[0]:.3f} ({firsts[1]:.3f})",
             flush=True,
         )
     Path(args.out).write_text(json.dumps(record, indent=1) + "\n")

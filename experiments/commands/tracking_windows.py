@@ -61,10 +61,16 @@ def _yaw(robot: host_robot.HostRobot) -> float:
 
 def window_errors(robot: host_robot.HostRobot, act, seed: int, seconds: float) -> list[Window]:
     """The whole windows of one episode."""
+    return windows_of(robot, *episode_series(robot, act, seed, seconds))
+
+
+def episode_series(
+    robot: host_robot.HostRobot, act, seed: int, seconds: float
+) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """One episode's steps (to its end or fall): per step the command (v*, ω*) and what the
+    robot did (speed along its heading, yaw rate)."""
     obs, steps = robot.reset(seed), round(seconds / robot.dt)
-    window = tracking.window_steps(robot.dt)
-    period = robot.config.commands.resample_seconds
-    commanded, moved = [], []  # per step: (v*, ω*); (speed along the heading, yaw rate)
+    commanded, moved = [], []
     for _ in range(steps):
         commanded.append(tuple(robot.commands.velocity))
         x0, y0 = robot.data.qpos[:2]
@@ -76,6 +82,13 @@ def window_errors(robot: host_robot.HostRobot, act, seed: int, seconds: float) -
         moved.append((along / robot.dt, turned / robot.dt))
         if result.fell:
             break
+    return commanded, moved
+
+
+def windows_of(robot: host_robot.HostRobot, commanded, moved) -> list[Window]:
+    """The whole windows of an episode's `episode_series`."""
+    window = tracking.window_steps(robot.dt)
+    period = robot.config.commands.resample_seconds
     windows = []
     for start in range(0, len(moved) - window + 1, window):
         part = slice(start, start + window)
