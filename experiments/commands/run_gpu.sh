@@ -206,7 +206,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   # go1loops540_s0 (its centre, speed map and b given: nothing searched or measured), whose SAC
   # never beat that gait on MJX-JAX; the command preset (the drive's loops closed) for 450 s.
   # go1seeds LEVER SEED...: the lever from nothing (the command preset, its search and 480 s) on
-  # each seed, as go1cmd_LEVER_sSEED (MAX_SECONDS: another budget). Runs share GPUs.
+  # each seed, as go1cmd_LEVER_sSEED (MAX_SECONDS: another budget); a SEED go2:N or anymal:N runs
+  # that robot instead (go2cmd_LEVER_sN, anymalcmd_LEVER_sN). Runs share GPUs.
   gait="--config.env.action_centre=0.223638,-0.149431,0.15185,-2.06857,-5.21017"
   gait+=" --config.env.commands.reference_speed=1.03 --config.env.commands.half_track=0.442"
   gait+=" --config.env.commands.speed_map=0.2165,0.4605,0.696,0.9307 --config.sac.max_seconds=450"
@@ -247,8 +248,12 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
       { echo "bad MAX_SECONDS '$MAX_SECONDS': whole seconds" >&2; exit 2; }
     [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
-    for seed in "$@"; do
-      specs+=("go1cmd_${name}_s$seed@menagerie:unitree_go1@$seed@${lever[$name]}${MAX_SECONDS:+ --config.sac.max_seconds=$MAX_SECONDS}")
+    declare -A robots=([go1]=unitree_go1 [go2]=unitree_go2 [anymal]=anybotics_anymal_c)
+    for token in "$@"; do  # SEED (Go1) or ROBOT:SEED, ROBOT go1, go2 or anymal
+      [[ $token == *:* ]] && robot=${token%%:*} seed=${token#*:} || robot=go1 seed=$token
+      [[ -n ${robots[$robot]:-} && $seed =~ ^[0-9]+$ ]] ||
+        { echo "bad SEED '$token': N or ROBOT:N, ROBOT one of ${!robots[*]}" >&2; exit 2; }
+      specs+=("${robot}cmd_${name}_s$seed@menagerie:${robots[$robot]}@$seed@${lever[$name]}${MAX_SECONDS:+ --config.sac.max_seconds=$MAX_SECONDS}")
     done
   else
     for name in "$@"; do
