@@ -222,13 +222,38 @@ def test_best_policy_by_tracking_keeps_the_evaluation_nearest_its_targets(tmp_pa
     assert best.score == pytest.approx(-0.16 / 0.15)
 
 
+def test_best_policy_by_gait_keeps_the_evaluation_that_improves_most_on_step_0(tmp_path):
+    """`best_policy_by` "gait": the tracking rank against the step-0 evaluation's own RMS (the
+    gait the run started from), so that a policy better in speed alone does not win."""
+    speed, yaw_rate = best_policy.TRACKING
+    gait = {"step": 0, speed: 0.10, yaw_rate: 0.08}
+    best = best_policy.BestPolicy(tmp_path / "policy_best", _SPEC, {}, [], 0.01, "gait")
+    assert best.offer(_STATE, gait) and best.score == pytest.approx(-1.0)
+    assert not best.offer(_STATE, {"step": 10, speed: 0.09, yaw_rate: 0.085})  # yaw rate worse
+    assert best.offer(_STATE, {"step": 20, speed: 0.095, yaw_rate: 0.078})  # both better
+    # Far better in speed, hardly in the yaw rate: the tracking rank's pick, not this one's.
+    faster = {"step": 30, speed: 0.05, yaw_rate: 0.079}
+    assert not best.offer(_STATE, faster)
+    assert best_policy.rank(faster, 0.01, "tracking") > best_policy.rank(
+        {"step": 20, speed: 0.095, yaw_rate: 0.078}, 0.01, "tracking"
+    )
+    saved = json.loads((tmp_path / "policy_best" / "policy.json").read_text())
+    assert saved["config"]["best_of_run"]["step"] == 20
+    # A resumed run ranks its history against its own step 0.
+    resumed = best_policy.BestPolicy(tmp_path / "again", _SPEC, {}, [gait, faster], 0.01, "gait")
+    assert resumed.score == pytest.approx(-0.079 / 0.08)
+
+
 def test_a_tracking_rank_needs_robots_that_follow_commands():
     from quadcos import train  # the command line's config builder
 
     with pytest.raises(ValueError, match="best_policy_by 'tracking' .* needs config.env.commands"):
         tracked = {"sac.keep_best_policy": True, "sac.best_policy_by": "tracking"}
         train.build_config(train.PRESETS["smoke"], tracked)
-    with pytest.raises(ValueError, match="best_policy_by must be one of reward, tracking"):
+    with pytest.raises(ValueError, match="best_policy_by 'gait' .* needs config.env.commands"):
+        tracked = {"sac.keep_best_policy": True, "sac.best_policy_by": "gait"}
+        train.build_config(train.PRESETS["smoke"], tracked)
+    with pytest.raises(ValueError, match="best_policy_by must be one of reward, tracking, gait"):
         train.build_config(train.PRESETS["smoke"], {"sac.best_policy_by": "speed"})
     with pytest.raises(ValueError, match="best_policy_tracking_targets must be two"):
         train.build_config(train.PRESETS["smoke"], {"sac.best_policy_tracking_targets": (0.1, 0)})

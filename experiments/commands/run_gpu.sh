@@ -240,6 +240,7 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [tauyaw3trackcaps100]="$tau $yaw3 $eval2 $track $(caps 100)"
     [tauyaw3trackfilt10]="$tau $yaw3 $eval2 $track --config.env.action_filter_tau=0.1"
     [tauyaw3trackfilt0]="$tau $yaw3 $eval2 $track --config.env.action_filter_tau=0"
+    [tauyaw3gait]="$tau $yaw3 $eval2 --config.sac.best_policy_by=gait"  # ranked against step 0
   )
   specs=()
   if [ "$verb" = go1seeds ]; then

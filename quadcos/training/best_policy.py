@@ -8,11 +8,13 @@ from quadcos.training import policy as policy_lib
 from quadcos.training import sac
 
 # The training-time evaluation metrics that rank a run's policies for `keep_best_policy`: the
-# episode reward, or (`best_policy_by` "tracking", robots that follow commands) their tracking.
+# episode reward, or (`best_policy_by` "tracking" or "gait", robots that follow commands) their
+# tracking, against fixed targets or against the run's step-0 evaluation (its gait).
 _BEST_BY = "eval/episode_reward"
 _FALLS = "eval/fall_rate"
 TRACKING = ("eval/speed_tracking_rms", "eval/yaw_rate_tracking_rms")
-RANKS = ("reward", "tracking")  # what `best_policy_by` may name
+RANKS = ("reward", "tracking", "gait")  # what `best_policy_by` may name
+TRACKED = ("tracking", "gait")  # the ranks that need robots that follow commands
 
 
 def rank(
@@ -39,7 +41,10 @@ class BestPolicy:
 
     An evaluation whose fall rate is at most `max_fall_rate` beats every one above it; among
     evaluations on the same side, the higher episode reward wins (`max_fall_rate` 1: reward alone),
-    or with `by` "tracking" the better command tracking (`rank`).
+    or with `by` "tracking" the better command tracking (`rank`), or with `by` "gait" the tracking
+    rank with the run's step-0 evaluation's own tracking RMS as the targets: the policy that
+    improves most on the gait it started from in the worse of the two (the step-0 row scores −1;
+    a row before it, none).
     `offer` saves the state's policy to `directory` when its evaluation beats every earlier one of
     the run (rows before a resume included), its step, reward and fall rate added to the saved
     config under "best_of_run" (with `written_at_s`, the run's wall time at the write, if given).
@@ -58,9 +63,20 @@ class BestPolicy:
         self.directory = directory
         self._spec = spec
         self._run_info = run_info
-        self._rank = lambda row: rank(row, max_fall_rate, by, targets)
+        self._by, self._max_fall_rate, self._targets = by, max_fall_rate, targets
+        if by == "gait":
+            self._targets = None  # the step-0 evaluation's tracking, once seen
         ranked = (self._rank(row) for row in history)
         self.rank = max((r for r in ranked if math.isfinite(r[1])), default=None)
+
+    def _rank(self, row: dict[str, Any]) -> tuple[bool, float]:
+        if self._by != "gait":
+            return rank(row, self._max_fall_rate, self._by, self._targets)
+        if row.get("step") == 0 and all(row.get(key, 0) > 0 for key in TRACKING):
+            self._targets = tuple(row[key] for key in TRACKING)
+        if self._targets is None:
+            return row.get(_FALLS, 0.0) <= self._max_fall_rate, math.nan
+        return rank(row, self._max_fall_rate, "tracking", self._targets)
 
     @property
     def score(self) -> float:

@@ -110,12 +110,13 @@ def check_config(config: ml_collections.ConfigDict) -> None:
 
 def check_tracked(config: ml_collections.ConfigDict, env: Any) -> None:
     """Raises ConfigError where a trainer `config` keeps the best evaluation's policy ranked by
-    command tracking (`best_policy_by` "tracking") but the robots of `env` follow no commands."""
-    tracked = config.keep_best_policy and config.best_policy_by == "tracking"
+    command tracking (`best_policy_by` "tracking" or "gait") but the robots of `env` follow no
+    commands."""
+    tracked = config.keep_best_policy and config.best_policy_by in best_policy.TRACKED
     if tracked and not getattr(env, "commanded", False):
         raise ConfigError(
-            "config.best_policy_by 'tracking' ranks evaluations by command tracking: the env's"
-            " robots must follow velocity commands (env.commands.spec)"
+            f"config.best_policy_by {config.best_policy_by!r} ranks evaluations by command"
+            " tracking: the env's robots must follow velocity commands (env.commands.spec)"
         )
 
 

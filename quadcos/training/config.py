@@ -215,7 +215,8 @@ def _host_loop(config: ml_collections.ConfigDict) -> None:
     config.best_policy_max_fall_rate = 1.0
     # With keep_best_policy: what ranks the evaluations on the same side of that bound: "reward"
     # (eval/episode_reward), or "tracking" for robots that follow velocity commands: the worse of
-    # speed and yaw-rate tracking RMS relative to best_policy_tracking_targets (m/s, rad/s).
+    # speed and yaw-rate tracking RMS relative to best_policy_tracking_targets (m/s, rad/s), or
+    # "gait": the same relative to the run's step-0 evaluation (the gait it started from).
     config.best_policy_by = "reward"
     config.best_policy_tracking_targets = (0.10, 0.15)
     # Store the replay buffer in checkpoints (exact resume, large files).

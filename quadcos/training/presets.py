@@ -13,7 +13,7 @@ from quadcos._util.cli import UsageError
 from quadcos._util.overrides import apply_overrides, flat_keys
 from quadcos.equations import oscillator
 from quadcos.robot import sources as robot_sources
-from quadcos.training import checks
+from quadcos.training import best_policy, checks
 from quadcos.training.config import default_config as sac_config
 
 # Presets: overrides of the default config, applied before the flags. A preset's PER_ROBOT entry
@@ -300,10 +300,10 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
             checks.check_config(config.sac)
         except checks.ConfigError as error:  # it names fields as config.<sac key>
             raise ValueError(re.sub(r"\bconfig\.", "config.sac.", str(error))) from None
-        tracked = config.sac.keep_best_policy and config.sac.best_policy_by == "tracking"
-        if tracked and not config.env.commands.spec:
+        by = config.sac.best_policy_by
+        if config.sac.keep_best_policy and by in best_policy.TRACKED and not config.env.commands.spec:
             raise ValueError(
-                "config.sac.best_policy_by 'tracking' ranks evaluations by command tracking: it"
+                f"config.sac.best_policy_by {by!r} ranks evaluations by command tracking: it"
                 " needs config.env.commands.spec"
             )
         if non_finite:  # in range, as far as the checks above know
