@@ -103,6 +103,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert env.pop("survival_speed_frame") == "x"
     assert env.pop("observe_angular_velocity") is False  # the gyro, added since: not observed
     assert env["reward"].pop("action_rate") == 0.0  # the action-rate term, added since: off
+    assert env["randomization"].pop("range_ends") == 0.0  # draws at the ranges' ends: off
     assert env == recorded["run_info"]["env"]
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 

@@ -33,6 +33,24 @@ def test_draws_stay_in_their_ranges_and_fixed_ranges_fix_the_value():
     np.testing.assert_array_equal(draws.push, 0.0)
 
 
+def test_range_ends_put_that_share_of_draws_at_the_ends_and_keep_the_rest():
+    keys = jax.random.split(jax.random.PRNGKey(3), 4096)
+
+    def draws(ends: float) -> randomization.Physics:
+        config = _config(range_ends=ends)
+        return jax.vmap(lambda key: randomization.sample(key, config, 0.005))(keys)
+
+    uniform, half, every = draws(0.0), draws(0.5), draws(1.0)
+    low, high = np.float32(randomization.default_config().friction)
+    assert set(np.asarray(every.friction).tolist()) == {low, high}
+    at_ends = np.isin(np.asarray(half.friction), (low, high))
+    assert 0.45 < at_ends.mean() < 0.55
+    assert 0.4 < (np.asarray(half.friction)[at_ends] == low).mean() < 0.6
+    # The other draws are the uniform ones, unchanged.
+    np.testing.assert_array_equal(half.friction[~at_ends], uniform.friction[~at_ends])
+    np.testing.assert_array_equal(half.com_offset, uniform.com_offset)
+
+
 def test_a_draw_changes_only_the_model_fields_it_names():
     env = quadcos.make_env("flat")
     physics = randomization.Physics(
@@ -160,6 +178,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
         ("randomization.push_force_n", -1.0, "randomization.push_force_n must be finite and >= 0"),
         ("randomization.obs_noise", -0.1, "randomization.obs_noise must be finite and >= 0"),
         ("randomization.ramp_s", -1.0, "randomization.ramp_s must be finite and >= 0"),
+        ("randomization.range_ends", 1.5, "randomization.range_ends must be a share from 0 to 1"),
     ],
 )
 def test_bad_ranges_are_named(key, value, message):

@@ -8,7 +8,7 @@ run folders of `run_gpu.sh` (NAME.tgz unpacked).
         --out=experiments/commands/go1_levers_tracking_windows.json \
         go1_tauyaw3eval2_s0:kept=RUNS/go1_tauyaw3eval2_s0/policy_best \
         go1_tauyaw3eval2_s0:last=RUNS/go1_tauyaw3eval2_s0/policy ...
-    ... --into=RECORD --out=RECORD LABEL=DIR ...   # more policies into an earlier record
+    ... --into=RECORD --out=RECORD [--friction=F] LABEL=DIR ...   # more into an earlier record
 """
 
 import argparse
@@ -50,12 +50,15 @@ def draw_responses(robot: host_robot.HostRobot, commanded, moved) -> list[np.nda
     return responses
 
 
-def measure(policy: str, episodes: int, seconds: float) -> dict:
-    """One policy's record beside its zero action's (its gait under the feed-forward alone)."""
+def measure(policy: str, episodes: int, seconds: float, friction: float = 0.0) -> dict:
+    """One policy's record beside its zero action's (its gait under the feed-forward alone), on
+    ground and feet of sliding `friction` (0: the MJCF's), its floats to 4 decimals."""
     pilot = host_robot.Pilot.load(policy)
-    robot = host_robot.HostRobot("flat", pilot.config, physics="training", commands="random")
+    robot = host_robot.HostRobot(
+        "flat", pilot.config, physics="training", commands="random", friction=friction
+    )
     recorder, zero = Recorder(pilot.actor()), np.zeros(robot.action_size)
-    record = {"policy_env_steps": pilot.spec.env_steps}
+    record = {"policy_env_steps": pilot.spec.env_steps, "friction": friction}
     for prefix, act in (("", recorder), ("gait_", lambda obs: zero)):
         windows, responses = [], []
         for seed in range(episodes):
@@ -73,16 +76,26 @@ def measure(policy: str, episodes: int, seconds: float) -> dict:
             f"{prefix}yaw_rate_rms_later": rms(later, YAW_RATE),
             # past the first window, the mean yaw-rate error per 0.2-rad/s bin of ω*
             f"{prefix}yaw_rate_bias_by_command": [
-                round(row["mean_error"], 4) for row in by_command(windows, YAW_RATE)
+                row["mean_error"] for row in by_command(windows, YAW_RATE)
             ],
             # the mean signed yaw-rate error per step after a draw that turns (`draw_responses`)
             f"{prefix}turning_draws": len(responses),
             f"{prefix}yaw_rate_error_after_turning_draw": [
-                round(float(value), 4) for value in np.mean(responses, axis=0)
+                float(value) for value in np.mean(responses, axis=0)
             ],
         }
     record["action_stats"] = recorder.stats(action_names(robot.config))
-    return record
+    return _rounded(record)
+
+
+def _rounded(value):
+    if isinstance(value, float):
+        return round(value, 4)
+    if isinstance(value, dict):
+        return {key: _rounded(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_rounded(item) for item in value]
+    return value
 
 
 def main() -> None:
@@ -90,6 +103,7 @@ def main() -> None:
     parser.add_argument("policies", nargs="+", help="LABEL=POLICY_DIR")
     parser.add_argument("--episodes", type=int, default=16)
     parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--friction", type=float, default=0.0, help="sliding friction (0: MJCF's)")
     parser.add_argument("--out", required=True)
     parser.add_argument("--into", help="an earlier record whose policies to keep (others added)")
     args = parser.parse_args()
@@ -103,7 +117,7 @@ def main() -> None:
             held = f"{record['episodes']} episodes of {record['seconds']} s"
             parser.error(f"{args.into} holds {held}")
     for label, path in pairs:
-        record["policies"][label] = row = measure(path, args.episodes, args.seconds)
+        record["policies"][label] = row = measure(path, args.episodes, args.seconds, args.friction)
         rates = [row[f"{who}yaw_rate_tracking_rms"] for who in ("", "gait_")]
         firsts = [row[f"{who}yaw_rate_rms_first_window"] for who in ("", "gait_")]
         print(
@@ -111,7 +125,17 @@ def main() -> None:
             f" {firsts[0]:.3f} ({firsts[1]:.3f})",
             flush=True,
         )
-    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+    Path(args.out).write_text(_dumps(record))
+
+
+def _dumps(record: dict) -> str:
+    """The record as JSON, a policy a line."""
+    rows = ",\n".join(
+        f"  {json.dumps(label)}: {json.dumps(row, separators=(',', ':'))}"
+        for label, row in record["policies"].items()
+    )
+    head = f'{{\n "episodes": {record["episodes"]},\n "seconds": {record["seconds"]},\n'
+    return head + ' "policies": {\n' + rows + "\n }\n}\n"
 
 
 if __name__ == "__main__":

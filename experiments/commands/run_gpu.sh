@@ -241,6 +241,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [tauyaw3trackfilt10]="$tau $yaw3 $eval2 $track --config.env.action_filter_tau=0.1"
     [tauyaw3trackfilt0]="$tau $yaw3 $eval2 $track --config.env.action_filter_tau=0"
     [tauyaw3gait]="$tau $yaw3 $eval2 --config.sac.best_policy_by=gait"  # ranked against step 0
+    # a third of the randomisation's draws at the ends of its ranges (friction 0.4 / 1.5, ...)
+    [tauyaw3trackends]="$tau $yaw3 $eval2 $track --config.env.randomization.range_ends=0.33"
   )
   specs=()
   if [ "$verb" = go1seeds ]; then

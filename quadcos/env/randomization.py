@@ -70,6 +70,9 @@ def default_config() -> ml_collections.ConfigDict:
     config.push_interval_s = 5.0  # mean time between pushes; 0: no pushes
     config.obs_noise = 0.0  # std on each observation value the policy sees
     config.ramp_s = 0.0  # training only: level 0 → 1 over each robot's first ramp_s s; 0: none
+    # The share of draws of each range at one of its ends (either, evenly) instead of inside it:
+    # the extremes the robustness conditions test; 0: uniform (the draws as without it).
+    config.range_ends = 0.0
     return config
 
 
@@ -100,14 +103,16 @@ def validate(config: ml_collections.ConfigDict) -> None:
     for name in (*names, "ramp_s"):
         if not 0 <= config[name] < np.inf:
             raise ValueError(f"randomization.{name} must be finite and >= 0; got {config[name]}")
+    if not 0 <= config.range_ends <= 1:
+        ends = config.range_ends
+        raise ValueError(f"randomization.range_ends must be a share from 0 to 1; got {ends}")
 
 
 def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float) -> Physics:
     """A fresh draw for one robot (no push under way)."""
     keys = jax.random.split(rng, len(RANGES) + 1)
     drawn = {
-        name: jax.random.uniform(key, (), minval=config[name][0], maxval=config[name][1])
-        for name, key in zip(RANGES, keys)
+        name: _draw(key, *config[name], config.range_ends) for name, key in zip(RANGES, keys)
     }
     offset = config.com_offset_m
     return Physics(
@@ -122,6 +127,16 @@ def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float)
         push_left_s=jnp.zeros(()),
         level=jnp.ones(()),
     )
+
+
+def _draw(key: jax.Array, low: float, high: float, ends: float) -> jax.Array:
+    """U(low, high), or with probability `ends` one of the two ends (each half of that); the
+    uniform draw is the same for any `ends`, which only replaces it."""
+    value = jax.random.uniform(key, (), minval=low, maxval=high)
+    if ends == 0:
+        return value
+    pick = jax.random.uniform(jax.random.fold_in(key, 1), ())
+    return jnp.where(pick < ends / 2, low, jnp.where(pick < ends, high, value))
 
 
 def _scale(physics: Physics, name: str) -> jax.Array:
