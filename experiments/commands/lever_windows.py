@@ -1,7 +1,7 @@
 """Several command policies' tracking windows in one small record: where each loses to its gait
-(the first 0.5-s window after a command draw, or later; the bias per commanded ω*; the yaw rate's
-response step by step after a draw that turns) and how its actions move (`tracking_windows.py`'s
-measures, C MuJoCo under random commands, nothing randomised; no per-window data). The policies:
+(the first 0.5-s window after a command draw, or later; the yaw rate's response step by step after
+a draw that turns) and how much its actions change a step (`tracking_windows.py`'s measures, C
+MuJoCo under random commands, nothing randomised; no per-window data). The policies:
 run folders of `run_gpu.sh` (NAME.tgz unpacked).
 
     MENAGERIE_ROOT=DIR python experiments/commands/lever_windows.py --episodes=16 \
@@ -23,7 +23,6 @@ from tracking_windows import (  # noqa: E402
     YAW_RATE,
     Recorder,
     action_names,
-    by_command,
     episode_series,
     rms,
     windows_of,
@@ -74,17 +73,15 @@ def measure(policy: str, episodes: int, seconds: float, friction: float = 0.0) -
             f"{prefix}yaw_rate_tracking_rms": rms(windows, YAW_RATE),
             f"{prefix}yaw_rate_rms_first_window": rms(first, YAW_RATE),
             f"{prefix}yaw_rate_rms_later": rms(later, YAW_RATE),
-            # past the first window, the mean yaw-rate error per 0.2-rad/s bin of ω*
-            f"{prefix}yaw_rate_bias_by_command": [
-                row["mean_error"] for row in by_command(windows, YAW_RATE)
-            ],
             # the mean signed yaw-rate error per step after a draw that turns (`draw_responses`)
             f"{prefix}turning_draws": len(responses),
             f"{prefix}yaw_rate_error_after_turning_draw": [
-                float(value) for value in np.mean(responses, axis=0)
+                float(value) for value in (np.mean(responses, axis=0) if responses else ())
             ],
         }
-    record["action_stats"] = recorder.stats(action_names(robot.config))
+    stats = recorder.stats(action_names(robot.config))
+    # each action value's RMS change from one control step to the next, in [−1, 1]'s units
+    record["action_step_change"] = {name: row["rms_step_change"] for name, row in stats.items()}
     return _rounded(record)
 
 
