@@ -27,6 +27,7 @@ from tracking_windows import (  # noqa: E402
     rms,
     windows_of,
 )
+from training_summary import rounded  # noqa: E402
 
 from quadcos.deploy import host_robot  # noqa: E402
 
@@ -82,17 +83,7 @@ def measure(policy: str, episodes: int, seconds: float, friction: float = 0.0) -
     stats = recorder.stats(action_names(robot.config))
     # each action value's RMS change from one control step to the next, in [−1, 1]'s units
     record["action_step_change"] = {name: row["rms_step_change"] for name, row in stats.items()}
-    return _rounded(record)
-
-
-def _rounded(value):
-    if isinstance(value, float):
-        return round(value, 4)
-    if isinstance(value, dict):
-        return {key: _rounded(item) for key, item in value.items()}
-    if isinstance(value, list):
-        return [_rounded(item) for item in value]
-    return value
+    return rounded(record, 4)
 
 
 def main() -> None:
