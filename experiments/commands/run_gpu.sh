@@ -9,7 +9,7 @@
 #   bash experiments/commands/run_gpu.sh stop             # end every run and evaluation started
 #   bash experiments/commands/run_gpu.sh levers LEVER...  # all four for SAC's levers (below)
 #   bash experiments/commands/run_gpu.sh anymal LEVER...  # all four for ANYmal C's (below)
-#   bash experiments/commands/run_gpu.sh go1 LEVER...     # all four for Go1's SAC levers (below)
+#   [MAX_SECONDS=S] bash experiments/commands/run_gpu.sh go1 LEVER...  # all four for Go1's SAC levers
 #   [MAX_SECONDS=S] bash experiments/commands/run_gpu.sh go1seeds LEVER SEED...  # all four: a Go1
 #                                                         # lever from nothing (S: its budget)
 # RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
@@ -206,7 +206,7 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   # go1loops540_s0 (its centre, speed map and b given: nothing searched or measured), whose SAC
   # never beat that gait on MJX-JAX; the command preset (the drive's loops closed) for 450 s.
   # go1seeds LEVER SEED...: the lever from nothing (the command preset, its search and 480 s) on
-  # each seed, as go1cmd_LEVER_sSEED (MAX_SECONDS: another budget); a SEED go2:N or anymal:N runs
+  # each seed, as go1cmd_LEVER_sSEED (MAX_SECONDS: another budget, for go1 too); a SEED go2:N or anymal:N runs
   # that robot instead (go2cmd_LEVER_sN, anymalcmd_LEVER_sN). Runs share GPUs.
   gait="--config.env.action_centre=0.223638,-0.149431,0.15185,-2.06857,-5.21017"
   gait+=" --config.env.commands.reference_speed=1.03 --config.env.commands.half_track=0.442"
@@ -244,12 +244,12 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # a third of the randomisation's draws at the ends of its ranges (friction 0.4 / 1.5, ...)
     [tauyaw3trackends]="$tau $yaw3 $eval2 $track --config.env.randomization.range_ends=0.33"
   )
+  [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
+    { echo "bad MAX_SECONDS '$MAX_SECONDS': whole seconds" >&2; exit 2; }
   specs=()
   if [ "$verb" = go1seeds ]; then
     name=${1:?usage: run_gpu.sh go1seeds LEVER SEED...}; shift
     (( $# )) || { echo "usage: run_gpu.sh go1seeds LEVER SEED...: no SEED" >&2; exit 2; }
-    [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
-      { echo "bad MAX_SECONDS '$MAX_SECONDS': whole seconds" >&2; exit 2; }
     [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
     declare -A robots=([go1]=unitree_go1 [go2]=unitree_go2 [anymal]=anybotics_anymal_c)
     for token in "$@"; do  # SEED (Go1) or ROBOT:SEED, ROBOT go1, go2 or anymal
@@ -261,7 +261,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   else
     for name in "$@"; do
       [ -n "${lever[$name]+set}" ] || { echo "unknown lever $name (${!lever[*]})" >&2; exit 2; }
-      specs+=("go1_${name}_s0@menagerie:unitree_go1@0@$gait ${lever[$name]}")
+      # (MAX_SECONDS: another budget than 450 s, named in the run: go1_LEVERtS_s0)
+      specs+=("go1_${name}${MAX_SECONDS:+t$MAX_SECONDS}_s0@menagerie:unitree_go1@0@$gait ${lever[$name]}${MAX_SECONDS:+ --config.sac.max_seconds=$MAX_SECONDS}")
     done
   fi
   for next in train wait evaluate pack; do bash "$0" $next "${specs[@]}"; done ;;
