@@ -145,4 +145,8 @@ GO1_LEVERS = {  # run in campaign.json (run_gpu.sh go1) -> its change from the p
     "go1_tauyaw3trackrate300_s0": "`go1_tauyaw3track_s0`'s, the command's change charged, w_a 300",
     "go1_tauyaw3trackrate1000_s0": "`go1_tauyaw3track_s0`'s, the command's change charged, w_a"
     " 1000",
+    "go1_tauyaw3gaitt330_s0": "`go1_tauyaw3eval2_s0`'s, the kept policy ranked against step 0"
+    " (`sac.best_policy_by=gait`); 330 s, two runs sharing the GPU",
+    "go1_tauyaw3trackendst330_s0": "`go1_tauyaw3track_s0`'s, a third of the randomisation's draws"
+    " at its ranges' ends (`randomization.range_ends=0.33`); 330 s, two runs sharing the GPU",
 }
