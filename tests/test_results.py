@@ -32,15 +32,29 @@ def test_the_pages_agree_with_their_records(capsys):
     assert results.main(["--root", str(ROOT), "--check"]) == 0, capsys.readouterr().out
 
 
-def test_the_commanded_gait_page_agrees_with_its_records(monkeypatch):
-    """experiments/commands/README.md's tables are table.py's rows of the JSONs beside it."""
+def _commands_table(monkeypatch):
     import importlib.util
 
     monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))  # its run_labels.py, as a script
     spec = importlib.util.spec_from_file_location("table", ROOT / "experiments/commands/table.py")
     table = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(table)
-    assert table.check() == []
+    return table
+
+
+def test_the_commanded_gait_page_agrees_with_its_records(monkeypatch):
+    """experiments/commands/README.md's tables are table.py's rows of the JSONs beside it."""
+    assert _commands_table(monkeypatch).check() == []
+
+
+def test_the_page_check_names_missing_and_stray_rows(monkeypatch, tmp_path):
+    table = _commands_table(monkeypatch)
+    monkeypatch.setattr(table, "HERE", tmp_path)
+    monkeypatch.setattr(table, "blocks", lambda: ("| `a` | 1 |\n| `b` | 2 |",))
+    page = "text\n\n| run | x |\n|---|---|\n| `a` | 1 |\n| `c` | 3 |\n\n"
+    page += "| other | y |\n|---|---|\n| `d` | 4 |\n"
+    (tmp_path / "README.md").write_text(page)
+    assert table.check() == ["lacks: | `b` | 2 |", "has: | `c` | 3 |"]  # not `d`: another table
 
 
 def test_every_table_marker_in_the_pages_has_a_record():

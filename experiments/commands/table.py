@@ -10,6 +10,7 @@ episodes, the first traced; runs on a CPU; the sim-to-sim records: engines_recor
 """
 
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -425,16 +426,24 @@ def blocks() -> tuple[str, ...]:
 
 
 def check() -> list[str]:
-    """The generated table rows that README.md lacks (none: its tables are the records')."""
-    readme = set((HERE / "README.md").read_text().splitlines())
-    return [line for block in blocks() for line in block.splitlines() if line not in readme]
+    """Where README.md's tables differ from the records': "lacks: ROW" for each generated row
+    it lacks, "has: ROW" for each row under the header of a generated table (one sharing a row
+    with the records') that no record makes; none where its tables are the records'."""
+    text = (HERE / "README.md").read_text()
+    generated = {line for block in blocks() for line in block.splitlines()}
+    stale = [f"lacks: {line}" for block in blocks() for line in block.splitlines()
+             if line not in text.splitlines()]
+    for table_text in re.split(r"\n(?!\|)", text):  # runs of consecutive "|" lines
+        rows = [line for line in table_text.splitlines() if line.startswith("|")][2:]  # no header
+        if any(row in generated for row in rows):
+            stale += [f"has: {row}" for row in rows if row not in generated]
+    return stale
 
 
 if __name__ == "__main__":
     if sys.argv[1:] == ["--check"]:
         stale = check()
-        lacks = "\n".join(f"README.md lacks: {line}" for line in stale)
-        print(lacks or "README.md: tables current")
+        print("\n".join(f"README.md {line}" for line in stale) or "README.md: tables current")
         sys.exit(1 if stale else 0)
     if sys.argv[1:] == ["--figure"]:
         figure()
