@@ -50,11 +50,12 @@ def test_the_commanded_gait_page_agrees_with_its_records(monkeypatch):
 def test_the_page_check_names_missing_and_stray_rows(monkeypatch, tmp_path):
     table = _commands_table(monkeypatch)
     monkeypatch.setattr(table, "HERE", tmp_path)
-    monkeypatch.setattr(table, "blocks", lambda: ("| `a` | 1 |\n| `b` | 2 |",))
-    page = "text\n\n| run | x |\n|---|---|\n| `a` | 1 |\n| `c` | 3 |\n\n"
-    page += "| other | y |\n|---|---|\n| `d` | 4 |\n"
+    monkeypatch.setattr(table, "blocks", lambda: ("| `a` | 1 |\n| `b` | 2 |", "| `e` | 5 |"))
+    page = "text\n\n| run | x |\n|---|---|\n| `a` | 1 |\n| `c` | 3 |\n| `e` | 5 |\n\n"
+    page += "| other | y |\n|---|---|\n| `d` | 4 |\n"  # no generated row: not a generated table
     (tmp_path / "README.md").write_text(page)
-    assert table.check() == ["lacks: | `b` | 2 |", "has: | `c` | 3 |"]  # not `d`: another table
+    # `e` is generated, but by another table's block
+    assert table.check() == ["lacks: | `b` | 2 |", "has: | `c` | 3 |", "has: | `e` | 5 |"]
 
 
 def test_every_table_marker_in_the_pages_has_a_record():
