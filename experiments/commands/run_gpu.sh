@@ -206,8 +206,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   # go1loops540_s0 (its centre, speed map and b given: nothing searched or measured), whose SAC
   # never beat that gait on MJX-JAX; the command preset (the drive's loops closed) for 450 s.
   # go1seeds LEVER SEED...: the lever from nothing (the command preset, its search and 480 s) on
-  # each seed, as go1cmd_LEVER_sSEED (MAX_SECONDS: another budget, for go1 too); a SEED go2:N or anymal:N runs
-  # that robot instead (go2cmd_LEVER_sN, anymalcmd_LEVER_sN). Runs share GPUs.
+  # each seed, as go1cmd_LEVER_sSEED (MAX_SECONDS: another budget, for go1 too); a SEED go2:N or
+  # anymal:N runs that robot instead (go2cmd_LEVER_sN, anymalcmd_LEVER_sN). Runs share GPUs.
   gait="--config.env.action_centre=0.223638,-0.149431,0.15185,-2.06857,-5.21017"
   gait+=" --config.env.commands.reference_speed=1.03 --config.env.commands.half_track=0.442"
   gait+=" --config.env.commands.speed_map=0.2165,0.4605,0.696,0.9307 --config.sac.max_seconds=450"

@@ -431,8 +431,9 @@ def check() -> list[str]:
     makes most of its rows) that this block does not make; none where its tables are the
     records'."""
     text = (HERE / "README.md").read_text()
+    lines = set(text.splitlines())
     made = [block.splitlines() for block in blocks() if block]
-    stale = [f"lacks: {line}" for block in made for line in block if line not in text.splitlines()]
+    stale = [f"lacks: {line}" for block in made for line in block if line not in lines]
     for table_text in re.split(r"\n(?!\|)", text):  # runs of consecutive "|" lines
         rows = [line for line in table_text.splitlines() if line.startswith("|")][2:]  # no header
         block = set(max(made, key=lambda block: len(set(block).intersection(rows)), default=[]))
