@@ -50,7 +50,7 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     "go1gain2_s2": "as `go1gain2_s0`, seed 2",
     "go1loops_s0": "the preset (seed 0): the drive's gain (1/s) and heading loop (2/s) closed,"
     " 300 s",
-    "go1loops_s1": "as `go1loops_s0`, seed 1: `../policies/unitree_go1_command`",
+    "go1loops_s1": "as `go1loops_s0`, seed 1",
     "go1loops_s2": "as `go1loops_s0`, seed 2",
     "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
     "go2loops_s0": "the preset (Go2, seed 0): the drive's loops closed, 300 s",
@@ -108,6 +108,11 @@ NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path a
     "go1pathloops_s0": "Go1's MJCF by its path, the drive's loops closed (the preset)",
 }
 WARP = ("go1warp_s0", "go2warp_s0")  # Go1 and Go2 from nothing on MJX-Warp, sharing one GPU
+# the command preset as it is (the yaw rate low-passed, w4 x3, the kept policy ranked against
+# step 0 every 2 M env steps), 480 s from nothing: Go1's three seeds and Go2's sharing one GPU,
+# ANYmal C's two another
+PRESET = ("go1cmd_tauyaw3gait_s0", "go1cmd_tauyaw3gait_s1", "go1cmd_tauyaw3gait_s2",
+          "go2cmd_tauyaw3gait_s0", "anymalcmd_s0", "anymalcmd_s1")
 SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
 # the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
 SEEDS_NO_LOOPS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")
