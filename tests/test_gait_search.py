@@ -108,6 +108,25 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 
 
+def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
+    # experiments/commands, "The preset as it is": the shipped policy's run named the preset (and
+    # flags that are its values now); what may differ is the robot, the seed and what the gait
+    # search and the feed-forward's calibration resolved. Go1 has no per-robot settings.
+    policy = ROOT / "experiments/policies/unitree_go1_command/policy.json"
+    recorded = json.loads(policy.read_text())["config"]
+    config = json.loads(json.dumps(train.build_config(train.PRESETS["command"], {}).to_dict()))
+    assert config["sac"]["best_policy_by"] == "gait" and config["sac"]["eval_interval"] == 2_000_000
+    assert (config["sac"].pop("seed"), recorded["config"].pop("seed")) == (0, 1)
+    assert config["sac"] == recorded["config"]
+    env, trained = config["env"], recorded["run_info"]["env"]
+    assert (env.pop("robot"), trained.pop("robot")) == ("quadcos", "menagerie:unitree_go1")
+    assert env.pop("action_centre") == "search" and trained.pop("action_centre") != "search"
+    for resolved in ("reference_speed", "half_track", "speed_map"):  # the calibration's
+        assert not env["commands"].pop(resolved) and trained["commands"].pop(resolved)
+    assert env == trained
+    assert env["commands"]["yaw_rate_tau"] == 0.25 and env["reward"]["yaw"] == 120.0
+
+
 def test_bad_search_settings_are_refused_before_anything_runs(tmp_path, capsys):
     argv = ["--preset=smoke", "--config.sac.gait_search.rounds=0"]
     assert train.main([*argv, f"--output_dir={tmp_path / 'run'}"]) == 2
