@@ -23,14 +23,15 @@ on a course, the course end reached within `--seconds`. Bad flags, policy paths 
 exit with one line on stderr and status 2, before anything is written; output files are written
 atomically.
 
---out JSON: aggregates at the top level — num_episodes, success_rate, fall_rate,
-course_completion_rate, mean_forward_speed (m/s), std_forward_speed, mean_distance (m),
-mean_seconds, mean_max_abs_roll, mean_max_abs_yaw, mean_max_abs_pitch_error (|pitch − slope|,
-rad), mean_lateral_drift (|Δy| at the episode's end, m), mean_max_lateral_deviation (m),
-slope_error_rms (estimate − ground truth over all steps, rad), mean_episode_reward (Eq. 13 summed),
-mean_reward_terms — then "setup" (policy, terrain, sizes, env config, versions) and "episodes"
-(one dict per episode: success, fell, fall_time_s, finished_course, finish_time_s, seconds,
-distance, forward_speed, lateral_drift, max_abs_roll, ..., episode_reward, reward_terms).
+--out JSON (without it nothing is written; the summary line is printed either way): aggregates at
+the top level — num_episodes, success_rate, fall_rate, course_completion_rate, mean_forward_speed
+(m/s), std_forward_speed, mean_distance (m), mean_seconds, mean_max_abs_roll, mean_max_abs_yaw,
+mean_max_abs_pitch_error (|pitch − slope|, rad), mean_lateral_drift (|Δy| at the episode's end,
+m), mean_max_lateral_deviation (m), slope_error_rms (estimate − ground truth over all steps, rad),
+mean_episode_reward (Eq. 13 summed), mean_reward_terms — then "setup" (policy, terrain, sizes, env
+config, versions) and "episodes" (one dict per episode: success, fell, fall_time_s,
+finished_course, finish_time_s, seconds, distance, forward_speed, lateral_drift, max_abs_roll,
+..., episode_reward, reward_terms).
 --trace JSON: one episode's series (see `quadcos.evaluation.trace_dict`), its positions and env
 config.
 
@@ -118,10 +119,8 @@ def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]
             raise cli.UsageError("--render TRACE.json takes --video OUT.mp4 (and no --out, --trace)")
         if not pathlib.Path(args.render).is_file():
             raise cli.UsageError(f"--render {args.render}: no such file")
-    elif args.out is None:
-        raise cli.UsageError("--out is required")
     if args.engine == "mujoco" and (args.search_fixed or args.render or args.trace or args.video):
-        raise cli.UsageError("--engine=mujoco evaluates a --policy to --out only")
+        raise cli.UsageError("--engine=mujoco evaluates a --policy (--out, no --trace or --video)")
     if args.search_fixed and (args.trace or args.video):
         raise cli.UsageError("--trace and --video go with --policy, not --search_fixed")
     if args.num_envs < 1:
@@ -211,7 +210,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 env_overrides=overrides,
                 progress=_Progress("search", not args.no_progress),
             )
-            evaluation.write_json(args.out, search)
+            if args.out:
+                evaluation.write_json(args.out, search)
             best = search["ranking"][0]
             print(
                 f"best: --policy={best['policy']} (score {best['score']}, fall rate {best['fall_rate']})"
@@ -241,7 +241,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, FileNotFoundError, video.VideoError) as error:
         cli.print_error(_PROG, error)
         return cli.EXIT_USAGE
-    evaluation.write_json(args.out, result.to_json())
+    if args.out:
+        evaluation.write_json(args.out, result.to_json())
     if args.trace:
         evaluation.write_json(args.trace, result.trace)
     try:
@@ -254,13 +255,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     summary = result.summary
     if "courses" in summary:
         print(evaluation.course_table(summary))
-    engine = " in C MuJoCo" if args.engine == "mujoco" else ""
-    print(
-        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}{engine}: success"
-        f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
-        f" {summary['mean_forward_speed']:.3f} m/s -> {args.out}"
-    )
+    print(_summary_line(summary, args.engine, args.out))
     return 0
+
+
+def _summary_line(summary: dict[str, Any], engine: str, out: str | None) -> str:
+    """The evaluation in one line: episodes, survival, speed, the command tracking where the
+    robots followed commands, and where the JSON went."""
+    where = " in C MuJoCo" if engine == "mujoco" else ""
+    line = (
+        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}{where}: success"
+        f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
+        f" {summary['mean_forward_speed']:.3f} m/s"
+    )
+    if summary.get("speed_tracking_rms") is not None:
+        line += (
+            f", tracking {summary['speed_tracking_rms']:.3f} m/s,"
+            f" {summary['yaw_rate_tracking_rms']:.3f} rad/s RMS"
+        )
+    return line + (f" -> {out}" if out else "")
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ much training is behind its policy. All on a tiny randomly initialised commanded
 import json
 import math
 import pathlib
+import re
 
 import jax
 import jax.numpy as jnp
@@ -302,6 +303,18 @@ def test_a_bad_commands_spec_is_one_line_and_writes_nothing(tmp_path, capsys, mo
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "command" in lines[0]
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_an_evaluation_without_out_prints_its_tracking_and_writes_nothing(
+    commanded, tmp_path, capsys, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)
+    argv = [f"--policy={commanded}", "--engine=mujoco", "--commands=0.5,0@5", "--num_envs=1"]
+    assert evaluate.main([*argv, "--seconds=1.0", "--no_progress"]) == 0  # two 0.5-s windows
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert line.startswith("1 episodes on flat in C MuJoCo: success")
+    assert re.search(r"tracking \d+\.\d{3} m/s, \d+\.\d{3} rad/s RMS$", line), line
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_sim2sim_follows_commands(commanded, tmp_path, capsys):
