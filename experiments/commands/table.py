@@ -99,7 +99,17 @@ def table() -> str:
     for key in ("cost_of_transport", "peak_joint_torque_ratio"):
         cells = ["—" if e[key] is None else f"{e[key]:.2f}" for e in evals.values()]
         lines.append(_row(f"`{key}`", "", cells))
+    lines.append(_row("kept policy written, s from the process start (`best_of_run`)", "≤ 600 s",
+                      [_written(policy) for policy in RUNS.values()]))
     return "\n".join(lines)
+
+
+def _written(policy: str | None) -> str:
+    """When the run wrote the kept policy (its policy.json), "—" where the policy is not kept."""
+    if policy is None:
+        return "—"
+    config = json.loads((POLICIES / policy / "policy.json").read_text())["config"]
+    return f"{config['best_of_run']['written_at_s']:.0f}"
 
 
 def levers() -> str:
