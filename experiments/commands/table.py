@@ -54,6 +54,11 @@ def _row(label: str, target: str, cells: list[str]) -> str:
     return f"| {label} | {target} | " + " | ".join(cells) + " |"
 
 
+def _campaign() -> dict:
+    """The campaign's runs by name (campaign.json, training_summary.py)."""
+    return json.loads((HERE / "campaign.json").read_text())["runs"]
+
+
 def _load(name: str) -> dict | None:
     path = HERE / name
     return json.loads(path.read_text()) if path.exists() else None
@@ -156,7 +161,7 @@ def gain() -> str:
             (policy, "1/s, heading loop 2/s", sources[f"{robot}_gain_heading_eval"],
              sources[f"{robot}_gain_heading_robustness"]),
         ]
-    trained = json.loads((HERE / "campaign.json").read_text())["runs"]["go1loops_s1"]
+    trained = _campaign()["go1loops_s1"]
     runs.append(("go1loops_s1", "1/s, heading loop 2/s, in training too", trained["kept"],
                  {"conditions": trained["robustness"]}))
     return "\n".join(
@@ -177,7 +182,7 @@ def seeds(names: tuple[str, ...] = SEEDS, label: str = "seed") -> str:
     """The rows of a Go1 seeds table: each seed's kept policy under random commands with the
     training randomisation and in the four robustness conditions (nominal: none drawn).
     `label` "run": the first cell names the run, its robot and seed."""
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = _campaign()
     rows = []
     for name in names:
         run, kept = runs[name], runs[name]["kept"]
@@ -202,7 +207,7 @@ def sac_levers(levers: dict[str, str] = SAC_LEVERS, gait: bool = False) -> str:
     evaluation, the kept policy, and its survival and tracking (speed, yaw rate) in each
     condition; with `gait`, a first row of the runs' common start (step-0 gait) and where each
     run's kept and last policies do worse than it (`_worse`)."""
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = _campaign()
     rows = [_gait_row(levers, runs)] if gait else []
     for name, change in levers.items():
         run = runs[name]
@@ -300,7 +305,7 @@ def against_gait() -> str:
     """The rows of the kept-against-gait table: each run of campaign.json whose step-0 gait was
     measured in the four conditions beside its kept and last policies (run_gpu.sh evaluate):
     survival; speed, yaw-rate tracking per condition, and where each policy falls short of it."""
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = _campaign()
     rows = []
     for name, run in runs.items():
         if "gait_robustness" not in run or name in GO1_LEVERS:  # those: in their levers table
@@ -320,7 +325,7 @@ def against_gait() -> str:
 
 def campaign() -> str:
     """The rows of the campaign table: each run's feed-forward, kept and last policy."""
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = _campaign()
     rows = []
     for name, drive in CAMPAIGN.items():
         run, kept, last = runs[name], runs[name]["kept"], runs[name]["last"]
@@ -339,7 +344,7 @@ def anymal() -> str:
     """The rows of the ANYmal C levers table: the searched period, the step-0 and kept policies'
     training evaluations, the kept policy's survival in the four conditions, its pitch error
     (nominal) and its tracking under random commands with the training randomisation."""
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = _campaign()
     rows = []
     for name, change in ANYMAL.items():
         run, kept = runs[name], runs[name]["kept"]
@@ -359,7 +364,7 @@ def anymal() -> str:
 def no_preset() -> str:
     """The rows of the robot-without-a-preset table: each run's training rate (its first window
     of evaluations and the whole run) and, where evaluated, its kept policy."""
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = _campaign()
     rows = []
     for name, loads in NO_PRESET.items():
         run, kept = runs[name], runs[name]["kept"]
