@@ -211,13 +211,19 @@ def test_best_policy_by_tracking_keeps_the_evaluation_nearest_its_targets(tmp_pa
     assert best.offer(_STATE, {"step": 10, "eval/episode_reward": 1.0, speed: 0.12, yaw_rate: 0.12})
     # speed 0.9 of its target, the yaw rate 1.07: its worse ratio beats the first row's 1.2
     assert best.offer(_STATE, {"step": 20, "eval/episode_reward": 0.5, speed: 0.09, yaw_rate: 0.16})
-    assert not best.offer(_STATE, {"step": 30, "eval/episode_reward": 9.0, speed: 0.11, yaw_rate: 0.1})
+    assert not best.offer(
+        _STATE, {"step": 30, "eval/episode_reward": 9.0, speed: 0.11, yaw_rate: 0.1}
+    )
     assert not best.offer(
         _STATE, {"step": 40, speed: 0.05, yaw_rate: 0.05, "eval/fall_rate": 0.02}
     )  # falls more than the bound
     saved = json.loads(path.read_text())["config"]["best_of_run"]
     assert saved == {
-        "step": 20, "eval/episode_reward": 0.5, speed: 0.09, yaw_rate: 0.16, "eval/fall_rate": 0.0
+        "step": 20,
+        "eval/episode_reward": 0.5,
+        speed: 0.09,
+        yaw_rate: 0.16,
+        "eval/fall_rate": 0.0,
     }
     assert best.score == pytest.approx(-0.16 / 0.15)
 
@@ -694,6 +700,47 @@ def test_the_smoothness_loss_charges_the_policys_change_and_its_update_shrinks_i
         after.append(float(step_change(learned.policy_params)))
     assert after[1] < min(after[0], start), (start, after)
     assert float(metrics["smoothness"]) > 0  # the term, beside Brax's actor loss
+
+
+def test_the_anchor_charges_the_policys_distance_from_the_centre_and_its_update_shrinks_it():
+    """anchor · mean ‖μ(s)‖²: 0 is the env's action centre; a few updates with it bring μ nearer
+    the centre than Brax's loss alone does from the same state and batches."""
+    plain = training.SACTrainer(PointEnv(), toy_config(actor_warmup_steps=0))
+    anchored_config = toy_config(actor_warmup_steps=0)
+    anchored_config.smoothness.anchor = 30.0
+    anchored = training.SACTrainer(PointEnv(), anchored_config)
+    state = plain.prefill(plain.init())
+    batch = plain.replay.sample(state.replay, jax.random.PRNGKey(0), 128)
+    networks = plain.networks
+
+    def distance(policy_params) -> float:  # mean ‖μ(s)‖² over the batch
+        logits = networks.policy_network.apply(
+            state.normalizer_params, policy_params, batch.observation
+        )
+        mean = networks.parametric_action_distribution.mode(logits)
+        return float(jnp.mean(jnp.sum(mean**2, axis=-1)))
+
+    start = distance(state.policy_params)
+    loss = updates.smoothness_loss(
+        networks,
+        state.policy_params,
+        state.normalizer_params,
+        batch,
+        jax.random.PRNGKey(1),
+        temporal=0.0,
+        spatial=0.0,
+        sigma=0.0,
+        anchor=2.0,
+    )
+    np.testing.assert_allclose(float(loss), 2 * start, rtol=1e-5)
+    after = []
+    for trainer in (plain, anchored):
+        learned, update = state, jax.jit(trainer._sgd_step)
+        for step in range(5):
+            learned, metrics = update(learned, (batch, jax.random.PRNGKey(step)))
+        after.append(distance(learned.policy_params))
+    assert after[1] < after[0], (start, after)
+    assert float(metrics["smoothness"]) > 0
 
 
 # --- traced programs kept on disk ----------------------------------------------------------------

@@ -94,8 +94,11 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     # CAPS (Mysore et al. 2021): the actor's loss also charges `temporal` · the squared change of
     # its deterministic action from a state to the next and `spatial` · that to a state with
     # observation noise of `sigma` normaliser stds (quadcos.training.updates.smoothness_loss);
-    # 0, 0: Brax's actor loss.
-    config.smoothness = ml_collections.ConfigDict(dict(temporal=0.0, spatial=0.0, sigma=0.05))
+    # `anchor` · the squared distance of that action from the env's action centre (a from-scratch
+    # run's searched gait); all 0: Brax's actor loss.
+    config.smoothness = ml_collections.ConfigDict(
+        dict(temporal=0.0, spatial=0.0, sigma=0.05, anchor=0.0)
+    )
     # Gradient updates per vectorised env step, i.e. per `num_envs` new
     # transitions (replay ratio = updates_per_step * batch_size / num_envs).
     config.updates_per_step = 1

@@ -1,5 +1,6 @@
 """One SAC update (Haarnoja et al. 2018, arXiv:1812.05905) with Brax's losses, and the actor's
-optional smoothness regulariser (CAPS: Mysore et al. 2021, arXiv:2012.06644).
+optional regulariser: smoothness (CAPS: Mysore et al. 2021, arXiv:2012.06644) and an anchor at
+the action centre.
 
 The temperature, critic and actor gradients are all taken at the state before the update, as in
 Brax's SAC. On several devices the batch is split over them and XLA sums the gradients (the
@@ -174,14 +175,17 @@ def smoothness_loss(
     temporal: float,
     spatial: float,
     sigma: float,
+    anchor: float = 0.0,
 ) -> jax.Array:
-    """CAPS's regulariser of the deterministic policy μ (the tanh of the Gaussian's mean):
+    """CAPS's regulariser of the deterministic policy μ (the tanh of the Gaussian's mean), and its
+    anchor:
 
-        temporal · mean ‖μ(s) − μ(s')‖² + spatial · mean ‖μ(s) − μ(s̃)‖²,
+        temporal · mean ‖μ(s) − μ(s')‖² + spatial · mean ‖μ(s) − μ(s̃)‖² + anchor · mean ‖μ(s)‖²,
 
     s → s' a stored transition, s̃ = s + sigma · std ⊙ ε with ε ~ N(0, I) and std the observation
     normaliser's (noise of `sigma` in the units the networks see). Squared distances (smooth at
-    0, where CAPS's Euclidean distance has no gradient)."""
+    0, where CAPS's Euclidean distance has no gradient). μ = 0 is the env's action centre (the
+    searched gait of a from-scratch run), so the anchor charges the policy's distance from it."""
     distribution = networks.parametric_action_distribution
 
     def mean_action(observation: jax.Array) -> jax.Array:
@@ -194,15 +198,16 @@ def smoothness_loss(
     nearby = observation + sigma * std * jax.random.normal(key, observation.shape)
     step = jnp.sum((action - mean_action(transitions.next_observation)) ** 2, axis=-1)
     near = jnp.sum((action - mean_action(nearby)) ** 2, axis=-1)
-    return temporal * jnp.mean(step) + spatial * jnp.mean(near)
+    away = jnp.sum(action**2, axis=-1)
+    return temporal * jnp.mean(step) + spatial * jnp.mean(near) + anchor * jnp.mean(away)
 
 
 def _smoothness(
     networks: sac_networks_lib.SACNetworks, weights: ml_collections.ConfigDict
 ) -> Callable[..., jax.Array] | None:
-    """`smoothness_loss` of `networks` at `weights` (config.smoothness); None where both of its
-    weights are 0, so that the update is Brax's."""
-    if weights.temporal == 0 and weights.spatial == 0:
+    """`smoothness_loss` of `networks` at `weights` (config.smoothness); None where each of its
+    weights is 0, so that the update is Brax's."""
+    if weights.temporal == 0 and weights.spatial == 0 and weights.anchor == 0:
         return None
     return functools.partial(
         smoothness_loss,
@@ -210,6 +215,7 @@ def _smoothness(
         temporal=weights.temporal,
         spatial=weights.spatial,
         sigma=weights.sigma,
+        anchor=weights.anchor,
     )
 
 
