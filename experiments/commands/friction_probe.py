@@ -23,18 +23,23 @@ from quadcos.deploy import host_robot
 def survival(
     pilot: host_robot.Pilot, friction: float, commands: str, episodes: int, seconds: float
 ) -> dict:
-    """The share of `episodes` that did not fall and the mean seconds walked, at `friction`."""
+    """The share of `episodes` that did not fall, the mean seconds walked, and each fall's
+    episode, second and command (v*, ω*) then, at `friction`."""
     robot = host_robot.HostRobot(
         "flat", pilot.config, physics="training", commands=commands, friction=friction
     )
     feet = robot.layout.foot_geoms
-    act, steps, walked = pilot.actor(), round(seconds / robot.dt), []
+    act, steps, walked, falls = pilot.actor(), round(seconds / robot.dt), [], []
     for seed in range(episodes):
         obs, step = robot.reset(seed), 0
         while step < steps:
+            velocity = robot.commands.velocity if robot.commands else ()
+            command = [round(float(c), 3) for c in velocity]  # (v*, ω*) of this step
             result = robot.step(act(obs))
             obs, step = result.obs, step + 1
             if result.fell:
+                second = round(step * robot.dt, 2)
+                falls.append({"episode": seed, "second": second, "command": command})
                 break
         walked.append(step * robot.dt)
     return {
@@ -43,6 +48,7 @@ def survival(
         "episodes": episodes,
         "survival": float(np.mean([w >= steps * robot.dt - 1e-9 for w in walked])),
         "mean_seconds": float(np.mean(walked)),
+        "falls": falls,
     }
 
 
@@ -67,6 +73,10 @@ def main() -> None:
             f" {row['survival']:.3f} of {row['episodes']}, {row['mean_seconds']:.1f} s walked"
             " on average"
         )
+        for fall in row["falls"]:
+            v, w = fall["command"] or (float("nan"),) * 2
+            when = f"episode {fall['episode']} at {fall['second']} s"
+            print(f"  fell: {when}, v* {v:.2f}, ω* {w:+.2f}")
     if args.out:
         record = {"policy": args.policy, "seconds": args.seconds, "rows": rows}
         Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
