@@ -97,6 +97,23 @@ def test_samples_cover_the_ranges_with_a_share_of_straight_walking():
     assert np.abs(yaw_rate[~straight]).max() > 0.49 and abs(yaw_rate[~straight].mean()) < 0.02
 
 
+def test_a_share_of_draws_stands_and_the_others_are_the_draws_without_it():
+    keys = jax.random.split(jax.random.PRNGKey(2), 4000)
+
+    def draws(**values) -> np.ndarray:
+        config = _config(**values)
+        return np.asarray(jax.vmap(lambda key: commands.sample(key, config))(keys))
+
+    walking, standing = draws(), draws(zero_command_probability=0.3)
+    still = np.all(standing == 0, axis=1)
+    assert abs(still.mean() - 0.3) < 0.025  # binomial std 0.007
+    assert not np.any(np.all(walking == 0, axis=1))  # v* >= 0.2: no standing draw without it
+    np.testing.assert_array_equal(standing[~still], walking[~still])
+    config = _config(spec="random", zero_command_probability=1.5)
+    with pytest.raises(ValueError, match=r"commands.zero_command_probability must be in \[0, 1\]"):
+        commands.validate(config)
+
+
 def test_random_commands_are_resampled_every_period_only():
     plan = commands.Plan(commands.CommandSpec("random"), _config(resample_seconds=1.0))
     command = plan.start(jax.random.PRNGKey(0))

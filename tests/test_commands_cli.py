@@ -85,6 +85,24 @@ def test_random_commands_are_drawn_in_range_and_resampled():
     np.testing.assert_array_equal(follower.velocity, first)  # the reset seed decides
 
 
+def test_the_host_stands_in_its_share_of_random_draws_and_draws_as_before_without_it():
+    config = env_commands.default_config()
+    config.update(spec="random", speed_min=0.2, speed_max=0.8, yaw_rate_max=0.4)
+    firsts = {}
+    for share in (0.0, 0.5):
+        config.zero_command_probability = share
+        follower = host_commands.HostCommands(config)
+        firsts[share] = []
+        for seed in range(400):
+            follower.start(seed)
+            firsts[share].append(follower.velocity.copy())
+    walking, standing = np.array(firsts[0.0]), np.array(firsts[0.5])
+    still = np.all(standing == 0, axis=1)
+    assert abs(still.mean() - 0.5) < 0.1 and walking[:, 0].min() >= 0.2
+    # the same speed and yaw-rate draws where it walks (its standing draw comes after them)
+    np.testing.assert_array_equal(standing[~still], walking[~still])
+
+
 def test_commands_for_a_policy_without_them_are_refused():
     with pytest.raises(ValueError, match="only an env with commands"):
         host_robot.HostRobot("flat", evaluation.env_config({}), commands="0.5,0@5")

@@ -117,10 +117,12 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     config = json.loads(json.dumps(train.build_config(train.PRESETS["command"], {}).to_dict()))
     assert config["sac"]["best_policy_by"] == "gait" and config["sac"]["eval_interval"] == 2_000_000
     assert (config["sac"].pop("seed"), recorded["config"].pop("seed")) == (0, 1)
-    # a setting added since, at its default (off: the actor's loss the policy trained with)
+    # settings added since, at their defaults (off: the actor's loss and the command draws the
+    # policy trained with)
     assert config["sac"]["smoothness"].pop("anchor") == 0.0
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
+    assert env["commands"].pop("zero_command_probability") == 0.0
     assert (env.pop("robot"), trained.pop("robot")) == ("quadcos", "menagerie:unitree_go1")
     assert env.pop("action_centre") == "search" and trained.pop("action_centre") != "search"
     for resolved in ("reference_speed", "half_track", "speed_map"):  # the calibration's

@@ -19,12 +19,14 @@ import numpy as np
 
 from quadcos.deploy import host_robot
 
+FIRST_FALLS = 10  # falls a row records (its survival counts them all)
+
 
 def survival(
     pilot: host_robot.Pilot, friction: float, commands: str, episodes: int, seconds: float
 ) -> dict:
-    """The share of `episodes` that did not fall, the mean seconds walked, and each fall's
-    episode, second and command (v*, ω*) then, at `friction`."""
+    """The share of `episodes` that did not fall, the mean seconds walked, and the first
+    `FIRST_FALLS` falls' episode, second and command (v*, ω*) then, at `friction`."""
     robot = host_robot.HostRobot(
         "flat", pilot.config, physics="training", commands=commands, friction=friction
     )
@@ -37,9 +39,10 @@ def survival(
             command = [round(float(c), 3) for c in velocity]  # (v*, ω*) of this step
             result = robot.step(act(obs))
             obs, step = result.obs, step + 1
-            if result.fell:
+            if result.fell and len(falls) < FIRST_FALLS:
                 second = round(step * robot.dt, 2)
                 falls.append({"episode": seed, "second": second, "command": command})
+            if result.fell:
                 break
         walked.append(step * robot.dt)
     return {
@@ -48,7 +51,7 @@ def survival(
         "episodes": episodes,
         "survival": float(np.mean([w >= steps * robot.dt - 1e-9 for w in walked])),
         "mean_seconds": float(np.mean(walked)),
-        "falls": falls,
+        "first_falls": falls,
     }
 
 
@@ -73,7 +76,7 @@ def main() -> None:
             f" {row['survival']:.3f} of {row['episodes']}, {row['mean_seconds']:.1f} s walked"
             " on average"
         )
-        for fall in row["falls"]:
+        for fall in row["first_falls"]:
             v, w = fall["command"] or (float("nan"),) * 2
             when = f"episode {fall['episode']} at {fall['second']} s"
             print(f"  fell: {when}, v* {v:.2f}, ω* {w:+.2f}")

@@ -2,12 +2,12 @@
 `_track` with NumPy, no JAX in the loop (`quadcos.deploy.host_robot.HostRobot`).
 
 The command (v* m/s, ω* rad/s) follows a spec as the env's does: "random" draws v* ~
-U(speed_min, speed_max), ω* ~ U(±yaw_rate_max) (0 with probability `zero_yaw_rate_probability`)
-at every reset and again each time the episode crosses a multiple of `resample_seconds` (the draws
-are NumPy's, from the episode's reset seed, not the MJX env's JAX stream: the same distribution,
-other numbers); a schedule gives its segment at the episode's time. The commanded heading ψ*
-integrates ω* as the env's (`commands.advance_heading`). `steer` holds a command given by hand
-(`quadcos.play`'s keys) until the next reset.
+U(speed_min, speed_max), ω* ~ U(±yaw_rate_max) (0 with probability `zero_yaw_rate_probability`;
+both 0 with `zero_command_probability`) at every reset and again each time the episode crosses a
+multiple of `resample_seconds` (the draws are NumPy's, from the episode's reset seed, not the MJX
+env's JAX stream: the same distribution, other numbers); a schedule gives its segment at the
+episode's time. The commanded heading ψ* integrates ω* as the env's (`commands.advance_heading`).
+`steer` holds a command given by hand (`quadcos.play`'s keys) until the next reset.
 """
 
 from collections.abc import Sequence
@@ -120,5 +120,9 @@ class HostCommands:
             speed = self._rng.uniform(config.speed_min, config.speed_max)
             yaw_rate = self._rng.uniform(-config.yaw_rate_max, config.yaw_rate_max)
             straight = self._rng.uniform() < config.zero_yaw_rate_probability
-            return np.array([speed, 0.0 if straight else yaw_rate])
+            # (a draw only where standing is asked for: the stream of a config without it)
+            standing = config.zero_command_probability and (
+                self._rng.uniform() < config.zero_command_probability
+            )
+            return np.zeros(2) if standing else np.array([speed, 0.0 if straight else yaw_rate])
         return self._velocities[np.searchsorted(self._ends, time, side="right")].copy()

@@ -4,8 +4,8 @@ is asked to follow — drawn at random for training, or from a fixed schedule fo
 A command spec is one string, parsed here and nowhere else (`parse_commands`):
 - "" — no command: the paper's task (walk forward along +x), the observation unchanged;
 - "random" — v* ~ U(speed_min, speed_max), ω* ~ U(−yaw_rate_max, yaw_rate_max) (ω* = 0 with
-  probability `zero_yaw_rate_probability`), drawn at every reset and again every
-  `resample_seconds` of an episode;
+  probability `zero_yaw_rate_probability`; both 0, standing, with `zero_command_probability`),
+  drawn at every reset and again every `resample_seconds` of an episode;
 - a schedule "v,ω@s;v,ω@s;..." — e.g. "0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5": v* = 0.5 m/s, ω* = 0
   for the first 5 s, then 1.0 m/s for 5 s, ...; after the last segment its command holds.
 
@@ -64,6 +64,7 @@ def default_config() -> ml_collections.ConfigDict:
     config.speed_max = 0.0
     config.yaw_rate_max = 0.0  # rad/s: ω* ~ U(−max, max); 0 = the robot's (yaw_rate_range)
     config.zero_yaw_rate_probability = 0.1  # share of draws with ω* = 0 (walking straight)
+    config.zero_command_probability = 0.0  # share of draws with v* = ω* = 0 (standing)
     config.resample_seconds = 5.0  # s: a random command is drawn anew this often in an episode
     config.heading_leash = 0.5  # rad: the most the commanded heading ψ* may lead or trail the yaw
     config.tracking = "heading"  # or "yaw_rate" (TRACKING; the module docstring)
@@ -184,11 +185,9 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.yaw_rate_max must be finite and >= 0; got {config.yaw_rate_max}"
         )
-    if not 0 <= config.zero_yaw_rate_probability <= 1:
-        raise ValueError(
-            "commands.zero_yaw_rate_probability must be in [0, 1]; got"
-            f" {config.zero_yaw_rate_probability}"
-        )
+    for name in ("zero_yaw_rate_probability", "zero_command_probability"):
+        if not 0 <= config[name] <= 1:
+            raise ValueError(f"commands.{name} must be in [0, 1]; got {config[name]}")
     if not 0 < config.resample_seconds < math.inf:
         raise ValueError(
             f"commands.resample_seconds must be finite and > 0; got {config.resample_seconds}"
@@ -417,13 +416,17 @@ class Plan:
 
 def sample(key: jax.Array, config: ml_collections.ConfigDict) -> jax.Array:
     """(2,) one random command: v* ~ U(speed_min, speed_max), ω* ~ U(−yaw_rate_max,
-    yaw_rate_max), ω* = 0 with probability `zero_yaw_rate_probability` (a resolved config)."""
+    yaw_rate_max), ω* = 0 with probability `zero_yaw_rate_probability`, both 0 with
+    `zero_command_probability` (a resolved config). The standing draw's key is folded from `key`,
+    not split from it: without it the draws are those of a config that has none."""
     speed_key, yaw_key, straight_key = jax.random.split(key, 3)
     speed = jax.random.uniform(speed_key, (), minval=config.speed_min, maxval=config.speed_max)
     bound = config.yaw_rate_max
     yaw_rate = jax.random.uniform(yaw_key, (), minval=-bound, maxval=bound)
     straight = jax.random.uniform(straight_key) < config.zero_yaw_rate_probability
-    return jnp.stack([speed, jnp.where(straight, 0.0, yaw_rate)])
+    velocity = jnp.stack([speed, jnp.where(straight, 0.0, yaw_rate)])
+    standing = jax.random.uniform(jax.random.fold_in(key, 1)) < config.zero_command_probability
+    return jnp.where(standing, 0.0, velocity)
 
 
 def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
