@@ -84,8 +84,9 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     # ... and the kept policy ranked by tracking, an option: by reward, as the runs ranked it.
     assert config["sac"].pop("best_policy_by") == "reward"
     assert config["sac"].pop("best_policy_tracking_targets") == [0.1, 0.15]
-    # ... and CAPS's smoothness terms, off: Brax's actor loss.
-    assert config["sac"].pop("smoothness") == {"temporal": 0.0, "spatial": 0.0, "sigma": 0.05}
+    # ... and CAPS's smoothness terms and the anchor, off: Brax's actor loss.
+    off = {"temporal": 0.0, "spatial": 0.0, "sigma": 0.05, "anchor": 0.0}
+    assert config["sac"].pop("smoothness") == off
     assert config["sac"] == recorded["config"]
     env = config["env"]
     assert env.pop("action_centre") == "search"
