@@ -6,8 +6,9 @@ schedule (`--commands`, `quadcos.sim2sim`'s spec).
         --frictions 0 1.0 1.5 --episodes=8 --out=experiments/commands/anymal_friction.json
     ... --frictions 1.5 --commands 0,0@10 0.2,0@10 0.4,0@10 --out=...   # a row per schedule
 
-A friction of 0 keeps the MJCF's own. Physics: the solver iterations the policy trained with
-(`quadcos.sim2sim --physics=training`). Each episode: `--seconds` of control steps from
+A friction of 0 keeps the MJCF's own. Physics (`--physics`, `quadcos.sim2sim`'s): the solver
+iterations the policy trained with ("training", the default), the MJCF's own ("reference":
+converged) or "N/M". Each episode: `--seconds` of control steps from
 `HostRobot.reset(seed)`, ended by a fall.
 """
 
@@ -23,12 +24,17 @@ FIRST_FALLS = 10  # falls a row records (its survival counts them all)
 
 
 def survival(
-    pilot: host_robot.Pilot, friction: float, commands: str, episodes: int, seconds: float
+    pilot: host_robot.Pilot,
+    friction: float,
+    commands: str,
+    episodes: int,
+    seconds: float,
+    physics: str = "training",
 ) -> dict:
     """The share of `episodes` that did not fall, the mean seconds walked, and the first
     `FIRST_FALLS` falls' episode, second and command (v*, ω*) then, at `friction`."""
     robot = host_robot.HostRobot(
-        "flat", pilot.config, physics="training", commands=commands, friction=friction
+        "flat", pilot.config, physics=physics, commands=commands, friction=friction
     )
     feet = robot.layout.foot_geoms
     act, steps, walked, falls = pilot.actor(), round(seconds / robot.dt), [], []
@@ -62,11 +68,12 @@ def main() -> None:
     parser.add_argument("--commands", nargs="+", default=["random"])
     parser.add_argument("--episodes", type=int, default=8)
     parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--physics", default="training")
     parser.add_argument("--out")
     args = parser.parse_args()
     pilot = host_robot.Pilot.load(args.policy)
     rows = [
-        survival(pilot, friction, commands, args.episodes, args.seconds)
+        survival(pilot, friction, commands, args.episodes, args.seconds, args.physics)
         for commands in args.commands
         for friction in args.frictions
     ]
@@ -81,7 +88,12 @@ def main() -> None:
             when = f"episode {fall['episode']} at {fall['second']} s"
             print(f"  fell: {when}, v* {v:.2f}, ω* {w:+.2f}")
     if args.out:
-        record = {"policy": args.policy, "seconds": args.seconds, "rows": rows}
+        record = {
+            "policy": args.policy,
+            "physics": args.physics,
+            "seconds": args.seconds,
+            "rows": rows,
+        }
         Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
 
 

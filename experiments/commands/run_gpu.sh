@@ -243,11 +243,11 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [tauyaw3gait]="$tau $yaw3 $eval2 --config.sac.best_policy_by=gait"  # ranked against step 0
     # a third of the randomisation's draws at the ends of its ranges (friction 0.4 / 1.5, ...)
     [tauyaw3trackends]="$tau $yaw3 $eval2 $track --config.env.randomization.range_ends=0.33"
-    # on the preset as it is (go1seeds): MJX-JAX physics, and a tenth of the command draws
-    # standing (v* = ω* = 0): the shipped Go1 policy (MJX-Warp) stands at friction 0.4 on MJX-Warp
-    # but falls on MJX-JAX and in C MuJoCo, where its gait stands (README, "Misses"); the actor
+    # on the preset as it is (go1seeds): a tenth of the command draws standing (v* = ω* = 0: the
+    # shipped Go1 policy creeps and, under the training solver's iterations in C MuJoCo and on
+    # MJX-JAX, falls where told to stand on slippery ground: README, "Misses"); the actor
     # charged for its distance from the searched gait (ANYmal C's evaluations fall below step 0)
-    [jax]="--config.env.impl=jax" [stand]="--config.env.commands.zero_command_probability=0.1"
+    [stand]="--config.env.commands.zero_command_probability=0.1"
     [anchor10]="--config.sac.smoothness.anchor=10" [anchor100]="--config.sac.smoothness.anchor=100"
   )
   [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
