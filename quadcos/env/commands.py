@@ -181,10 +181,6 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
             "commands.speed_min and commands.speed_max must satisfy 0 <= min <= max < inf; got"
             f" {config.speed_min}, {config.speed_max}"
         )
-    if not 0 <= config.yaw_rate_max < math.inf:
-        raise ValueError(
-            f"commands.yaw_rate_max must be finite and >= 0; got {config.yaw_rate_max}"
-        )
     for name in ("zero_yaw_rate_probability", "zero_command_probability"):
         if not 0 <= config[name] <= 1:
             raise ValueError(f"commands.{name} must be in [0, 1]; got {config[name]}")
@@ -196,11 +192,6 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.heading_leash must be in (0, π] rad; got {config.heading_leash}"
         )
-    if not 0 <= config.observed_speed_tau < math.inf:
-        raise ValueError(
-            f"commands.observed_speed_tau must be finite and >= 0 s; got"
-            f" {config.observed_speed_tau}"
-        )
     if config.tracking not in TRACKING:
         raise ValueError(
             f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
@@ -210,7 +201,7 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
             f"commands.yaw_rate_tau needs commands.tracking='yaw_rate'; got {config.tracking!r}"
         )
     keys = ("reference_speed", "scale_max", "turn_max", "speed_gain_rate", "heading_gain")
-    for key in (*keys, "yaw_rate_tau"):
+    for key in ("yaw_rate_max", "observed_speed_tau", *keys, "yaw_rate_tau"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     if not math.isfinite(config.half_track):
