@@ -192,14 +192,20 @@ def smoothness_loss(
         logits = networks.policy_network.apply(normalizer_params, policy_params, observation)
         return distribution.mode(logits)
 
+    def mean_square(difference: jax.Array) -> jax.Array:
+        return jnp.mean(jnp.sum(difference**2, axis=-1))
+
     observation = transitions.observation
     action = mean_action(observation)
-    std = getattr(normalizer_params, "std", 1.0)
-    nearby = observation + sigma * std * jax.random.normal(key, observation.shape)
-    step = jnp.sum((action - mean_action(transitions.next_observation)) ** 2, axis=-1)
-    near = jnp.sum((action - mean_action(nearby)) ** 2, axis=-1)
-    away = jnp.sum(action**2, axis=-1)
-    return temporal * jnp.mean(step) + spatial * jnp.mean(near) + anchor * jnp.mean(away)
+    loss = anchor * mean_square(action)
+    # (a term with weight 0 costs no forward pass: the weights are fixed at tracing)
+    if temporal:
+        loss += temporal * mean_square(action - mean_action(transitions.next_observation))
+    if spatial:
+        std = getattr(normalizer_params, "std", 1.0)
+        nearby = observation + sigma * std * jax.random.normal(key, observation.shape)
+        loss += spatial * mean_square(action - mean_action(nearby))
+    return loss
 
 
 def _smoothness(
