@@ -116,8 +116,8 @@ PRESET = ("go1cmd_tauyaw3gait_s0", "go1cmd_tauyaw3gait_s1", "go1cmd_tauyaw3gait_
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
-    "anymalfw900_s0": "w1 ×6 (`reward.forward` 900; two runs sharing one GPU)",
-    "anymalyaw40_s0": "w4 ÷3 (`reward.yaw` 40; two runs sharing one GPU)",
+    "anymalfw900_s0": "w1 ×2 (`reward.forward` 900, the preset 450; two runs sharing one GPU)",
+    "anymalyaw40_s0": "w4 ÷3 (`reward.yaw` 40, the preset 120; two runs sharing one GPU)",
     "anymalalone_s0": "— (alone on the GPU)",
 }
 SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
