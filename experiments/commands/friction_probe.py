@@ -41,14 +41,14 @@ def survival(
     for seed in range(episodes):
         obs, step = robot.reset(seed), 0
         while step < steps:
-            velocity = robot.commands.velocity if robot.commands else ()
-            command = [round(float(c), 3) for c in velocity]  # (v*, ω*) of this step
+            velocity = robot.commands.velocity if robot.commands else ()  # (v*, ω*) of this step
             result = robot.step(act(obs))
             obs, step = result.obs, step + 1
-            if result.fell and len(falls) < FIRST_FALLS:
-                second = round(step * robot.dt, 2)
-                falls.append({"episode": seed, "second": second, "command": command})
             if result.fell:
+                if len(falls) < FIRST_FALLS:
+                    command = [round(float(c), 3) for c in velocity]
+                    second = round(step * robot.dt, 2)
+                    falls.append({"episode": seed, "second": second, "command": command})
                 break
         walked.append(step * robot.dt)
     return {
