@@ -112,13 +112,15 @@ WARP = ("go1warp_s0", "go2warp_s0")  # Go1 and Go2 from nothing on MJX-Warp, sha
 # step 0 every 2 M env steps), 480 s from nothing: Go1's three seeds and Go2's sharing one GPU,
 # ANYmal C's two another
 PRESET = ("go1cmd_tauyaw3gait_s0", "go1cmd_tauyaw3gait_s1", "go1cmd_tauyaw3gait_s2",
-          "go2cmd_tauyaw3gait_s0", "anymalcmd_s0", "anymalcmd_s1")
+          "go2cmd_tauyaw3gait_s0", "go1cmd_base_s0", "go1cmd_base_s2", "anymalcmd_s0", "anymalcmd_s1")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
     "anymalfw900_s0": "w1 ×2 (`reward.forward` 900, the preset 450; two runs sharing one GPU)",
     "anymalyaw40_s0": "w4 ÷3 (`reward.yaw` 40, the preset 120; two runs sharing one GPU)",
     "anymalalone_s0": "— (alone on the GPU)",
+    "anymalcmd_anchor10_s0": "λ‖μ(s)‖² in the actor's loss, λ 10 (`sac.smoothness.anchor`; two sharing)",
+    "anymalcmd_anchor100_s0": "the same, λ 100 (two sharing)",
 }
 SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
 # the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
