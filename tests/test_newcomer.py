@@ -145,7 +145,7 @@ def test_resume_past_a_corrupt_checkpoint_says_so_in_one_line(smoke_run, tmp_pat
     assert progress and all(
         re.fullmatch(
             r"step [\d,]+/[\d,]+  [\d,]+ env steps/s  eval reward \S+  speed \S+ m/s"
-            r"  fall rate \S+  ETA \S+",
+            r"  fall rate \S+  roll \S+ rad  ETA \S+",
             line,
         )
         for line in progress

@@ -1,5 +1,6 @@
 """Training-time evaluation (quadcos.training.periodic_eval): sums over alive steps, and a robot
-whose physics blows up counts as a fall without turning the means into NaN."""
+whose physics blows up counts as a fall without turning the means into NaN; the attitude reported
+as each episode's peak."""
 
 import jax.numpy as jnp
 import numpy as np
@@ -23,7 +24,11 @@ class ScriptedEnv:
             obs=jnp.zeros((n, 1)),
             reward=jnp.zeros(n),
             done=jnp.zeros(n),
-            metrics={"forward_speed": jnp.zeros(n), "reward/forward": jnp.zeros(n)},
+            metrics={
+                "forward_speed": jnp.zeros(n),
+                "reward/forward": jnp.zeros(n),
+                "abs_roll": jnp.zeros(n),
+            },
         )
 
     def step(self, state, action):
@@ -32,11 +37,13 @@ class ScriptedEnv:
         fell = (jnp.arange(3) == 1) & (t == 4)
         reward = jnp.where(blown, NAN, 1.0)
         speed = jnp.where(blown, NAN, 0.5)
+        roll = jnp.where(blown, 9.0, jnp.where((jnp.arange(3) == 2) & (t == 5), 0.3, 0.1))
         return state.replace(
             obs=t[:, None],
             reward=reward,
             done=(blown | fell).astype(jnp.float32),
-            metrics={"forward_speed": speed, "reward/forward": reward},
+            # roll 0.1 rad a step, robot 2 rolls 0.3 at its 5th; 9 at robot 0's blown-up step
+            metrics={"forward_speed": speed, "reward/forward": reward, "abs_roll": roll},
         )
 
 
@@ -52,4 +59,7 @@ def test_a_diverged_robot_counts_as_a_fall_and_leaves_the_means_finite():
     assert metrics["eval/forward_speed"] == pytest.approx(0.5)
     assert metrics["eval/fall_rate"] == pytest.approx(2 / 3)
     assert metrics["eval/diverged_rate"] == pytest.approx(1 / 3)
+    # The attitude's per-episode peak over the counted steps, as quadcos.evaluate reports it.
+    assert metrics["eval/mean_max_abs_roll"] == pytest.approx((0.1 + 0.1 + 0.3) / 3)
+    assert "eval/abs_roll" not in metrics
     assert all(np.isfinite(value) for value in metrics.values())

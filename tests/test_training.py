@@ -250,6 +250,29 @@ def test_best_policy_by_gait_keeps_the_evaluation_that_improves_most_on_step_0(t
     assert resumed.score == pytest.approx(-0.079 / 0.08)
 
 
+def test_an_attitude_bound_ranks_a_level_evaluation_above_a_rolling_one(tmp_path):
+    """`best_policy_max_attitude`: an evaluation that rolls or pitches beyond the bound (mean of
+    the episodes' peaks) ranks below every one within it, however well it tracks; rows that
+    measured no attitude (runs before it) count as within; 0 turns it off."""
+    speed, yaw_rate = best_policy.TRACKING
+    roll, pitch = best_policy.ATTITUDE
+    gait = {"step": 0, speed: 0.10, yaw_rate: 0.08, roll: 0.09, pitch: 0.06}
+    best = best_policy.BestPolicy(tmp_path / "b", _SPEC, {}, [gait], 0.01, "gait", max_attitude=0.1)
+    assert not best.offer(_STATE, {"step": 10, speed: 0.05, yaw_rate: 0.05, roll: 0.11, pitch: 0.0})
+    assert not best.offer(_STATE, {"step": 20, speed: 0.05, yaw_rate: 0.05, roll: 0, pitch: 0.12})
+    assert best.offer(_STATE, {"step": 30, speed: 0.095, yaw_rate: 0.079, roll: 0.1, pitch: 0.1})
+    saved = json.loads((tmp_path / "b" / "policy.json").read_text())["config"]["best_of_run"]
+    assert saved[roll] == 0.1 and saved[pitch] == 0.1
+    assert best_policy.rank({speed: 0.05, yaw_rate: 0.1}, 0.01, "tracking", max_attitude=0.1)[0]
+    rolling = {speed: 0.05, yaw_rate: 0.05, roll: 0.5}
+    assert best_policy.rank(rolling, 0.01, "tracking") == (True, pytest.approx(-0.5))
+    assert not best_policy.rank(rolling, 0.01, "tracking", max_attitude=0.1)[0]
+    from quadcos import train  # the command line's config builder
+
+    with pytest.raises(ValueError, match="best_policy_max_attitude must be a finite angle >= 0"):
+        train.build_config(train.PRESETS["smoke"], {"sac.best_policy_max_attitude": -0.1})
+
+
 def test_a_tracking_rank_needs_robots_that_follow_commands():
     from quadcos import train  # the command line's config builder
 

@@ -244,6 +244,8 @@ class QuadrupedEnv(base.Env):
             "slope_estimate": observed.slope_estimate,
             "slope_truth": slope_truth,
             "slope_error": jnp.abs(observed.slope_estimate - slope_truth),
+            "abs_roll": jnp.abs(observed.attitude.roll),
+            "abs_pitch_error": jnp.abs(observed.attitude.pitch - slope_truth),
         }
         obs, info = self._seen(self._with_command(observed.obs, info), info)
         return state.replace(
@@ -454,5 +456,12 @@ class QuadrupedEnv(base.Env):
 GAIT_KEY = "gait"  # state.info: the gait's maps (`QuadrupedEnv.gait`) a trainer passes as data
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
-_STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error")
+_STEP_METRICS = (  # besides the reward's terms; the last two: the body's attitude off the slope
+    "forward_speed",
+    "slope_estimate",
+    "slope_truth",
+    "slope_error",
+    "abs_roll",
+    "abs_pitch_error",
+)
 

@@ -13,6 +13,7 @@ from quadcos.training import sac
 _BEST_BY = "eval/episode_reward"
 _FALLS = "eval/fall_rate"
 TRACKING = ("eval/speed_tracking_rms", "eval/yaw_rate_tracking_rms")
+ATTITUDE = ("eval/mean_max_abs_roll", "eval/mean_max_abs_pitch_error")  # rad
 RANKS = ("reward", "tracking", "gait")  # what `best_policy_by` may name
 TRACKED = ("tracking", "gait")  # the ranks that need robots that follow commands
 
@@ -22,24 +23,29 @@ def rank(
     max_fall_rate: float,
     by: str = "reward",
     targets: tuple[float, float] = (0.10, 0.15),
+    max_attitude: float = 0.0,
 ) -> tuple[bool, float]:
     """How an evaluation row ranks for `policy_best` (higher is better): whether it falls in at
-    most `max_fall_rate` of its episodes, then its episode reward (`by` "reward"), or (`by`
-    "tracking") minus its worse tracking relative to `targets` (m/s, rad/s): −max(speed RMS /
-    targets[0], yaw-rate RMS / targets[1]), > −1 where both are within their targets. NaN where
-    the row has no such evaluation."""
+    most `max_fall_rate` of its episodes (and, `max_attitude` > 0, rolls and pitches off the
+    slope by at most `max_attitude` rad, mean of the episodes' peaks; a row that measured neither
+    counts as within), then its episode reward (`by` "reward"), or (`by` "tracking") minus its
+    worse tracking relative to `targets` (m/s, rad/s): −max(speed RMS / targets[0], yaw-rate RMS
+    / targets[1]), > −1 where both are within their targets. NaN where the row has no such
+    evaluation."""
     if by == "reward":
         value = row.get(_BEST_BY, math.nan)
     else:
         ratios = [row.get(key, math.nan) / target for key, target in zip(TRACKING, targets)]
         value = -max(ratios) if all(math.isfinite(r) for r in ratios) else math.nan
-    return row.get(_FALLS, 0.0) <= max_fall_rate, value
+    level = max_attitude <= 0 or all(row.get(key, 0.0) <= max_attitude for key in ATTITUDE)
+    return row.get(_FALLS, 0.0) <= max_fall_rate and level, value
 
 
 class BestPolicy:
     """The policy of the best training-time evaluation of a run (`keep_best_policy`).
 
-    An evaluation whose fall rate is at most `max_fall_rate` beats every one above it; among
+    An evaluation whose fall rate is at most `max_fall_rate` (and whose attitude is within
+    `max_attitude`, where > 0: `rank`) beats every one beyond them; among
     evaluations on the same side, the higher episode reward wins (`max_fall_rate` 1: reward alone),
     or with `by` "tracking" the better command tracking (`rank`), or with `by` "gait" the tracking
     rank with the run's step-0 evaluation's own tracking RMS as the targets: the policy that
@@ -59,11 +65,13 @@ class BestPolicy:
         max_fall_rate: float = 1.0,
         by: str = "reward",
         targets: tuple[float, float] = (0.10, 0.15),
+        max_attitude: float = 0.0,
     ):
         self.directory = directory
         self._spec = spec
         self._run_info = run_info
         self._by, self._max_fall_rate, self._targets = by, max_fall_rate, targets
+        self._max_attitude = max_attitude
         if by == "gait":
             self._targets = None  # the step-0 evaluation's tracking, once seen
         ranked = (self._rank(row) for row in history)
@@ -71,12 +79,13 @@ class BestPolicy:
 
     def _rank(self, row: dict[str, Any]) -> tuple[bool, float]:
         if self._by != "gait":
-            return rank(row, self._max_fall_rate, self._by, self._targets)
+            return rank(row, self._max_fall_rate, self._by, self._targets, self._max_attitude)
         if row.get("step") == 0 and all(row.get(key, 0) > 0 for key in TRACKING):
             self._targets = tuple(row[key] for key in TRACKING)
         if self._targets is None:
-            return row.get(_FALLS, 0.0) <= self._max_fall_rate, math.nan
-        return rank(row, self._max_fall_rate, "tracking", self._targets)
+            within = rank(row, self._max_fall_rate, max_attitude=self._max_attitude)[0]
+            return within, math.nan
+        return rank(row, self._max_fall_rate, "tracking", self._targets, self._max_attitude)
 
     @property
     def score(self) -> float:
@@ -95,7 +104,7 @@ class BestPolicy:
             return False
         self.rank = ranked
         best_of_run = {"step": int(row["step"])} | {
-            key: float(row[key]) for key in (_BEST_BY, *TRACKING) if key in row
+            key: float(row[key]) for key in (_BEST_BY, *TRACKING, *ATTITUDE) if key in row
         }
         best_of_run[_FALLS] = float(row.get(_FALLS, 0.0))
         if written_at_s is not None:

@@ -193,6 +193,11 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
             "config.best_policy_max_fall_rate must be a fraction in [0, 1], got"
             f" {config.best_policy_max_fall_rate}"
         )
+    if not 0 <= config.best_policy_max_attitude < math.inf:
+        raise ValueError(
+            "config.best_policy_max_attitude must be a finite angle >= 0 (rad; 0: off), got"
+            f" {config.best_policy_max_attitude}"
+        )
     if config.best_policy_by not in best_policy.RANKS:
         raise ValueError(
             f"config.best_policy_by must be one of {', '.join(best_policy.RANKS)}, got"

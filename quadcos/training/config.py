@@ -222,5 +222,9 @@ def _host_loop(config: ml_collections.ConfigDict) -> None:
     # "gait": the same relative to the run's step-0 evaluation (the gait it started from).
     config.best_policy_by = "reward"
     config.best_policy_tracking_targets = (0.10, 0.15)
+    # With keep_best_policy, > 0: an evaluation whose robots roll or pitch off the slope by more
+    # than this (rad, the mean of the episodes' peaks: eval/mean_max_abs_roll, _pitch_error)
+    # ranks below every one within it, as a fall rate above the bound does (0: off).
+    config.best_policy_max_attitude = 0.0
     # Store the replay buffer in checkpoints (exact resume, large files).
     config.save_replay = False

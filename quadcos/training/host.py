@@ -189,6 +189,7 @@ class Progress:
                 ("eval/fall_rate", "fall rate", ""),
                 ("eval/speed_tracking_rms", "speed RMS", " m/s"),
                 ("eval/yaw_rate_tracking_rms", "yaw-rate RMS", " rad/s"),
+                ("eval/mean_max_abs_roll", "roll", " rad"),
             )
             if key in row
         )

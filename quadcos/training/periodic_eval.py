@@ -11,6 +11,9 @@ from quadcos.env import episodes
 from quadcos.env import tracking as tracking_lib
 
 Metrics = dict[str, jax.Array]
+# Step metrics whose per-episode peak, not mean, an evaluation reports (under quadcos.evaluate's
+# names): the body's attitude, of which the gait's targets bound the worst moment.
+PEAKS = {"abs_roll": "mean_max_abs_roll", "abs_pitch_error": "mean_max_abs_pitch_error"}
 
 
 @flax.struct.dataclass
@@ -58,9 +61,11 @@ def evaluate(
       `eval/episode_length` (alive steps), `eval/fall_rate` (1 if the episode ended with done
       before the time limit), `eval/diverged_rate` (1 if it ended non-finite), and for each key
       of the env's `state.metrics`, `eval/<key>`: the per-episode sum for keys starting with
-      `reward/`, else the per-episode mean over alive steps; with commands
-      `eval/speed_tracking_rms` (m/s) and `eval/yaw_rate_tracking_rms` (rad/s), every closed
-      window of every episode pooled (over several devices the trainer averages each device's).
+      `reward/`, the per-episode peak for those of `PEAKS` (as `eval/mean_max_abs_roll`,
+      `eval/mean_max_abs_pitch_error`, rad), else the per-episode mean over alive steps; with
+      commands `eval/speed_tracking_rms` (m/s) and `eval/yaw_rate_tracking_rms` (rad/s), every
+      closed window of every episode pooled (over several devices the trainer averages each
+      device's).
     """
     env_state = eval_env.reset(keys)
     zeros = jnp.zeros((keys.shape[0],))
@@ -81,10 +86,14 @@ def evaluate(
         blown_up = ~jnp.isfinite(next_env_state.reward)
         counted = totals.alive & ~blown_up
         # `where`, not multiplication: a fallen env may produce NaN.
-        alive_sum = lambda total, value: (
-            total + jnp.where(counted & jnp.isfinite(value), value, 0.0)
-        )
+        def alive_sum(total: jax.Array, value: jax.Array) -> jax.Array:
+            return total + jnp.where(counted & jnp.isfinite(value), value, 0.0)
+
+        def alive_max(total: jax.Array, value: jax.Array) -> jax.Array:
+            return jnp.where(counted & jnp.isfinite(value), jnp.maximum(total, value), total)
+
         length = alive_sum(totals.length, 1.0)
+        step_metrics = next_env_state.metrics
         followed = totals.followed
         if followed is not None:
             pose = tracking_lib.pose(next_env_state.pipeline_state.qpos)
@@ -97,7 +106,10 @@ def evaluate(
         return EvalTotals(
             reward=alive_sum(totals.reward, next_env_state.reward),
             length=length,
-            metrics=jax.tree.map(alive_sum, totals.metrics, next_env_state.metrics),
+            metrics={
+                name: (alive_max if name in PEAKS else alive_sum)(total, step_metrics[name])
+                for name, total in totals.metrics.items()
+            },
             alive=totals.alive & (next_env_state.done == 0) & ~blown_up,
             diverged=totals.diverged | (totals.alive & blown_up),
             followed=followed,
@@ -113,6 +125,9 @@ def evaluate(
         "eval/diverged_rate": jnp.mean(totals.diverged),
     }
     for name, per_episode in totals.metrics.items():
+        if name in PEAKS:
+            metrics[f"eval/{PEAKS[name]}"] = jnp.mean(per_episode)
+            continue
         if not name.startswith("reward/"):
             per_episode = per_episode / jnp.maximum(totals.length, 1.0)
         metrics[f"eval/{name}"] = jnp.mean(per_episode)

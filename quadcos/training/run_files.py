@@ -83,6 +83,7 @@ def open_run_dir(
                 config.best_policy_max_fall_rate,
                 config.best_policy_by,
                 tuple(config.best_policy_tracking_targets),
+                config.best_policy_max_attitude,
             )
     return run
 
