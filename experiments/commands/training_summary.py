@@ -24,6 +24,7 @@ from pathlib import Path
 STEP = re.compile(
     r"step ([\d,]+)/[\d,]+\s+([\d,]+) env steps/s\s+eval reward (\S+)\s+speed (\S+) m/s"
     r"\s+fall rate (\S+)(?:\s+speed RMS (\S+) m/s\s+yaw-rate RMS (\S+) rad/s)?"
+    r"(?:\s+roll (\S+) rad)?"
 )
 FEED_FORWARD = re.compile(r"feed-forward: v_ref (\S+) m/s, b (\S+) m(?: .*?speed map \(([^)]*)\))?")
 DROPPED = ("--output_dir", "--no_progress")  # argv flags that say nothing of the run
@@ -104,11 +105,13 @@ def summary(path: Path) -> dict:
                 # the evaluation's tracking RMS (runs that logged it)
                 **({"speed_rms": float(speed_rms), "yaw_rate_rms": float(yaw_rms)}
                    if speed_rms else {}),
+                # the mean of its episodes' peak roll, rad (runs that logged it)
+                **({"roll": float(roll)} if roll else {}),
                 # the actor's loss and its CAPS term over the chunk the evaluation ends (runs
                 # with `sac.smoothness` on)
                 **smoothness.get(int(steps.replace(",", "")), {}),
             }
-            for steps, rate, reward, speed, falls, speed_rms, yaw_rms in rows
+            for steps, rate, reward, speed, falls, speed_rms, yaw_rms, roll in rows
         ],
         # the trainer's env steps per second at its last evaluation (runs that logged it)
         **({"env_steps_per_s": int(rows[-1][1].replace(",", ""))} if len(rows) > 1 else {}),
