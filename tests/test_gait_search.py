@@ -85,6 +85,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert config["sac"].pop("best_policy_by") == "reward"
     assert config["sac"].pop("best_policy_tracking_targets") == [0.1, 0.15]
     assert config["sac"].pop("best_policy_max_attitude") == 0.0  # the attitude bound: off
+    assert config["sac"].pop("n_step") == 1  # n-step returns: off, Brax's transitions
     # ... and CAPS's smoothness terms and the anchor, off: Brax's actor loss.
     off = {"temporal": 0.0, "spatial": 0.0, "sigma": 0.05, "anchor": 0.0}
     assert config["sac"].pop("smoothness") == off
@@ -123,6 +124,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     # policy trained with)
     assert config["sac"]["smoothness"].pop("anchor") == 0.0
     assert config["sac"].pop("best_policy_max_attitude") == 0.0  # the kept policy's rank as run
+    assert config["sac"].pop("n_step") == 1  # Brax's one-step transitions, as trained
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
     assert env["commands"].pop("zero_command_probability") == 0.0

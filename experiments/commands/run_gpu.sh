@@ -252,6 +252,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # the kept policy chosen only among evaluations within the attitude target (0.10 rad, mean
     # of the episodes' peak roll and pitch error: Go1 seed 2 rolls 0.102–0.113, Go2 pitches 0.112)
     [att]="--config.sac.best_policy_max_attitude=0.1"
+    # n-step returns (FastTD3's 3): the critic's target sums three steps of rewards
+    [nstep3]="--config.sac.n_step=3"
   )
   [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
     { echo "bad MAX_SECONDS '$MAX_SECONDS': whole seconds" >&2; exit 2; }

@@ -175,6 +175,7 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
         "batch_size",
         "updates_per_step",
         "policy_delay",
+        "n_step",
         "replay_size",
         "steps_per_chunk",
         "eval_interval",

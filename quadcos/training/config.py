@@ -20,6 +20,7 @@ HOST_FIELDS = frozenset(
         "save_replay",
         "best_policy_by",
         "best_policy_tracking_targets",
+        "best_policy_max_attitude",
     }
 )
 
@@ -122,6 +123,9 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     config.learning_rate = ml_collections.ConfigDict(dict(actor=3e-4, critic=3e-4, alpha=3e-4))
     # Discount factor gamma of the soft Bellman target.
     config.discount = 0.99
+    # Rewards each stored transition sums before the critic's target bootstraps: up to n steps
+    # of its episode (quadcos.training.n_step; FastTD3 uses 3). 1: Brax's one-step transitions.
+    config.n_step = 1
     # Polyak rate of the target Q networks: target <- (1 - tau) target + tau q.
     config.tau = 0.005
     # Rewards are multiplied by this in the critic target.

@@ -34,6 +34,7 @@ from jax.sharding import PartitionSpec
 from quadcos._util import caches
 from quadcos.training import batched_envs, curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import config as config_lib
+from quadcos.training import n_step
 from quadcos.training import replay as replay_lib
 from quadcos.training import state as state_lib
 
@@ -81,6 +82,11 @@ class SACTrainer:
         self.layout = parallel.make_layout(config.num_devices)
         parallel.check_divisible(config, self.layout.shards)
         shards = self.layout.shards
+        if config.n_step > 1 and shards > 1:
+            raise ValueError(
+                f"config.n_step={config.n_step} runs on one device; this run spans {shards}"
+                " (--config.sac.num_devices=1, or n_step 1)"
+            )
         self._reset_envs, self._step_envs = batched_envs.reset_and_step(
             self.env, self.layout, config.num_envs, self._gait, getattr(env, "impl", "jax")
         )
@@ -253,6 +259,9 @@ class SACTrainer:
                 key_noise, (self.config.num_envs, self.action_size)
             ),
         )
+        if self.config.n_step > 1:
+            like, _ = self._nothing_pending(state)
+            state = state.replace(n_step_queue=n_step.empty_queue(like, self.config.n_step))
         return state_lib.strongly_typed(state)
 
     # --- Acting ----------------------------------------------------------------
@@ -320,7 +329,11 @@ class SACTrainer:
         return state, metrics, (transitions, finite)
 
     def _store(self, state: TrainingState, pending: state_lib.Pending) -> TrainingState:
-        """`state` with the finite ones of `pending`'s transitions in its replay buffer."""
+        """`state` with the finite ones of `pending`'s transitions in its replay buffer; with
+        `n_step` n > 1 those of n steps before, as n-step transitions (`n_step.push`)."""
+        if state.n_step_queue is not None:
+            queue, pending = n_step.push(state.n_step_queue, *pending, self.config.discount)
+            state = state.replace(n_step_queue=queue)
         return state.replace(replay=self.replay.insert(state.replay, *pending))
 
     def _nothing_pending(self, state: TrainingState) -> state_lib.Pending:
@@ -413,7 +426,9 @@ class SACTrainer:
         they change), and the updates' mean metrics."""
         batches = self._sample_batches(state.replay, key_sample)
         keys = jax.random.split(key_sgd, self.config.updates_per_step)
-        learner = state.replace(env_state=None, replay=None, exploration_noise=None)
+        learner = state.replace(
+            env_state=None, replay=None, exploration_noise=None, n_step_queue=None
+        )
         learner, metrics = jax.lax.scan(self._sgd_step, learner, (batches, keys))
         return learner, jax.tree.map(jnp.mean, metrics)
 

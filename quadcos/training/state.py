@@ -47,6 +47,8 @@ class TrainingState:
     gradient_steps: types.UInt64
     nan_resets: types.UInt64
     exploration_noise: jax.Array
+    # With `n_step` n > 1: the last n − 1 vectorised steps (quadcos.training.n_step.Queue)
+    n_step_queue: Any = None
 
 
 # A vectorised env step's transitions and which of them are finite (to be stored).
