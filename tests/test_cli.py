@@ -31,8 +31,12 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
         "eval/episode_length",
         "eval/reward/orientation",
         "eval/slope_error",
+        "eval/mean_max_abs_roll",
+        "eval/mean_max_abs_pitch_error",
     ):
         assert key in rows[-1], key
+    # the attitude's per-episode peaks: a robot on flat ground is never perfectly level
+    assert 0 < rows[-1]["eval/mean_max_abs_roll"] < 3.15
     assert rows[-1]["step"] >= 1024
     assert "env_steps_per_s" in rows[-1]
     assert (smoke_run / "metrics.csv").is_file()
