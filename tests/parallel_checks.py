@@ -89,6 +89,11 @@ def devices(run_dir: pathlib.Path) -> dict:
     # only in what no program reads (`quadcos.training.reuse`).
     trainers = {count: training.SACTrainer(env, toy_config(num_devices=count)) for count in (1, 2)}
     out["eval_collectives"] = eval_collectives(trainers[2])
+    try:  # n-step returns keep their queue on one device: refused over two
+        training.SACTrainer(env, toy_config(num_devices=2, n_step=3))
+        out["n_step_refused"] = None
+    except ValueError as error:
+        out["n_step_refused"] = str(error)
     per_device = training.train(PerDevicePointEnv(), toy_config(num_devices=2), progress=False)
     out["per_device"] = {
         "collectives": collectives(PerDevicePointEnv()),

@@ -77,6 +77,7 @@ def test_two_devices_keep_one_set_of_parameters_and_learn_as_one(runs):
     # Each device keeps half of the buffer; together they hold every transition.
     assert two["replay_sizes"] == [2000, 2000] and one["replay_sizes"] == [4000]
     assert one["env_steps"] == two["env_steps"] == 4000
+    assert "n_step=3 runs on one device; this run spans 2" in result["n_step_refused"]
     # The same initial policy and evaluation episodes, split over the devices.
     assert two["first_eval_reward"] == pytest.approx(one["first_eval_reward"], abs=1e-4)
     # Each device evaluates its half of the episodes; only the metrics' means cross devices.
