@@ -16,7 +16,9 @@ transition unchanged.
 
 The trainer keeps its last n − 1 vectorised steps (`Queue`, oldest first) and stores, for each
 new step, the n-step transitions of the oldest; the queue starts with steps marked non-finite, so
-nothing is stored for the first n − 1 steps of a run.
+nothing is stored for the first n − 1 steps of a run. With `overlap_updates` each chunk stores an
+empty step first (its carried transitions are stored one step late): a window stops there, at the
+chunk's start.
 """
 
 import jax
