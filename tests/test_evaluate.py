@@ -245,6 +245,7 @@ def test_episode_statistics_stop_at_a_fall_and_at_the_course_end():
         qpos[:, 0], qpos[:, 3] = x, 1.0
         metrics = {f"reward/{term}": jnp.ones(n) for term in reward.TERM_NAMES}
         metrics |= {"slope_estimate": jnp.full(n, 0.1), "slope_truth": jnp.zeros(n)}
+        metrics |= {"abs_roll": jnp.zeros(n), "abs_pitch_error": jnp.zeros(n)}  # the env's
         return types.SimpleNamespace(
             pipeline_state=types.SimpleNamespace(qpos=jnp.asarray(qpos)),
             metrics=metrics,
@@ -453,6 +454,7 @@ def test_a_step_that_blew_up_leaves_its_episode_diverged():
         reward=jnp.array([1.0, jnp.nan]),
         done=jnp.array([0.0, 1.0]),
         metrics={"slope_estimate": jnp.zeros(2), "slope_truth": jnp.zeros(2)}
+        | {"abs_roll": jnp.zeros(2), "abs_pitch_error": jnp.zeros(2)}
         | {f"reward/{term}": jnp.zeros(2) for term in stats.reward_terms},
     )
     stats = rollout._update_stats(stats, state, jnp.ones(2, bool), jnp.full(1, jnp.inf))

@@ -275,14 +275,14 @@ def _update_stats(
             jnp.maximum(stats.max_lateral_deviation, jnp.abs(y - stats.start_y)),
         ),
         max_abs_roll=accumulate(
-            stats.max_abs_roll, jnp.maximum(stats.max_abs_roll, jnp.abs(body.roll))
+            stats.max_abs_roll, jnp.maximum(stats.max_abs_roll, metrics["abs_roll"])
         ),
         max_abs_yaw=accumulate(
             stats.max_abs_yaw, jnp.maximum(stats.max_abs_yaw, jnp.abs(body.yaw))
         ),
         max_abs_pitch_error=accumulate(
             stats.max_abs_pitch_error,
-            jnp.maximum(stats.max_abs_pitch_error, jnp.abs(body.pitch - metrics["slope_truth"])),
+            jnp.maximum(stats.max_abs_pitch_error, metrics["abs_pitch_error"]),
         ),
         slope_sq_error=accumulate(stats.slope_sq_error, stats.slope_sq_error + slope_error**2),
         episode_reward=accumulate(stats.episode_reward, stats.episode_reward + state.reward),
