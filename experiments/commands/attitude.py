@@ -8,6 +8,9 @@ Prints one row per robot: runs, and for the roll and the pitch error the evaluat
 (range), the median of its ratio to the nominal condition's peak and of its difference from the
 pushes condition's (50 N, 0.1 s), and how many runs exceed the 0.10-rad target under
 randomisation and how many without it (nominal). Runs that did not record their robot: "?".
+Then, per robot, what SAC changes: over the runs whose training evaluations recorded the roll,
+the step-0 evaluation's roll (the searched gait under the untrained actor) and the largest
+change any later evaluation of the run made to it.
 """
 
 import json
@@ -57,11 +60,30 @@ def describe(runs: list[dict], label: str, key: str) -> str:
     )
 
 
+def sac_change(runs: dict) -> dict[str, list[tuple[float, float]]]:
+    """(step 0's roll, the largest |change| from it over the later evaluations) of each run
+    whose training evaluations recorded the roll, by robot."""
+    by_robot: dict[str, list[tuple[float, float]]] = {}
+    for run in runs.values():
+        rolls = [row["roll"] for row in run.get("evaluations", ()) if row.get("roll") is not None]
+        if len(rolls) > 1 and run["evaluations"][0].get("env_steps") == 0:
+            change = max(abs(roll - rolls[0]) for roll in rolls[1:])
+            by_robot.setdefault(robot(run), []).append((rolls[0], change))
+    return by_robot
+
+
 def main(argv: list[str]) -> int:
     path = Path(argv[0]) if argv else Path(__file__).with_name("campaign.json")
-    for name, runs in sorted(measured(json.loads(path.read_text())["runs"]).items()):
-        angles = "; ".join(describe(runs, label, key) for label, key in ANGLES)
-        print(f"{name}: {len(runs)} runs; {angles}")
+    runs = json.loads(path.read_text())["runs"]
+    for name, measured_runs in sorted(measured(runs).items()):
+        angles = "; ".join(describe(measured_runs, label, key) for label, key in ANGLES)
+        print(f"{name}: {len(measured_runs)} runs; {angles}")
+    for name, pairs in sorted(sac_change(runs).items()):
+        starts = ", ".join(f"{start:.3f}" for start, _ in pairs)
+        print(
+            f"{name}, training evaluations: {len(pairs)} runs; step-0 roll {starts} rad;"
+            f" SAC changed it by at most {max(change for _, change in pairs):.3f} rad"
+        )
     return 0
 
 

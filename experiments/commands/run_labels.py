@@ -113,6 +113,10 @@ WARP = ("go1warp_s0", "go2warp_s0")  # Go1 and Go2 from nothing on MJX-Warp, sha
 # ANYmal C's two another
 PRESET = ("go1cmd_tauyaw3gait_s0", "go1cmd_tauyaw3gait_s1", "go1cmd_tauyaw3gait_s2",
           "go2cmd_tauyaw3gait_s0", "go1cmd_base_s0", "go1cmd_base_s2", "anymalcmd_s0", "anymalcmd_s1")
+# the preset with the kept policy chosen among evaluations within 0.10 rad of roll and pitch
+# error (`sac.best_policy_max_attitude`, lever `att`): Go1's three seeds two sharing one GPU,
+# Go2's sharing another with Go1 seed 2 and ANYmal C's `anymalcmd_nstep3_s0`
+ATTITUDE = ("go1cmd_att_s0", "go1cmd_att_s1", "go1cmd_att_s2", "go2cmd_att_s0")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
@@ -121,6 +125,7 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalalone_s0": "— (alone on the GPU)",
     "anymalcmd_anchor10_s0": "λ‖μ(s)‖² in the actor's loss, λ 10 (`sac.smoothness.anchor`; two sharing)",
     "anymalcmd_anchor100_s0": "the same, λ 100 (two sharing)",
+    "anymalcmd_nstep3_s0": "n-step returns, n 3 (`sac.n_step`; three sharing)",
 }
 SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
 # the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s

@@ -19,6 +19,7 @@ from pathlib import Path
 from run_labels import (
     ANYMAL,
     ANYMAL_SAC,
+    ATTITUDE,
     CAMPAIGN,
     GO1_LEVERS,
     LEVERS,
@@ -459,7 +460,7 @@ def figure() -> None:
 def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
-        table(), seeds(PRESET, "run"), anymal_sac(), seeds(), seeds(SEEDS_NO_LOOPS),
+        table(), seeds(PRESET, "run"), seeds(ATTITUDE, "run"), anymal_sac(), seeds(), seeds(SEEDS_NO_LOOPS),
         seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(), campaign(), anymal(), seeds(WARP, "run"),
         sac_levers(), sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
         no_preset(),
