@@ -91,6 +91,12 @@ def _parser() -> argparse.ArgumentParser:
         default="mean",
         help="search: --min_speed holds for the candidate's robots' mean speed or its slowest's",
     )
+    parser.add_argument(
+        "--max_attitude",
+        type=float,
+        default=0.0,
+        help="search: rad a ranked gait's mean peak roll and pitch error stay within (0: any)",
+    )
     parser.add_argument("--rounds", type=int, default=3, help="search: rounds of refinement")
     parser.add_argument(
         "--confirm_robots",
@@ -206,6 +212,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 seed=args.seed,
                 min_speed=args.min_speed,
                 min_speed_of=args.min_speed_of,
+                max_attitude=args.max_attitude,
                 confirm_robots=args.confirm_robots,
                 env_overrides=overrides,
                 progress=_Progress("search", not args.no_progress),

@@ -7,6 +7,7 @@ also notebook (a)'s). Every evaluation here has those shapes, so the rest are pe
 """
 
 import dataclasses
+import functools
 import json
 import math
 import pathlib
@@ -530,6 +531,40 @@ def test_a_speed_floor_orders_the_gaits_it_rules_out_towards_it():
     assert ranking_key(even, 0.8, "slowest") > ranking_key(uneven, 0.8, "slowest")
     with pytest.raises(ValueError, match="min_speed_of must be one of .*'median'"):
         evaluation_lib.search_fixed(min_speed=0.8, min_speed_of="median")
+
+
+def test_an_attitude_bound_ranks_only_level_gaits_and_breeds_towards_them():
+    from quadcos.evaluation import fixed_search
+
+    def episode(roll, pitch_error, fell=False):
+        return {"forward_speed": 0.6, "episode_reward": 100.0, "fell": fell, "max_abs_yaw": 0.1,
+                "max_abs_roll": roll, "max_abs_pitch_error": pitch_error, "lateral_drift": 0.0}
+
+    eligible = functools.partial(fixed_search._eligible, min_speed=0.0, min_speed_of="mean",
+                                 max_attitude=0.1)
+    params = np.zeros(5)
+    level = fixed_search._candidate_entry(params, [episode(0.05, 0.09)] * 2, 1, eligible)
+    assert level["score"] == 100.0
+    assert level["mean_max_abs_pitch_error"] == pytest.approx(0.09)
+    # The mean of the robots' peaks is held to the bound, roll and pitch error alike.
+    rolled = fixed_search._candidate_entry(params, [episode(0.05, 0.05), episode(0.17, 0.05)], 1,
+                                           eligible)
+    pitched = fixed_search._candidate_entry(params, [episode(0.05, 0.14)] * 2, 1, eligible)
+    assert rolled["score"] == pitched["score"] == -math.inf
+    fell = fixed_search._candidate_entry(params, [episode(0.05, 0.05, fell=True)] * 2, 1, eligible)
+    ordered = sorted([fell, pitched, rolled, level],
+                     key=lambda c: fixed_search.ranking_key(c, max_attitude=0.1), reverse=True)
+    # Level first; then the clean ones by how little they exceed it (rolled by 0.01, pitched by
+    # 0.04); the one that fell last.
+    assert ordered == [level, rolled, pitched, fell]
+    confirmed = sorted([fell, pitched, rolled, level],
+                       key=lambda c: fixed_search.confirmation_key(c, max_attitude=0.1),
+                       reverse=True)
+    assert confirmed == [level, rolled, pitched, fell]
+    # Without the bound they all rank by score alone, the rolled and pitched among the clean.
+    assert all(fixed_search._eligible(c, 0.0, "mean") for c in (rolled, pitched))
+    with pytest.raises(ValueError, match="max_attitude must be finite and >= 0 rad .*-0.1"):
+        evaluation_lib.search_fixed(max_attitude=-0.1)
 
 
 def test_a_confirmation_ranks_clean_gaits_first_then_the_one_that_fell_least():

@@ -81,6 +81,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert config["sac"]["gait_search"].pop("compile_trainer") is True
     # ... and the search's share of the time budget, which came later.
     assert config["sac"]["gait_search"].pop("max_fraction") == 0.5
+    assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search's bound: off
     # ... and the kept policy ranked by tracking, an option: by reward, as the runs ranked it.
     assert config["sac"].pop("best_policy_by") == "reward"
     assert config["sac"].pop("best_policy_tracking_targets") == [0.1, 0.15]
@@ -125,6 +126,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     assert config["sac"]["smoothness"].pop("anchor") == 0.0
     assert config["sac"].pop("best_policy_max_attitude") == 0.0  # the kept policy's rank as run
     assert config["sac"].pop("n_step") == 1  # Brax's one-step transitions, as trained
+    assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search as it ran
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
     assert env["commands"].pop("zero_command_probability") == 0.0
@@ -151,6 +153,18 @@ def test_a_speed_floor_held_to_another_statistic_is_named():
     assert config.gait_search.min_speed_of == "mean"
     config.gait_search.min_speed_of = "median"
     with pytest.raises(checks.ConfigError, match="min_speed_of must be 'mean' or 'slowest'"):
+        checks.check_config(config)
+
+
+@pytest.mark.parametrize("bound", [-0.1, float("nan"), float("inf")])
+def test_an_attitude_bound_that_is_no_angle_is_named(bound):
+    from quadcos.training import checks
+    from quadcos.training import config as training_config
+
+    config = training_config.default_config()
+    assert config.gait_search.max_attitude == 0.0  # off
+    config.gait_search.max_attitude = bound
+    with pytest.raises(checks.ConfigError, match=f"max_attitude must be a finite angle .*{bound}"):
         checks.check_config(config)
 
 
@@ -219,6 +233,7 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
         "--config.sac.gait_search.rounds=2",
         "--config.sac.gait_search.elite=2",
         "--config.sac.gait_search.seconds=0.5",
+        "--config.sac.gait_search.max_attitude=1.5",  # rad: rules out no gait that stands
         f"--output_dir={run_dir}",
         "--no_progress",
     )
@@ -238,6 +253,11 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     # ... over all of §3.3's ranges, whatever share of them SAC will reach.
     assert search["setup"]["env"]["action_scale"] == 1.0
     assert [entry["round"] for entry in search["rounds"]] == [1, 2]
+    # The attitude bound reached the search, and the kept gait is within it.
+    assert search["setup"]["max_attitude"] == 1.5
+    best = search["ranking"][0]
+    assert max(best["mean_max_abs_roll"], best["mean_max_abs_pitch_error"]) <= 1.5
+    assert f"roll {best['mean_max_abs_roll']:.3f} rad" in result.stderr
     assert search["num_evaluated"] == 12
     for candidate in search["ranking"]:
         p = candidate["parameters"]
@@ -294,7 +314,7 @@ def test_a_search_in_a_timed_run_gets_its_share_of_the_budget_and_says_where_it_
             if on_round(log[-1]):
                 break
         best = {"parameters": dict(zip("abcde", oscillator.FIXED_TROT)), "mean_forward_speed": 0.5,
-                "fall_rate": 0.0}
+                "fall_rate": 0.0, "mean_max_abs_roll": 0.05, "mean_max_abs_pitch_error": 0.04}
         return {"ranking": [best], "num_without_falls": 1, "confirmation": None, "rounds": log,
                 "setup": {"wall_time_s": log[-1]["wall_time_s"]}}
 

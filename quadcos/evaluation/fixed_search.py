@@ -17,6 +17,8 @@ from quadcos.evaluation.sources import FIXED_PREFIX, PARAMETER_NAMES, build_env,
 SEARCH_FORMAT = "quadcos.fixed_search"
 # What a speed floor holds to: the candidate's robots' mean forward speed, or its slowest robot's.
 SPEED_FLOOR_OF = {"mean": "mean_forward_speed", "slowest": "slowest_forward_speed"}
+# What an attitude bound holds to: the candidate's robots' mean episode peaks (rad).
+ATTITUDE = ("mean_max_abs_roll", "mean_max_abs_pitch_error")
 
 
 def search_fixed(
@@ -33,6 +35,7 @@ def search_fixed(
     symmetric: bool = False,
     min_speed: float = 0.0,
     min_speed_of: str = "mean",
+    max_attitude: float = 0.0,
     confirm_robots: int = 0,
     env_overrides: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -51,7 +54,8 @@ def search_fixed(
     episode reward (Eq. 13 summed over the episode) when none of them fell and their forward
     speed reaches `min_speed` (m/s; 0: any) — their mean's, or with `min_speed_of="slowest"` every
     robot's (under domain randomisation: the gait holds its speed on every robot it was drawn for,
-    not only on average) — else −inf: the ranking is the paper's reward among gaits with zero
+    not only on average) — and, with `max_attitude` > 0 (rad), their mean peak roll and pitch
+    error (`ATTITUDE`) are within it — else −inf: the ranking is the paper's reward among gaits with zero
     falls (and that speed); `ranking_key` orders the rest. On a lane terrain every candidate runs
     on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
     steepest), so that no candidate is ranked up for the easier course it was given.
@@ -79,10 +83,12 @@ def search_fixed(
         seconds,
         min_speed,
         min_speed_of,
+        max_attitude,
         confirm_robots,
     )
     num_envs = num_candidates * robots_per_candidate
-    search = _Search(terrain, env_overrides, num_envs, seconds, seed, min_speed, min_speed_of)
+    bounds = {"min_speed": min_speed, "min_speed_of": min_speed_of, "max_attitude": max_attitude}
+    search = _Search(terrain, env_overrides, num_envs, seconds, seed, bounds)
     env = search.env
     started = time.monotonic()
     evaluated, rounds_log = search.run_rounds(
@@ -113,6 +119,7 @@ def search_fixed(
             "symmetric": symmetric,
             "min_speed": min_speed,
             "min_speed_of": min_speed_of,
+            "max_attitude": max_attitude,
             "confirm_robots": confirm_robots,
             "env": env.config.to_dict() | {"terrain": env.terrain.spec},
             "wall_time_s": time.monotonic() - started,
@@ -127,6 +134,7 @@ def _check_arguments(
     seconds: float,
     min_speed: float,
     min_speed_of: str,
+    max_attitude: float,
     confirm_robots: int,
 ) -> None:
     if num_candidates < 1 or robots_per_candidate < 1 or rounds < 1:
@@ -139,6 +147,8 @@ def _check_arguments(
         raise ValueError(
             f"min_speed_of must be one of {sorted(SPEED_FLOOR_OF)}; got {min_speed_of!r}"
         )
+    if not (math.isfinite(max_attitude) and max_attitude >= 0):
+        raise ValueError(f"max_attitude must be finite and >= 0 rad (0: off); got {max_attitude}")
     num_envs = num_candidates * robots_per_candidate
     if confirm_robots < 0 or (confirm_robots and num_envs % confirm_robots):
         raise ValueError(
@@ -158,8 +168,7 @@ class _Search:
         num_envs: int,
         seconds: float,
         seed: int,
-        min_speed: float,
-        min_speed_of: str,
+        bounds: Mapping[str, Any],
     ):
         self.source = fixed_source(oscillator.FIXED_TROT, name="search")
         self.env = build_env(self.source, terrain, env_overrides)
@@ -171,10 +180,9 @@ class _Search:
         lower, upper = self.bounds
         inner = 1e-3 * (upper - lower)
         self.inner_bounds = (lower + inner, upper - inner)
-        floor = {"min_speed": min_speed, "min_speed_of": min_speed_of}
-        self.rank_key = functools.partial(ranking_key, **floor)
-        self.confirmation_key = functools.partial(confirmation_key, **floor)
-        self.floor_key = functools.partial(_eligible, **floor)
+        self.rank_key = functools.partial(ranking_key, **bounds)
+        self.confirmation_key = functools.partial(confirmation_key, **bounds)
+        self.floor_key = functools.partial(_eligible, **bounds)
 
     def draw(
         self,
@@ -326,35 +334,64 @@ def _ranking_entry(candidate: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def ranking_key(
-    candidate: Mapping[str, Any], min_speed: float = 0.0, min_speed_of: str = "mean"
+    candidate: Mapping[str, Any],
+    min_speed: float = 0.0,
+    min_speed_of: str = "mean",
+    max_attitude: float = 0.0,
 ) -> tuple[float, ...]:
-    """How a search orders its candidates (descending): by score; with a speed floor, the
-    candidates it rules out (score −inf) follow by fewer falls, then by the speed the floor holds
-    to (`SPEED_FLOOR_OF`) up to the floor, so that the next round's elite breed towards it."""
-    if min_speed == 0:
+    """How a search orders its candidates (descending): by score; with a speed floor or an
+    attitude bound, the candidates they rule out (score −inf) follow by fewer falls, then by how
+    little they exceed the bound, then by the speed the floor holds to (`SPEED_FLOOR_OF`) up to
+    the floor, so that the next round's elite breed towards both."""
+    if min_speed == 0 and max_attitude == 0:
         return (candidate["score"],)
-    speed = min(candidate[SPEED_FLOOR_OF[min_speed_of]], min_speed)
-    return candidate["score"], -candidate["fall_rate"], speed
+    speed = min(candidate[SPEED_FLOOR_OF[min_speed_of]], min_speed) if min_speed else 0.0
+    return (
+        candidate["score"],
+        -candidate["fall_rate"],
+        -_attitude_excess(candidate, max_attitude),
+        speed,
+    )
 
 
 def confirmation_key(
-    candidate: Mapping[str, Any], min_speed: float = 0.0, min_speed_of: str = "mean"
+    candidate: Mapping[str, Any],
+    min_speed: float = 0.0,
+    min_speed_of: str = "mean",
+    max_attitude: float = 0.0,
 ) -> tuple[float, ...]:
     """How a confirmation orders its candidates (descending): the clean ones by score, then the
-    rest by fewer falls, then by the speed the floor holds to (up to the floor; any speed without
-    one), so that a gait none of whose finalists held everywhere is the one that fell least."""
+    rest by fewer falls, then by how little they exceed the attitude bound, then by the speed the
+    floor holds to (up to the floor; any speed without one), so that a gait none of whose
+    finalists held everywhere is the one that fell least."""
     speed = candidate[SPEED_FLOOR_OF[min_speed_of]]
     return (
         candidate["score"],
         -candidate["fall_rate"],
+        -_attitude_excess(candidate, max_attitude),
         min(speed, min_speed) if min_speed else speed,
     )
 
 
-def _eligible(entry: Mapping[str, Any], min_speed: float, min_speed_of: str) -> bool:
-    """Whether a scored candidate is ranked: none of its robots fell, and the speed floor held."""
+def _attitude_excess(candidate: Mapping[str, Any], max_attitude: float) -> float:
+    """How far (rad) the candidate's worse mean peak (`ATTITUDE`) lies beyond `max_attitude`
+    (0 within it, and without a bound)."""
+    if max_attitude == 0:
+        return 0.0
+    return max(0.0, max(candidate[key] for key in ATTITUDE) - max_attitude)
+
+
+def _eligible(
+    entry: Mapping[str, Any], min_speed: float, min_speed_of: str, max_attitude: float = 0.0
+) -> bool:
+    """Whether a scored candidate is ranked: none of its robots fell, the speed floor held and
+    its attitude is within the bound."""
     speed = entry[SPEED_FLOOR_OF[min_speed_of]]
-    return entry["fall_rate"] == 0.0 and (min_speed == 0 or speed >= min_speed)
+    return (
+        entry["fall_rate"] == 0.0
+        and (min_speed == 0 or speed >= min_speed)
+        and _attitude_excess(entry, max_attitude) == 0
+    )
 
 
 def _candidate_entry(
@@ -378,6 +415,7 @@ def _candidate_entry(
         "slowest_forward_speed": float(np.min(speeds)),
         "mean_max_abs_yaw": float(np.mean([e["max_abs_yaw"] for e in episodes])),
         "mean_max_abs_roll": float(np.mean([e["max_abs_roll"] for e in episodes])),
+        "mean_max_abs_pitch_error": float(np.mean([e["max_abs_pitch_error"] for e in episodes])),
         "mean_lateral_drift": float(np.mean([e["lateral_drift"] for e in episodes])),
     }
     return {"score": mean_reward if eligible(entry) else -math.inf} | entry

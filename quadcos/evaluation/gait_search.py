@@ -4,9 +4,11 @@ With `env.action_centre="search"`, a run knows no walking gait. `quadcos.trainin
 `find_gait`, as `python -m quadcos.train` gives it) first searches constant rhythm parameters
 (A_k, A_h, T, φ1, φ3) with `evaluation.search_fixed` — round 1 uniform over §3.3's ranges, no
 hand-set trot among the candidates, later rounds around the best — scored by the run's own reward
-(Eq. 13) on the run's own terrain. The best candidate without falls (with `gait_search.confirm_robots`: the best of a
-rerun of the finalists on more robots) becomes the action centre (what SAC's zero action
-commands), and the search's wall time starts the run's clock, so a time to walk counts it.
+(Eq. 13) on the run's own terrain (with `gait_search.min_speed` / `.max_attitude`, only among
+candidates that reach that speed and stay that level). The best candidate without falls (with
+`gait_search.confirm_robots`: the best of a rerun of the finalists on more robots) becomes the
+action centre (what SAC's zero action commands), and the search's wall time starts the run's
+clock, so a time to walk counts it.
 
 Candidates act from the first step, with the command filter off, as the found gait will in
 training: there it is the action centre, where the filtered command starts. With the filter on,
@@ -64,6 +66,8 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
     if floor and search.min_speed_of == "slowest":
         floor += " on every robot"
+    if search.max_attitude > 0:
+        floor += f" within {search.max_attitude:g} rad of roll and pitch error"
     report = _round_report(search, floor, budget)
     result = fixed_search.search_fixed(
         config.env.terrain,
@@ -77,6 +81,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         symmetric=bool(search.symmetric),
         min_speed=float(search.min_speed),
         min_speed_of=search.min_speed_of,
+        max_attitude=float(search.max_attitude),
         confirm_robots=search.confirm_robots,
         env_overrides=overrides,
         on_round=report,
@@ -87,7 +92,8 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
             f"the gait search found no candidate without falls{floor} in"
             f" {len(result['rounds'])} rounds of {search.num_candidates}; raise"
             " config.sac.gait_search.rounds or .num_candidates"
-            + (" or lower .min_speed" if floor else "")
+            + (" or lower .min_speed" if search.min_speed > 0 else "")
+            + (" or raise .max_attitude" if search.max_attitude > 0 else "")
         )
     confirmation = result["confirmation"]
     if confirmation is not None:
@@ -102,10 +108,13 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
         )
     centre = oscillator.centre_spec(best["parameters"].values())
     logger.info(
-        "gait search: action centre %s (%.2f m/s, %.1f %% falls) after %.0f s",
+        "gait search: action centre %s (%.2f m/s, %.1f %% falls, roll %.3f rad, pitch error"
+        " %.3f rad) after %.0f s",
         centre,
         best["mean_forward_speed"],
         100 * best["fall_rate"],
+        best["mean_max_abs_roll"],
+        best["mean_max_abs_pitch_error"],
         result["setup"]["wall_time_s"],
     )
     return result | {"action_centre": centre}

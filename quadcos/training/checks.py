@@ -60,6 +60,11 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 "config.gait_search.min_speed_of must be 'mean' or 'slowest', got"
                 f" {search.min_speed_of!r}"
             )
+        if not 0 <= search.max_attitude < math.inf:
+            raise ValueError(
+                "config.gait_search.max_attitude must be a finite angle >= 0 (rad; 0: off), got"
+                f" {search.max_attitude}"
+            )
         envs = search.num_candidates * search.robots_per_candidate
         if not (
             isinstance(search.confirm_robots, int)

@@ -151,6 +151,8 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
     # symmetric: candidates keep φ3 = φ1 − π (mirror-symmetric gaits; SAC may leave it later).
     # min_speed: m/s a candidate's robots must reach to be ranked (0: any speed): on average, or
     # with min_speed_of="slowest" each of them (under randomisation: on every robot drawn).
+    # max_attitude: rad a candidate's robots' mean peak roll and pitch error must stay within to
+    # be ranked (0: any): SAC hardly changes the searched gait's attitude (experiments/commands).
     # confirm_robots: after the rounds, the best distinct candidates run once more on that many
     # robots each (as many as the batch holds; 0: none) and the gait kept is the best of that
     # run — the clean ones by reward, else the one that fell least.
@@ -169,6 +171,7 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
             symmetric=True,
             min_speed=0.0,
             min_speed_of="mean",
+            max_attitude=0.0,
             confirm_robots=0,
             compile_trainer=True,
             max_fraction=0.5,
