@@ -290,6 +290,45 @@ def test_low_passed_yaw_rate_tracks_the_turn_over_strides_not_its_sway():
         commands.validate(_config(spec="random", tracking="yaw_rate", yaw_rate_tau=-1.0))
 
 
+def test_low_passed_speed_lets_the_forward_term_see_a_mean_error_inside_the_strides_sway():
+    """`speed_tau` > 0: the forward term tracks the speed low-passed over τ. Per step, |d − c| of a
+    trot whose speed swings ±0.3 m/s about its mean charges a 0.1-m/s mean error a quarter of what
+    the error costs; low-passed, more than half, and the tracked speed settles on the mean."""
+    weights = reward.RewardWeights(forward=1.0)
+    drops = {}
+    for tau in (0.0, 0.25):
+        earned = {}
+        for mean in (0.5, 0.4):  # m/s, commanded 0.5
+            config = _config(spec="random", tracking="yaw_rate", speed_tau=tau, resample_seconds=60)
+            plan = commands.Plan(commands.validate(config), config)
+            command = plan.start(jax.random.PRNGKey(0)).replace(velocity=jnp.asarray([0.5, 0.0]))
+            terms, speeds = [], []
+            for step in range(200):  # a 0.4-s stride of 8 steps
+                moved = 0.05 * (mean + 0.3 * np.sin(2 * np.pi * step * 0.05 / 0.4))
+                times = (0.05 * step, 0.05 * step + 0.05)
+                tracking, command = plan.step(
+                    command, jnp.float32(0.0), jnp.float32(0.0), 0.05, *times, jnp.float32(moved)
+                )
+                assert ("tracked_progress" in tracking) == (tau > 0)  # τ = 0: the terms as before
+                # the reward as the env computes it: the step moved `moved` m along its heading
+                terms.append(float(reward.reward_terms(
+                    x_now=moved, x_last=0.0, y_now=0.0, y_last=0.0, pitch=0.0, yaw=0.0, roll=0.0,
+                    slope=0.0, fell=False, weights=weights, **tracking,
+                )["forward"]))
+                speeds.append(float(command.tracked_speed))
+            earned[mean] = np.mean(terms[104:])  # 12 whole strides
+            assert np.mean(speeds[104:]) == (pytest.approx(mean, abs=1e-3) if tau else 0.0)
+        drops[tau] = earned[0.5] - earned[0.4]
+        assert float(plan.restart(command, jnp.bool_(True)).tracked_speed) == 0.0
+    ideal = 0.1 * 0.05  # the mean error's progress in a step (w1 = 1)
+    assert drops[0.0] == pytest.approx(0.25 * ideal, rel=0.02)
+    assert drops[0.25] > 0.5 * ideal
+    with pytest.raises(ValueError, match="speed_tau needs commands.tracking='yaw_rate'"):
+        commands.validate(_config(spec="random", tracking="heading", speed_tau=0.2))
+    with pytest.raises(ValueError, match="commands.speed_tau must be finite and >= 0"):
+        commands.validate(_config(spec="random", tracking="yaw_rate", speed_tau=-1.0))
+
+
 # --- the reward -------------------------------------------------------------------------------
 
 

@@ -123,6 +123,7 @@ def test_host_tracking_equals_the_envs(tracking):
     config.update(spec="0.6,0.3@5", speed_max=1.0, yaw_rate_max=0.5, tracking=tracking)
     config.observed_speed_tau, config.speed_gain_rate, config.heading_gain = 0.3, 1.5, 2.0
     config.yaw_rate_tau = 0.2 if tracking == "yaw_rate" else 0.0
+    config.speed_tau = 0.25 if tracking == "yaw_rate" else 0.0
     plan = env_commands.Plan(env_commands.validate(config), config)
     command = plan.start(jax.random.PRNGKey(0))
     follower = host_commands.HostCommands(config)
@@ -140,13 +141,16 @@ def test_host_tracking_equals_the_envs(tracking):
         assert follower.gain == pytest.approx(float(command.gain), abs=1e-6)
         assert follower.correction == pytest.approx(float(command.correction), abs=1e-5)
         assert follower.yaw_rate == pytest.approx(float(command.yaw_rate), abs=1e-5)
+        assert follower.tracked_speed == pytest.approx(float(command.tracked_speed), abs=1e-5)
         assert follower.speed > 0 and follower.gain != 1.0
         assert set(host_tracking) == set(env_tracking)
         for key, value in host_tracking.items():
             assert value == pytest.approx(float(env_tracking[key]), abs=1e-5), (step, key)
     assert (follower.yaw_rate != 0) == (tracking == "yaw_rate")  # low-passed only with τ > 0
+    assert ("tracked_progress" in host_tracking) == (tracking == "yaw_rate")
     follower.start(1)  # a new episode starts from rest, as the env's reset
     assert (follower.speed, follower.gain, follower.correction, follower.yaw_rate) == (0, 1, 0, 0)
+    assert follower.tracked_speed == 0
 
 
 def test_advance_heading_twin_equals_the_envs():

@@ -31,8 +31,9 @@ DROPPED = ("--output_dir", "--no_progress")  # argv flags that say nothing of th
 STOPPED = re.compile(r"error: (non-finite SAC loss[^;]*)")
 # the gait search's rounds and its result: how many candidates never fell, how long it took
 SEARCH_ROUND = re.compile(r"gait search round \d+/\d+ \((\d+) s\): (\d+) of (\d+) candidates")
-SEARCH_END = re.compile(
-    r"gait search: action centre \S+ \(([\d.]+) m/s, ([\d.]+) % falls\) after (\d+) s"
+SEARCH_END = re.compile(  # (runs that logged it: the gait's attitude in the search)
+    r"gait search: action centre \S+ \(([\d.]+) m/s, ([\d.]+) % falls"
+    r"(?:, roll ([\d.]+) rad, pitch error ([\d.]+) rad)?\) after (\d+) s"
 )
 PROBE = re.compile(r"solver probe: ([^(\n]*?) \(")  # a robot without a preset: the physics chosen
 KEYS = (
@@ -67,9 +68,11 @@ def _evaluation(text: str | None) -> dict | None:
     setup = summary["setup"]
     # the physics it ran on ("jax" or "warp"; evaluations that recorded it)
     physics = {"impl": setup["impl"]} if "impl" in setup else {}
+    # Eq. 13's terms per episode (evaluations that recorded them): what the policy traded
+    terms = summary.get("mean_reward_terms")
     return {"policy_env_steps": setup["policy_env_steps"], **physics} | {
         key: summary[key] for key in KEYS
-    }
+    } | ({"reward_terms": {k: round(v, 1) for k, v in terms.items()}} if terms else {})
 
 
 def summary(path: Path) -> dict:
@@ -122,7 +125,8 @@ def summary(path: Path) -> dict:
             "candidates": int(rounds[-1][2]),
             "speed": float(found[1]),
             "fall_percent": float(found[2]),
-            "seconds": int(found[3]),
+            **({"roll": float(found[3]), "pitch_error": float(found[4])} if found[3] else {}),
+            "seconds": int(found[5]),
         }} if rounds and found else {}),
         "stopped": stopped[1] if stopped else None,
         "kept": _evaluation(files.get("eval.json")),

@@ -55,6 +55,7 @@ class HostCommands:
         self.gain = 1.0  # the drive's speed gain (`env.commands.corrected_gain`)
         self.correction = 0.0  # rad/s: the drive's heading correction (`env.commands.steering`)
         self.yaw_rate = 0.0  # rad/s: the low-passed yaw rate (`env.commands.Command.yaw_rate`)
+        self.tracked_speed = 0.0  # m/s: the forward term's (`env.commands.Command.tracked_speed`)
         self._rng = np.random.default_rng(0)
 
     def start(self, seed: int | Sequence[int]) -> None:
@@ -62,6 +63,7 @@ class HostCommands:
         self._rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
         self.velocity, self.heading, self.held = self._at(0.0), 0.0, False
         self.speed, self.gain, self.correction, self.yaw_rate = 0.0, 1.0, 0.0, 0.0
+        self.tracked_speed = 0.0
 
     def steer(self, velocity: Sequence[float]) -> None:
         """Follow (v*, ω*) `velocity` from now until the next `start`."""
@@ -97,8 +99,12 @@ class HostCommands:
         tracking = {"heading": self.heading, "commanded_progress": progress}
         if self.config.tracking == "yaw_rate":
             tracking["heading"] = yaw_before
-            turned = env_commands.tracked_yaw_rate(self.yaw_rate, turn, dt, yaw_tau)
+            turned = env_commands.tracked_rate(self.yaw_rate, turn, dt, yaw_tau)
             tracking["yaw_rate_error"] = turned - yaw_rate
+        speed_tau = self.config.speed_tau
+        self.tracked_speed = env_commands.low_passed_speed(self.tracked_speed, moved, dt, speed_tau)
+        if speed_tau > 0:
+            tracking["tracked_progress"] = self.tracked_speed * dt
         if self.held:
             return tracking
         if self.spec.mode != env_commands.RANDOM:

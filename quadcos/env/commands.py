@@ -1,7 +1,7 @@
 """Velocity commands (issue 58): a forward speed v* (m/s) and a yaw rate ω* (rad/s) the policy
 is asked to follow — drawn at random for training, or from a fixed schedule for evaluation.
 
-A command spec is one string, parsed here and nowhere else (`parse_commands`):
+A command spec is one string, parsed in `command_spec` and nowhere else (`parse_commands`):
 - "" — no command: the paper's task (walk forward along +x), the observation unchanged;
 - "random" — v* ~ U(speed_min, speed_max), ω* ~ U(−yaw_rate_max, yaw_rate_max) (ω* = 0 with
   probability `zero_yaw_rate_probability`; both 0, standing, with `zero_command_probability`),
@@ -17,7 +17,8 @@ the leash, ψ* stays exactly 0 and the yaw term is Eq. 12's −w4 |yaw|.
 
 `tracking="yaw_rate"` tracks what the policy can see instead: the step's progress along the
 robot's own heading at the step's start, and the yaw term is −w4 |ω − ω*| for the step's yaw rate ω
-(rad/s), or with `yaw_rate_tau` > 0 that rate low-passed over τ (`tracked_yaw_rate`). ψ* is a
+(rad/s), or with `yaw_rate_tau` > 0 that rate low-passed over τ (`tracked_rate`); with `speed_tau`
+> 0 the forward term tracks the progress low-passed alike. ψ* is a
 state the policy does not observe; a reward that depends on it leaves the critic guessing
 (experiments/commands).
 
@@ -25,7 +26,6 @@ Pure functions of arrays (jit / vmap-able, one robot; batch with `jax.vmap`) and
 parser; nothing here touches MuJoCo.
 """
 
-import dataclasses
 import math
 from typing import Any
 
@@ -35,9 +35,9 @@ import jax.numpy as jnp
 import ml_collections
 import numpy as np
 
+from quadcos.env.command_spec import RANDOM, CommandSpec, Segment, parse_commands
 from quadcos.equations.reward import wrap_angle
 
-RANDOM = "random"
 TRACKING = ("heading", "yaw_rate")  # what the reward's yaw term tracks (module docstring)
 GRAVITY = 9.81  # m/s²
 # The Froude number v² / (g h) of the fastest commanded walk of a robot without a preset, h its hip
@@ -72,6 +72,10 @@ def default_config() -> ml_collections.ConfigDict:
     # constant (`low_passed_speed`), the turn over a stride or two as the tracking metric's 0.5-s
     # windows measure it, not each step's sway within a stride; 0: the step's own yaw rate
     config.yaw_rate_tau = 0.0
+    # s: > 0 (tracking "yaw_rate") the forward term tracks the speed low-passed over this time
+    # constant: a trot's speed swings within a stride by more than the speed errors the metric
+    # measures, and |d − c| of each step's progress d is blind to a mean error inside the swing
+    config.speed_tau = 0.0
     # s: > 0 observes the robot's speed along its own heading, low-passed over this time constant
     # (`Command.speed`), before (v*, ω*); 0: not observed (the policy sees the torso's velocity
     # in the world frame only, as the paper's state has it)
@@ -98,60 +102,6 @@ def default_config() -> ml_collections.ConfigDict:
     # integrated ω* on its leash (`steering`); 0: it turns at ω*
     config.heading_gain = 0.0
     return config
-
-
-@dataclasses.dataclass(frozen=True)
-class Segment:
-    """One segment of a command schedule: v* (m/s), ω* (rad/s) for `seconds`."""
-
-    speed: float
-    yaw_rate: float
-    seconds: float
-
-
-@dataclasses.dataclass(frozen=True)
-class CommandSpec:
-    """A parsed command spec: `mode` "off", "random" or "schedule" (then `schedule`'s segments)."""
-
-    mode: str
-    schedule: tuple[Segment, ...] = ()
-
-    @property
-    def enabled(self) -> bool:
-        return self.mode != "off"
-
-
-def parse_commands(spec: str) -> CommandSpec:
-    """The command spec `spec` ("", "random" or "v,ω@s;...": see the module docstring).
-
-    Raises:
-      ValueError: naming the bad segment, e.g. "command segment 2 '1.0@5': expected v,ω@seconds".
-    """
-    if not isinstance(spec, str):
-        raise ValueError(f"a command spec must be a string; got {spec!r}")
-    text = spec.strip()
-    if not text:
-        return CommandSpec("off")
-    if text == RANDOM:
-        return CommandSpec(RANDOM)
-    segments = []
-    for index, part in enumerate(text.split(";"), start=1):
-        part = part.strip()
-        where = f"command segment {index} {part!r} of {spec!r}"
-        command, at, seconds = part.partition("@")
-        values = command.split(",")
-        if not at or len(values) != 2:
-            raise ValueError(f"{where}: expected v,ω@seconds (e.g. 0.5,0@5), or the spec 'random'")
-        try:
-            speed, yaw_rate, duration = (float(v) for v in (*values, seconds))
-        except ValueError:
-            raise ValueError(f"{where}: v, ω and seconds must be numbers") from None
-        if not all(math.isfinite(v) for v in (speed, yaw_rate, duration)):
-            raise ValueError(f"{where}: v, ω and seconds must be finite")
-        if duration <= 0:
-            raise ValueError(f"{where}: seconds must be > 0")
-        segments.append(Segment(speed, yaw_rate, duration))
-    return CommandSpec("schedule", tuple(segments))
 
 
 def speed_range(
@@ -196,12 +146,13 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(
             f"commands.tracking must be one of {', '.join(TRACKING)}; got {config.tracking!r}"
         )
-    if config.yaw_rate_tau > 0 and config.tracking != "yaw_rate":
-        raise ValueError(
-            f"commands.yaw_rate_tau needs commands.tracking='yaw_rate'; got {config.tracking!r}"
-        )
+    for tau in ("yaw_rate_tau", "speed_tau"):
+        if config[tau] > 0 and config.tracking != "yaw_rate":
+            raise ValueError(
+                f"commands.{tau} needs commands.tracking='yaw_rate'; got {config.tracking!r}"
+            )
     keys = ("reference_speed", "scale_max", "turn_max", "speed_gain_rate", "heading_gain")
-    for key in ("yaw_rate_max", "observed_speed_tau", *keys, "yaw_rate_tau"):
+    for key in ("yaw_rate_max", "observed_speed_tau", *keys, "yaw_rate_tau", "speed_tau"):
         if not 0 <= config[key] < math.inf:
             raise ValueError(f"commands.{key} must be finite and >= 0; got {config[key]}")
     if not math.isfinite(config.half_track):
@@ -300,6 +251,9 @@ class Command:
     # () rad/s: the robot's yaw rate low-passed over `yaw_rate_tau` (`low_passed_speed`); 0 at a
     # reset, and throughout for τ = 0
     yaw_rate: jax.Array
+    # () m/s: the robot's progress along its heading per second, low-passed over `speed_tau` (the
+    # forward term's); 0 at a reset, and throughout for τ = 0
+    tracked_speed: jax.Array
 
     def driven(self) -> jax.Array:
         """(..., 2) the velocity the drive is asked for: g·(v*, ω* + s) (`driven`)."""
@@ -333,12 +287,13 @@ class Plan:
             gain=one,
             correction=zero,
             yaw_rate=zero,
+            tracked_speed=zero,
         )
 
     def restart(self, command: Command, just_reset: jax.Array) -> Command:
         """`command`, or where `just_reset` (an auto-reset restored the first state) its first
-        one again, the heading, the observed speed, the low-passed yaw rate and the drive's
-        correction back at 0, its gain at 1."""
+        one again, the heading, the observed speed, the low-passed yaw rate and speed and the
+        drive's correction back at 0, its gain at 1."""
         return command.replace(
             velocity=jnp.where(just_reset, command.initial, command.velocity),
             heading=jnp.where(just_reset, 0.0, command.heading),
@@ -346,6 +301,7 @@ class Plan:
             gain=jnp.where(just_reset, 1.0, command.gain),
             correction=jnp.where(just_reset, 0.0, command.correction),
             yaw_rate=jnp.where(just_reset, 0.0, command.yaw_rate),
+            tracked_speed=jnp.where(just_reset, 0.0, command.tracked_speed),
         )
 
     def at(self, key: jax.Array, time: jax.Array) -> jax.Array:
@@ -369,7 +325,8 @@ class Plan:
         `time_now` in which the robot's yaw went from `yaw_before` to `yaw` (rad) and it moved
         `moved` m along its heading at the step's start: the commanded progress v*·dt (m) and
         the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
-        step's start and the yaw-rate error ω − ω* (rad/s, ω as `tracked_yaw_rate`); and the
+        step's start, the yaw-rate error ω − ω* (rad/s, ω as `tracked_rate`) and with `speed_tau`
+        the progress the forward term tracks (m, `tracked_rate`'s speed × dt); and the
         command after the step (`advance`), its observed speed and yaw rate low-passed
         (`low_passed_speed`), its drive's gain corrected (`corrected_gain`) and its heading
         correction set (`steering`)."""
@@ -385,11 +342,16 @@ class Plan:
         command = command.replace(heading=heading, correction=correction)
         turn, tau = wrap_angle(yaw - yaw_before), self.config.yaw_rate_tau
         command = command.replace(yaw_rate=low_passed_speed(command.yaw_rate, turn, dt, tau))
+        speed_tau = self.config.speed_tau
+        tracked_speed = low_passed_speed(command.tracked_speed, moved, dt, speed_tau)
+        command = command.replace(tracked_speed=tracked_speed)
         tracking = {"heading": heading, "commanded_progress": progress}
         if self.config.tracking == "yaw_rate":
             tracking["heading"] = yaw_before
-            turned = tracked_yaw_rate(command.yaw_rate, turn, dt, tau)
+            turned = tracked_rate(command.yaw_rate, turn, dt, tau)
             tracking["yaw_rate_error"] = turned - yaw_rate
+        if speed_tau > 0:
+            tracking["tracked_progress"] = tracked_speed * dt
         return tracking, self.advance(command, time_before, time_now)
 
     def advance(self, command: Command, time_before: jax.Array, time_now: jax.Array) -> Command:
@@ -431,10 +393,11 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
     return speed + (1.0 - math.exp(-dt / tau)) * (progress / dt - speed)
 
 
-def tracked_yaw_rate(low_passed: Any, turn: Any, dt: float, tau: float) -> Any:
-    """rad/s: the yaw rate the yaw term tracks after a control step of `dt` s that turned the robot
-    `turn` rad: the `low_passed` rate (this step's turn included) for `tau` > 0, else turn / dt."""
-    return low_passed if tau > 0 else turn / dt
+def tracked_rate(low_passed: Any, change: Any, dt: float, tau: float) -> Any:
+    """The rate a term tracks after a control step of `dt` s that turned the robot `change` rad (the
+    yaw term's, rad/s) or moved it `change` m (the forward term's, m/s): the `low_passed` rate
+    (this step's change included) for `tau` > 0, else change / dt."""
+    return low_passed if tau > 0 else change / dt
 
 
 def corrected_gain(

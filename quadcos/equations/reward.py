@@ -142,6 +142,7 @@ def reward_terms(
     heading: jnp.ndarray | None = None,
     commanded_progress: jnp.ndarray | None = None,
     yaw_rate_error: jnp.ndarray | None = None,
+    tracked_progress: jnp.ndarray | None = None,
     action_change: jnp.ndarray | None = None,
 ) -> dict[str, jnp.ndarray]:
     """Eq. 13's terms, each weighted by α or β; their sum is the step reward. `moving`: whether
@@ -150,7 +151,10 @@ def reward_terms(
     Velocity commands: `heading` ψ* (rad) turns the forward, lateral and yaw terms to the
     commanded heading; `commanded_progress` v*·dt (m), where given, makes the forward term
     `forward_tracking`; `yaw_rate_error` ω − ω* (rad/s), where given, replaces the yaw relative to
-    ψ* in the yaw term. Without them (as with ψ* = 0, bit for bit) the terms are Eqs. 8–13.
+    ψ* in the yaw term; `tracked_progress` (m), where given with `commanded_progress`, is the
+    progress the forward term tracks in place of the step's own (the speed low-passed over a
+    stride or two, `env.commands.speed_tau`). Without them (as with ψ* = 0, bit for bit) the
+    terms are Eqs. 8–13.
     `action_change` (..., A), the command's change over the step, where given, is charged by
     `action_rate` (the term is 0 without it).
 
@@ -175,7 +179,8 @@ def reward_terms(
     if commanded_progress is None:
         forward = forward_progress(progress, 0.0, weights, max_progress)
     else:
-        forward = forward_tracking(jnp.minimum(progress, max_progress), commanded_progress, weights)
+        tracked = progress if tracked_progress is None else tracked_progress
+        forward = forward_tracking(jnp.minimum(tracked, max_progress), commanded_progress, weights)
     return {
         "fall": alpha * fall_penalty(weights),
         "survival": walking * survival(weights, moving),

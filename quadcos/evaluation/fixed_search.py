@@ -76,18 +76,10 @@ def search_fixed(
       best score and that candidate's speed; "confirmation" (with `confirm_robots`: robots,
       candidates, how many never fell, wall time; else None); "setup"}.
     """
-    _check_arguments(
-        num_candidates,
-        robots_per_candidate,
-        rounds,
-        seconds,
-        min_speed,
-        min_speed_of,
-        max_attitude,
-        confirm_robots,
-    )
-    num_envs = num_candidates * robots_per_candidate
     bounds = {"min_speed": min_speed, "min_speed_of": min_speed_of, "max_attitude": max_attitude}
+    _check_arguments(num_candidates, robots_per_candidate, rounds, seconds, confirm_robots,
+                     **bounds)
+    num_envs = num_candidates * robots_per_candidate
     search = _Search(terrain, env_overrides, num_envs, seconds, seed, bounds)
     env = search.env
     started = time.monotonic()
@@ -117,9 +109,7 @@ def search_fixed(
             "seed": seed,
             "include_trot": include_trot,
             "symmetric": symmetric,
-            "min_speed": min_speed,
-            "min_speed_of": min_speed_of,
-            "max_attitude": max_attitude,
+            **bounds,
             "confirm_robots": confirm_robots,
             "env": env.config.to_dict() | {"terrain": env.terrain.spec},
             "wall_time_s": time.monotonic() - started,
@@ -132,10 +122,10 @@ def _check_arguments(
     robots_per_candidate: int,
     rounds: int,
     seconds: float,
+    confirm_robots: int,
     min_speed: float,
     min_speed_of: str,
     max_attitude: float,
-    confirm_robots: int,
 ) -> None:
     if num_candidates < 1 or robots_per_candidate < 1 or rounds < 1:
         raise ValueError("num_candidates, robots_per_candidate and rounds must be >= 1")
