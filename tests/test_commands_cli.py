@@ -393,6 +393,8 @@ def test_tracking_reward_twin_equals_the_envs():
         tracking = dict(heading=angles[3], commanded_progress=abs(angles[4]) * 0.05)
         if rng.uniform() < 0.5:
             tracking["yaw_rate_error"] = angles[4]
+        if rng.uniform() < 0.5:  # the progress low-passed (`commands.speed_tau`)
+            tracking["tracked_progress"] = rng.normal() * 0.05
         if rng.uniform() < 0.5:  # the rate term beyond the paper
             tracking["action_change"] = rng.normal(size=6).astype(np.float32) * 0.1
         weights = reward.RewardWeights(action_rate=float(rng.uniform(0.0, 20.0)))

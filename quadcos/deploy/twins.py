@@ -190,12 +190,13 @@ def reward_terms(
     heading: float | None = None,
     commanded_progress: float | None = None,
     yaw_rate_error: float | None = None,
+    tracked_progress: float | None = None,
     action_change: np.ndarray | None = None,
 ) -> dict[str, float]:
     """`reward.reward_terms` (Eqs. 8–13), each term weighted by α (fell) or β (alive); with a
-    commanded `heading` ψ* (rad), `commanded_progress` v*·dt (m) and `yaw_rate_error` (rad/s),
-    the tracking terms; with the command's change over the step (`action_change`), its rate
-    term."""
+    commanded `heading` ψ* (rad), `commanded_progress` v*·dt (m), `yaw_rate_error` (rad/s) and
+    `tracked_progress` (m, the forward term's in place of the step's), the tracking terms; with
+    the command's change over the step (`action_change`), its rate term."""
     alpha = float(fell)
     beta = 1.0 - alpha
     walking = beta if variant == "full" else 0.0
@@ -206,6 +207,8 @@ def reward_terms(
         yaw = wrap_angle(yaw - heading)
     if yaw_rate_error is not None:
         yaw = yaw_rate_error
+    if commanded_progress is not None and tracked_progress is not None:
+        progress = tracked_progress
     progress = min(progress, max_progress)
     if commanded_progress is not None:
         progress = commanded_progress - abs(progress - commanded_progress)
