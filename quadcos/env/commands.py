@@ -73,8 +73,8 @@ def default_config() -> ml_collections.ConfigDict:
     # windows measure it, not each step's sway within a stride; 0: the step's own yaw rate
     config.yaw_rate_tau = 0.0
     # s: > 0 (tracking "yaw_rate") the forward term tracks the speed low-passed over this time
-    # constant: a trot's speed swings within a stride by more than the speed errors the metric
-    # measures, and |d − c| of each step's progress d is blind to a mean error inside the swing
+    # constant: |d − c| of each step's progress d charges a mean error only in part where the
+    # speed swings within a stride (docs/env.md, "Low-passed speed"); 0: each step's progress
     config.speed_tau = 0.0
     # s: > 0 observes the robot's speed along its own heading, low-passed over this time constant
     # (`Command.speed`), before (v*, ω*); 0: not observed (the policy sees the torso's velocity
