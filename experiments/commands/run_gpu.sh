@@ -260,6 +260,10 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # the forward term on the speed low-passed over 0.25 s, as the yaw term's yaw rate (per step
     # it charges Go2's gait 0.57 of a 0.05-m/s error, low-passed 0.86: docs/env.md)
     [spdtau]="--config.env.commands.speed_tau=0.25"
+    # w1 ×5: ANYmal C's SAC gains 585 per episode in the orientation term for 118 lost in the
+    # forward term (anymalcmd_nstep3_s0's reward_terms in campaign.json); at ×5 that trade pays
+    # nothing
+    [fw2250]="--config.env.reward.forward=2250"
   )
   [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
     { echo "bad MAX_SECONDS '$MAX_SECONDS': whole seconds" >&2; exit 2; }
