@@ -291,6 +291,16 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
     # Every candidate can be an action centre: strictly inside §3.3's box, never on an end.
     for entry in ranking:
         oscillator.action_centre(oscillator.centre_spec(entry["parameters"].values()), oscillator.PERIOD_MIN)
+    # `score_gaits` scores gaits as the search's first round scored its candidates.
+    from quadcos.evaluation.fixed_search import score_gaits
+
+    first = sorted((e for e in ranking if e["round"] == 1), key=lambda e: e is not trot)
+    rescored = score_gaits(
+        "flat", [list(e["parameters"].values()) for e in first], robots=2, seconds=1, seed=1
+    )
+    assert [e["mean_episode_reward"] for e in rescored] == pytest.approx(
+        [e["mean_episode_reward"] for e in first], rel=1e-5
+    )
     # A speed floor ranks only the gaits that reach it: at 2 m/s none of these.
     floored = tmp_path / "floored.json"
     args[-2] = f"--out={floored}"

@@ -234,7 +234,7 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
         "--config.sac.gait_search.rounds=2",
         "--config.sac.gait_search.elite=2",
         "--config.sac.gait_search.seconds=0.5",
-        "--config.sac.gait_search.max_attitude=1.5",  # rad: rules out no gait that stands
+        "--config.sac.gait_search.max_attitude=1.5",  # rad: any gait that stands is within
         f"--output_dir={run_dir}",
         "--no_progress",
     )
@@ -254,10 +254,10 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     # ... over all of §3.3's ranges, whatever share of them SAC will reach.
     assert search["setup"]["env"]["action_scale"] == 1.0
     assert [entry["round"] for entry in search["rounds"]] == [1, 2]
-    # The attitude bound reached the search, and the kept gait is within it.
+    # The attitude bound reached the search (its ranking: test_evaluate.py), and the log names
+    # the kept gait's attitude.
     assert search["setup"]["max_attitude"] == 1.5
     best = search["ranking"][0]
-    assert max(best["mean_max_abs_roll"], best["mean_max_abs_pitch_error"]) <= 1.5
     assert f"roll {best['mean_max_abs_roll']:.3f} rad" in result.stderr
     assert search["num_evaluated"] == 12
     for candidate in search["ranking"]:

@@ -66,7 +66,8 @@ def sac_change(runs: dict) -> dict[str, list[tuple[float, float]]]:
     by_robot: dict[str, list[tuple[float, float]]] = {}
     for run in runs.values():
         rolls = [row["roll"] for row in run.get("evaluations", ()) if row.get("roll") is not None]
-        if len(rolls) > 1 and run["evaluations"][0].get("env_steps") == 0:
+        first = (run.get("evaluations") or [{}])[0]
+        if len(rolls) > 1 and first.get("env_steps") == 0 and first.get("roll") is not None:
             change = max(abs(roll - rolls[0]) for roll in rolls[1:])
             by_robot.setdefault(robot(run), []).append((rolls[0], change))
     return by_robot

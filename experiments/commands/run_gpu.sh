@@ -253,8 +253,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # of the episodes' peak roll and pitch error: Go1 seed 2 rolls 0.102–0.113, Go2 pitches 0.112)
     [att]="--config.sac.best_policy_max_attitude=0.1"
     # the gait search ranking only gaits within an attitude (SAC hardly changes a searched gait's
-    # roll; 0.085 kept 5 of 7 Go1 gaits that meet the targets, none of 7 that miss them:
-    # search_attitude.py, README "The attitude gate")
+    # roll; 0.085 kept 5 of 7 Go1 gaits that meet the targets and none of 5 that miss them, two
+    # of those by 0.0006 rad: search_attitude.py, README "The attitude gate")
     [searchatt]="--config.sac.gait_search.max_attitude=0.085"
     # n-step returns (FastTD3's 3): the critic's target sums three steps of rewards
     [nstep3]="--config.sac.n_step=3"

@@ -15,15 +15,16 @@ that turns too slowly is not charged for ever more accumulated lag. The reward's
 terms track v* along ψ* and ψ* itself (`quadcos.equations.reward`); with ω* = 0 and a robot within
 the leash, ψ* stays exactly 0 and the yaw term is Eq. 12's −w4 |yaw|.
 
-`tracking="yaw_rate"` tracks what the policy can see instead: the step's progress along the
+`tracking="yaw_rate"` tracks the robot's own motion instead: the step's progress along the
 robot's own heading at the step's start, and the yaw term is −w4 |ω − ω*| for the step's yaw rate ω
-(rad/s), or with `yaw_rate_tau` > 0 that rate low-passed over τ (`tracked_rate`); with `speed_tau`
-> 0 the forward term tracks the progress low-passed alike. ψ* is a
-state the policy does not observe; a reward that depends on it leaves the critic guessing
-(experiments/commands).
+(rad/s), or with `yaw_rate_tau` > 0 that rate low-passed over τ (`tracked_rate`); with
+`speed_tau` > 0 the forward term tracks the progress low-passed alike (`Command.tracked_speed`).
+ψ* is a state the policy does not observe; a reward that depends on it leaves the critic
+guessing (experiments/commands). The low-passed rates are filter states it does not observe
+either (unless `observed_speed_tau`), but each follows the motion it sees within τ.
 
-Pure functions of arrays (jit / vmap-able, one robot; batch with `jax.vmap`) and the host-side
-parser; nothing here touches MuJoCo.
+Pure functions of arrays (jit / vmap-able, one robot; batch with `jax.vmap`); the spec's parser
+is `command_spec`'s; nothing here touches MuJoCo.
 """
 
 import math
@@ -326,7 +327,7 @@ class Plan:
         `moved` m along its heading at the step's start: the commanded progress v*·dt (m) and
         the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
         step's start, the yaw-rate error ω − ω* (rad/s, ω as `tracked_rate`) and with `speed_tau`
-        the progress the forward term tracks (m, `tracked_rate`'s speed × dt); and the
+        the progress the forward term tracks (m: `Command.tracked_speed` × dt); and the
         command after the step (`advance`), its observed speed and yaw rate low-passed
         (`low_passed_speed`), its drive's gain corrected (`corrected_gain`) and its heading
         correction set (`steering`)."""
@@ -394,9 +395,9 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
 
 
 def tracked_rate(low_passed: Any, change: Any, dt: float, tau: float) -> Any:
-    """The rate a term tracks after a control step of `dt` s that turned the robot `change` rad (the
-    yaw term's, rad/s) or moved it `change` m (the forward term's, m/s): the `low_passed` rate
-    (this step's change included) for `tau` > 0, else change / dt."""
+    """rad/s: the yaw rate the yaw term tracks after a control step of `dt` s that turned the robot
+    `change` rad: the `low_passed` rate (this step's turn included) for `tau` > 0, else
+    change / dt."""
     return low_passed if tau > 0 else change / dt
 
 

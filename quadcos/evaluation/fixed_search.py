@@ -55,10 +55,11 @@ def search_fixed(
     speed reaches `min_speed` (m/s; 0: any) — their mean's, or with `min_speed_of="slowest"` every
     robot's (under domain randomisation: the gait holds its speed on every robot it was drawn for,
     not only on average) — and, with `max_attitude` > 0 (rad), their mean peak roll and pitch
-    error (`ATTITUDE`) are within it — else −inf: the ranking is the paper's reward among gaits with zero
-    falls (and that speed); `ranking_key` orders the rest. On a lane terrain every candidate runs
-    on the same lanes (`candidate_lanes`: for `random:` courses, from the gentlest to the
-    steepest), so that no candidate is ranked up for the easier course it was given.
+    error (`ATTITUDE`) are within it — else −inf: the ranking is the paper's reward among gaits
+    with zero falls (and that speed and attitude); `ranking_key` orders the rest. On a lane
+    terrain every candidate runs on the same lanes (`candidate_lanes`: for `random:` courses, from
+    the gentlest to the steepest), so that no candidate is ranked up for the easier course it was
+    given.
 
     `confirm_robots` > 0 adds a confirmation after the rounds: the best distinct candidates, as
     many as the batch holds on that many robots each, run once more (new draws of the terrain's
@@ -117,6 +118,24 @@ def search_fixed(
     }
 
 
+def score_gaits(
+    terrain: terrain_lib.Terrain | str,
+    gaits: np.ndarray,
+    *,
+    robots: int,
+    seconds: float,
+    seed: int = 0,
+    env_overrides: Mapping[str, Any] | None = None,
+) -> list[dict[str, Any]]:
+    """Each of `gaits` (n, 5: A_k, A_h, T, φ1, φ3) on `robots` robots for `seconds`, as a search
+    scores a candidate in its first round (no speed floor, no attitude bound): one entry per gait
+    (mean episode reward, fall rate, speeds, mean peak yaw, roll and pitch error, ...)."""
+    gaits = np.asarray(gaits, np.float64).reshape(-1, 5)
+    bounds = {"min_speed": 0.0, "min_speed_of": "mean", "max_attitude": 0.0}
+    search = _Search(terrain, env_overrides, len(gaits) * robots, seconds, seed, bounds)
+    return search.score(gaits, robots, 0, lambda done, total: None)
+
+
 def _check_arguments(
     num_candidates: int,
     robots_per_candidate: int,
@@ -172,7 +191,7 @@ class _Search:
         self.inner_bounds = (lower + inner, upper - inner)
         self.rank_key = functools.partial(ranking_key, **bounds)
         self.confirmation_key = functools.partial(confirmation_key, **bounds)
-        self.floor_key = functools.partial(_eligible, **bounds)
+        self.eligible_key = functools.partial(_eligible, **bounds)
 
     def draw(
         self,
@@ -261,7 +280,7 @@ class _Search:
         episodes = episode_values(result.stats, env.dt, num_steps)
         return [
             _candidate_entry(
-                params, episodes[c * robots : (c + 1) * robots], round_index + 1, self.floor_key
+                params, episodes[c * robots : (c + 1) * robots], round_index + 1, self.eligible_key
             )
             for c, params in enumerate(candidates)
         ]

@@ -30,7 +30,8 @@ logger = logging.getLogger("quadcos.train")
 
 
 class NoGaitFound(RuntimeError):
-    """No candidate of the search finished its episodes without a fall."""
+    """No candidate of the search finished its episodes without a fall (at the speed floor and
+    within the attitude bound, where the search has them)."""
 
 
 def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
@@ -41,18 +42,15 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
       an `env.action_centre` string.
 
     Raises:
-      NoGaitFound: every candidate fell at least once.
+      NoGaitFound: every candidate fell at least once, or missed the speed floor or the attitude
+        bound.
     """
     from quadcos.evaluation import (
         fixed_search,  # heavy: builds envs; only a from-scratch run needs it
     )
 
     search = config.sac.gait_search
-    overrides = flatten(config.env.to_dict())
-    for key in ("terrain", "spawn_x_max", "action_centre"):
-        overrides.pop(key)
-    overrides["action_filter_tau"] = 0.0  # act from the first step, as the centre will
-    overrides["action_scale"] = 1.0  # every candidate of §3.3's ranges in reach
+    overrides = candidate_overrides(config)
     logger.info(
         "gait search: %d candidates x %d robots x %g s, %d rounds, on %s",
         search.num_candidates,
@@ -119,6 +117,16 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     )
     return result | {"action_centre": centre}
 
+
+
+def candidate_overrides(config: ml_collections.ConfigDict) -> dict[str, Any]:
+    """The env overrides the search of a run config ({"env", "sac"}) runs its candidates under:
+    the run's env but for its terrain, spawns and centre, acting from the first step as the
+    centre will (no command filter), every candidate of §3.3's ranges in reach (action scale 1)."""
+    overrides = flatten(config.env.to_dict())
+    for key in ("terrain", "spawn_x_max", "action_centre"):
+        overrides.pop(key)
+    return overrides | {"action_filter_tau": 0.0, "action_scale": 1.0}
 
 
 def _round_report(
