@@ -550,7 +550,7 @@ def test_an_attitude_bound_ranks_only_level_gaits_and_breeds_towards_them():
         return {"forward_speed": 0.6, "episode_reward": 100.0, "fell": fell, "max_abs_yaw": 0.1,
                 "max_abs_roll": roll, "max_abs_pitch_error": pitch_error, "lateral_drift": 0.0}
 
-    eligible = functools.partial(fixed_search._eligible, min_speed=0.0, min_speed_of="mean",
+    eligible = functools.partial(fixed_search.eligible, min_speed=0.0, min_speed_of="mean",
                                  max_attitude=0.1)
     params = np.zeros(5)
     level = fixed_search._candidate_entry(params, [episode(0.05, 0.09)] * 2, 1, eligible)
@@ -572,7 +572,7 @@ def test_an_attitude_bound_ranks_only_level_gaits_and_breeds_towards_them():
                        reverse=True)
     assert confirmed == [level, rolled, pitched, fell]
     # Without the bound they all rank by score alone, the rolled and pitched among the clean.
-    assert all(fixed_search._eligible(c, 0.0, "mean") for c in (rolled, pitched))
+    assert all(fixed_search.eligible(c, 0.0, "mean") for c in (rolled, pitched))
     with pytest.raises(ValueError, match="max_attitude must be finite and >= 0 rad .*-0.1"):
         evaluation_lib.search_fixed(max_attitude=-0.1)
 

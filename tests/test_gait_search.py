@@ -302,6 +302,48 @@ def test_the_search_runs_no_round_that_would_end_past_its_budget(ends, after_rou
     assert gait_search.out_of_time(ends, 25.0, after_rounds) is out
 
 
+def test_a_search_with_no_gait_within_its_attitude_bound_keeps_the_most_level_that_stood(
+    monkeypatch, caplog
+):
+    from quadcos.evaluation import fixed_search, gait_search
+
+    def candidate(params, fall_rate, roll):
+        return {"parameters": dict(zip("abcde", params)), "mean_forward_speed": 0.5,
+                "slowest_forward_speed": 0.4, "fall_rate": fall_rate, "score": None,
+                "mean_max_abs_roll": roll, "mean_max_abs_pitch_error": 0.05}
+
+    level = candidate(oscillator.FIXED_TROT, 0.0, 0.12)  # stood, rolls past the bound
+    fell = candidate((0.3, 0.1, 0.5, 1.0, -2.0), 0.25, 0.4)
+    ranking = [level, fell]
+
+    def search_fixed(terrain, rounds, on_round, **kwargs):
+        log = [{"round": 1, "wall_time_s": 1.0, "best_score": None, "num_without_falls": 0,
+                "best_forward_speed": 0.5}]
+        on_round(log[0])
+        return {"ranking": ranking, "num_without_falls": 0, "confirmation": None, "rounds": log,
+                "setup": {"wall_time_s": 1.0}}
+
+    monkeypatch.setattr(fixed_search, "search_fixed", search_fixed)
+    config = train.build_config(train.PRESETS["scratch"], {"sac.gait_search.max_attitude": 0.1})
+    with caplog.at_level("WARNING", logger=gait_search.logger.name):
+        found = gait_search.find_gait(config)
+    assert found["action_centre"] == oscillator.centre_spec(oscillator.FIXED_TROT)
+    assert "no gait within 0.1 rad of roll and pitch error; kept the most level one" in caplog.text
+    assert "roll 0.120 rad" in caplog.text
+    # Falls are not a preference: without the bound, or where every candidate fell, none is kept.
+    for bound, candidates in ((0.0, [level, fell]), (0.1, [fell])):
+        ranking[:] = candidates
+        bounded = {"sac.gait_search.max_attitude": bound}
+        config = train.build_config(train.PRESETS["scratch"], bounded)
+        with pytest.raises(gait_search.NoGaitFound, match="no candidate without falls in"):
+            gait_search.find_gait(config)
+    # ... nor is the speed floor: a gait that stood too slowly is not kept either.
+    ranking[:] = [level]
+    floored = {"sac.gait_search.max_attitude": 0.1, "sac.gait_search.min_speed": 0.8}
+    with pytest.raises(gait_search.NoGaitFound, match="without falls at >= 0.8 m/s in"):
+        gait_search.find_gait(train.build_config(train.PRESETS["scratch"], floored))
+
+
 def test_a_search_in_a_timed_run_gets_its_share_of_the_budget_and_says_where_it_stopped(
     monkeypatch, caplog
 ):

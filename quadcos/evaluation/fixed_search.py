@@ -191,7 +191,7 @@ class _Search:
         self.inner_bounds = (lower + inner, upper - inner)
         self.rank_key = functools.partial(ranking_key, **bounds)
         self.confirmation_key = functools.partial(confirmation_key, **bounds)
-        self.eligible_key = functools.partial(_eligible, **bounds)
+        self.eligible_key = functools.partial(eligible, **bounds)
 
     def draw(
         self,
@@ -390,7 +390,7 @@ def _attitude_excess(candidate: Mapping[str, Any], max_attitude: float) -> float
     return max(0.0, max(candidate[key] for key in ATTITUDE) - max_attitude)
 
 
-def _eligible(
+def eligible(
     entry: Mapping[str, Any], min_speed: float, min_speed_of: str, max_attitude: float = 0.0
 ) -> bool:
     """Whether a scored candidate is ranked: none of its robots fell, the speed floor held and

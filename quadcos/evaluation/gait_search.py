@@ -30,8 +30,8 @@ logger = logging.getLogger("quadcos.train")
 
 
 class NoGaitFound(RuntimeError):
-    """No candidate of the search finished its episodes without a fall (at the speed floor and
-    within the attitude bound, where the search has them)."""
+    """No candidate of the search finished its episodes without a fall (at the speed floor,
+    where the search has one)."""
 
 
 def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
@@ -42,8 +42,8 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
       an `env.action_centre` string.
 
     Raises:
-      NoGaitFound: every candidate fell at least once, or missed the speed floor or the attitude
-        bound.
+      NoGaitFound: every candidate fell at least once or missed the speed floor (one beyond the
+        attitude bound is kept where none is within it, with a warning).
     """
     from quadcos.evaluation import (
         fixed_search,  # heavy: builds envs; only a from-scratch run needs it
@@ -64,6 +64,7 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     floor = f" at >= {search.min_speed:g} m/s" if search.min_speed > 0 else ""
     if floor and search.min_speed_of == "slowest":
         floor += " on every robot"
+    speed_floor = floor
     if search.max_attitude > 0:
         floor += f" within {search.max_attitude:g} rad of roll and pitch error"
     report = _round_report(search, floor, budget)
@@ -86,12 +87,27 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     )
     best = result["ranking"][0]
     if result["num_without_falls"] == 0:
-        raise NoGaitFound(
-            f"the gait search found no candidate without falls{floor} in"
-            f" {len(result['rounds'])} rounds of {search.num_candidates}; raise"
-            " config.sac.gait_search.rounds or .num_candidates"
-            + (" or lower .min_speed" if search.min_speed > 0 else "")
-            + (" or raise .max_attitude" if search.max_attitude > 0 else "")
+        # The attitude bound is a preference: with no candidate within it, the most level one
+        # that never fell (at the speed floor; the ranking orders by falls, then by excess).
+        standing = [
+            c for c in result["ranking"]
+            if search.max_attitude > 0
+            and fixed_search.eligible(c, float(search.min_speed), search.min_speed_of)
+        ]
+        if not standing:
+            raise NoGaitFound(
+                f"the gait search found no candidate without falls{speed_floor} in"
+                f" {len(result['rounds'])} rounds of {search.num_candidates}; raise"
+                " config.sac.gait_search.rounds or .num_candidates"
+                + (" or lower .min_speed" if search.min_speed > 0 else "")
+            )
+        best = standing[0]
+        logger.warning(
+            "gait search: no gait within %g rad of roll and pitch error; kept the most level one"
+            " that never fell (roll %.3f rad, pitch error %.3f rad)",
+            search.max_attitude,
+            best["mean_max_abs_roll"],
+            best["mean_max_abs_pitch_error"],
         )
     confirmation = result["confirmation"]
     if confirmation is not None:
