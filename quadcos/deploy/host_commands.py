@@ -99,7 +99,7 @@ class HostCommands:
         tracking = {"heading": self.heading, "commanded_progress": progress}
         if self.config.tracking == "yaw_rate":
             tracking["heading"] = yaw_before
-            turned = env_commands.tracked_rate(self.yaw_rate, turn, dt, yaw_tau)
+            turned = env_commands.tracked_yaw_rate(self.yaw_rate, turn, dt, yaw_tau)
             tracking["yaw_rate_error"] = turned - yaw_rate
         speed_tau = self.config.speed_tau
         self.tracked_speed = env_commands.low_passed_speed(self.tracked_speed, moved, dt, speed_tau)

@@ -17,7 +17,7 @@ the leash, ψ* stays exactly 0 and the yaw term is Eq. 12's −w4 |yaw|.
 
 `tracking="yaw_rate"` tracks the robot's own motion instead: the step's progress along the
 robot's own heading at the step's start, and the yaw term is −w4 |ω − ω*| for the step's yaw rate ω
-(rad/s), or with `yaw_rate_tau` > 0 that rate low-passed over τ (`tracked_rate`); with
+(rad/s), or with `yaw_rate_tau` > 0 that rate low-passed over τ (`tracked_yaw_rate`); with
 `speed_tau` > 0 the forward term tracks the progress low-passed alike (`Command.tracked_speed`).
 ψ* is a state the policy does not observe; a reward that depends on it leaves the critic
 guessing (experiments/commands). The low-passed rates are filter states it does not observe
@@ -326,8 +326,8 @@ class Plan:
         `time_now` in which the robot's yaw went from `yaw_before` to `yaw` (rad) and it moved
         `moved` m along its heading at the step's start: the commanded progress v*·dt (m) and
         the heading ψ* advanced on its leash, or with `tracking="yaw_rate"` the heading at the
-        step's start, the yaw-rate error ω − ω* (rad/s, ω as `tracked_rate`) and with `speed_tau`
-        the progress the forward term tracks (m: `Command.tracked_speed` × dt); and the
+        step's start, the yaw-rate error ω − ω* (rad/s, ω as `tracked_yaw_rate`) and with
+        `speed_tau` the progress the forward term tracks (m: `Command.tracked_speed` × dt); and the
         command after the step (`advance`), its observed speed and yaw rate low-passed
         (`low_passed_speed`), its drive's gain corrected (`corrected_gain`) and its heading
         correction set (`steering`)."""
@@ -349,7 +349,7 @@ class Plan:
         tracking = {"heading": heading, "commanded_progress": progress}
         if self.config.tracking == "yaw_rate":
             tracking["heading"] = yaw_before
-            turned = tracked_rate(command.yaw_rate, turn, dt, tau)
+            turned = tracked_yaw_rate(command.yaw_rate, turn, dt, tau)
             tracking["yaw_rate_error"] = turned - yaw_rate
         if speed_tau > 0:
             tracking["tracked_progress"] = tracked_speed * dt
@@ -394,11 +394,10 @@ def low_passed_speed(speed: Any, progress: Any, dt: float, tau: float) -> Any:
     return speed + (1.0 - math.exp(-dt / tau)) * (progress / dt - speed)
 
 
-def tracked_rate(low_passed: Any, change: Any, dt: float, tau: float) -> Any:
+def tracked_yaw_rate(low_passed: Any, turn: Any, dt: float, tau: float) -> Any:
     """rad/s: the yaw rate the yaw term tracks after a control step of `dt` s that turned the robot
-    `change` rad: the `low_passed` rate (this step's turn included) for `tau` > 0, else
-    change / dt."""
-    return low_passed if tau > 0 else change / dt
+    `turn` rad: the `low_passed` rate (this step's turn included) for `tau` > 0, else turn / dt."""
+    return low_passed if tau > 0 else turn / dt
 
 
 def corrected_gain(

@@ -153,8 +153,8 @@ def reward_terms(
     `forward_tracking`; `yaw_rate_error` ω − ω* (rad/s), where given, replaces the yaw relative to
     ψ* in the yaw term; `tracked_progress` (m), where given with `commanded_progress`, is the
     progress the forward term tracks in place of the step's own (the speed low-passed over a
-    stride or two, `env.commands.speed_tau`; `max_progress` caps it after the low-pass). Without them (as with ψ* = 0, bit for bit) the
-    terms are Eqs. 8–13.
+    stride or two, `env.commands.speed_tau`; `max_progress` caps it after the low-pass). Without
+    them (as with ψ* = 0, bit for bit) the terms are Eqs. 8–13.
     `action_change` (..., A), the command's change over the step, where given, is charged by
     `action_rate` (the term is 0 without it).
 

@@ -89,11 +89,10 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     if result["num_without_falls"] == 0:
         # The attitude bound is a preference: with no candidate within it, the most level one
         # that never fell (at the speed floor; the ranking orders by falls, then by excess).
+        floor_only = (float(search.min_speed), search.min_speed_of)
         standing = [
-            c for c in result["ranking"]
-            if search.max_attitude > 0
-            and fixed_search.eligible(c, float(search.min_speed), search.min_speed_of)
-        ]
+            c for c in result["ranking"] if fixed_search.eligible(c, *floor_only)
+        ] if search.max_attitude > 0 else []
         if not standing:
             raise NoGaitFound(
                 f"the gait search found no candidate without falls{speed_floor} in"
