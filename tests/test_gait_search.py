@@ -87,6 +87,8 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert config["sac"].pop("best_policy_tracking_targets") == [0.1, 0.15]
     assert config["sac"].pop("best_policy_max_attitude") == 0.0  # the attitude bound: off
     assert config["sac"].pop("n_step") == 1  # n-step returns: off, Brax's transitions
+    assert config["sac"].pop("critic_atoms") == 0  # distributional critics: off, Brax's Q
+    assert config["sac"].pop("critic_value_range") == [-250.0, 250.0]
     # ... and CAPS's smoothness terms and the anchor, off: Brax's actor loss.
     off = {"temporal": 0.0, "spatial": 0.0, "sigma": 0.05, "anchor": 0.0}
     assert config["sac"].pop("smoothness") == off

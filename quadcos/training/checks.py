@@ -165,6 +165,20 @@ def _memory_bytes(device: jax.Device) -> int:
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
+def _check_critic(config: ml_collections.ConfigDict) -> None:
+    """Raises ValueError where the distributional critics' settings cannot make a support."""
+    value_range = tuple(config.critic_value_range)
+    if config.critic_atoms == 0:
+        return
+    if config.critic_atoms < 2:
+        raise ValueError(f"config.critic_atoms must be 0 (off) or >= 2, got {config.critic_atoms}")
+    if len(value_range) != 2 or not -math.inf < value_range[0] < value_range[1] < math.inf:
+        raise ValueError(
+            "config.critic_value_range must be two finite returns v_min < v_max, got"
+            f" {value_range}"
+        )
+
+
 def _check_config(config: ml_collections.ConfigDict) -> None:
     """Raises ValueError naming the first inconsistent or unknown field."""
     expected = set(flat_keys(config_lib.default_config()))
@@ -215,6 +229,7 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
             "config.best_policy_tracking_targets must be two finite speeds > 0 (m/s, rad/s), got"
             f" {targets}"
         )
+    _check_critic(config)
     if config.actor_warmup_steps < 0:
         raise ValueError(f"config.actor_warmup_steps must be >= 0, got {config.actor_warmup_steps}")
     for name, value in config.smoothness.items():

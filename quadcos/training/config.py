@@ -92,6 +92,12 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     # LayerNorm after each hidden layer of the critics (FastTD3, SimBa): a Q that cannot grow
     # without bound under many updates per env step.
     config.critic_layer_norm = False
+    # Distributional critics (C51, as FastTD3 / FastSAC: quadcos.training.distributional): each
+    # critic a categorical distribution over `critic_atoms` returns evenly spaced on
+    # `critic_value_range` (v_min, v_max, in the scaled reward's units: a discounted return's
+    # range); targets beyond it are clipped to its ends. 0: Brax's scalar twin Q.
+    config.critic_atoms = 0
+    config.critic_value_range = (-250.0, 250.0)
     # CAPS (Mysore et al. 2021): the actor's loss also charges `temporal` · the squared change of
     # its deterministic action from a state to the next and `spatial` · that to a state with
     # observation noise of `sigma` normaliser stds (quadcos.training.updates.smoothness_loss);

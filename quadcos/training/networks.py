@@ -9,6 +9,8 @@ from brax.training import types
 from brax.training.acme import running_statistics
 from brax.training.agents.sac import networks as sac_networks
 
+from quadcos.training import distributional
+
 MIN_STD = 0.001  # Brax's NormalTanhDistribution: std = softplus(raw) + min_std
 
 
@@ -19,14 +21,12 @@ def make_networks(
     q_hidden_sizes: Sequence[int],
     normalize_observations: bool,
     critic_layer_norm: bool = False,
+    critics: distributional.Critics | None = None,
 ) -> sac_networks.SACNetworks:
     """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths; with
-    `critic_layer_norm` the critics normalise each hidden layer (Brax's `layer_norm`)."""
-    preprocess = (
-        running_statistics.normalize
-        if normalize_observations
-        else types.identity_observation_preprocessor
-    )
+    `critic_layer_norm` the critics normalise each hidden layer (Brax's `layer_norm`); with
+    `critics` (`make_critics`) the twin Q is their means."""
+    preprocess = _preprocessor(normalize_observations)
     policy_side = sac_networks.make_sac_networks(
         observation_size,
         action_size,
@@ -42,9 +42,34 @@ def make_networks(
     )
     return sac_networks.SACNetworks(
         policy_network=policy_side.policy_network,
-        q_network=q_side.q_network,
+        q_network=q_side.q_network if critics is None else critics.q_network,
         parametric_action_distribution=policy_side.parametric_action_distribution,
     )
+
+
+def make_critics(
+    observation_size: int, action_size: int, config: Any
+) -> distributional.Critics | None:
+    """The distributional critics of a trainer `config` (`critic_atoms` on
+    `critic_value_range`, `hidden_sizes.q`, `critic_layer_norm`); None where `critic_atoms` is 0
+    (Brax's scalar twin Q)."""
+    if not config.critic_atoms:
+        return None
+    support = distributional.Support(config.critic_atoms, *config.critic_value_range)
+    return distributional.make_critics(
+        observation_size,
+        action_size,
+        _preprocessor(config.normalize_observations),
+        config.hidden_sizes.q,
+        config.critic_layer_norm,
+        support,
+    )
+
+
+def _preprocessor(normalize_observations: bool) -> types.PreprocessObservationFn:
+    if normalize_observations:
+        return running_statistics.normalize
+    return types.identity_observation_preprocessor
 
 
 def initial_output_layer(params: Any, scale: float, init_std: float | None) -> Any:

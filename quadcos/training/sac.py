@@ -94,6 +94,7 @@ class SACTrainer:
             env, self._reset_envs, config.num_envs
         )
         self.action_size = env.action_size
+        critics = networks.make_critics(self.observation_size, self.action_size, config)
         self.networks = make_networks(
             self.observation_size,
             self.action_size,
@@ -101,9 +102,12 @@ class SACTrainer:
             config.hidden_sizes.q,
             config.normalize_observations,
             config.critic_layer_norm,
+            critics,
         )
         self._make_policy = sac_networks.make_inference_fn(self.networks)
-        self._sgd_step = updates.SACUpdate.from_config(config, self.networks, self.action_size)
+        self._sgd_step = updates.SACUpdate.from_config(
+            config, self.networks, self.action_size, critics
+        )
         self.replay = self._replay(config, shards)
         self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))

@@ -20,6 +20,8 @@ from brax.training import types
 from brax.training.agents.sac import losses as sac_losses
 from brax.training.agents.sac import networks as sac_networks_lib
 
+from quadcos.training import distributional
+
 Metrics = dict[str, jax.Array]
 
 
@@ -49,11 +51,16 @@ class SACUpdate:
 
     @classmethod
     def from_config(
-        cls, config: ml_collections.ConfigDict, sac_networks: Any, action_size: int
+        cls,
+        config: ml_collections.ConfigDict,
+        sac_networks: Any,
+        action_size: int,
+        critics: distributional.Critics | None = None,
     ) -> "SACUpdate":
         """The update of a trainer `config` (`quadcos.training.config`) for Brax's SAC networks
         `sac_networks` acting in `action_size` dimensions: Adam for each part, the actor's and
-        critic's gradients clipped to `max_grad_norm` where it is set."""
+        critic's gradients clipped to `max_grad_norm` where it is set; with `critics`
+        (distributional, the twin Q of `sac_networks` their means) their cross-entropy loss."""
         alpha_loss, critic_loss, actor_loss = sac_losses.make_losses(
             sac_network=sac_networks,
             reward_scaling=config.reward_scaling,
@@ -64,6 +71,10 @@ class SACUpdate:
             if config.target_entropy is None
             else -2.0 * config.target_entropy,
         )
+        if critics is not None:
+            critic_loss = distributional.make_critic_loss(
+                sac_networks, critics, config.reward_scaling, config.discount
+            )
         return cls(
             alpha_loss=alpha_loss,
             critic_loss=critic_loss,

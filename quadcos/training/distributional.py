@@ -1,0 +1,171 @@
+"""A distributional critic (`config.critic_atoms`): C51 (Bellemare et al. 2017, arXiv:1707.06887)
+as FastTD3 and FastSAC (arXiv:2512.01996) put it in off-policy locomotion.
+
+Each of the twin critics gives a categorical distribution p(s, a) over `atoms` returns z_1 … z_N
+evenly spaced on `config.critic_value_range` [v_min, v_max] (in the scaled reward's units); its Q
+is the mean Σ_i p_i z_i, so the actor and the temperature learn from it by Brax's own losses. The
+critics learn by cross-entropy against the soft Bellman target's distribution,
+
+    T z_j = r + γ · d · (z_j − α log π(a' | s')),   a' ~ π(· | s'),
+
+with p' the target critic's whose mean is lower (clipped double Q on distributions, as FastTD3),
+each T z_j clipped to the support and its probability split between the two atoms beside it
+(C51's projection: where no T z_j is clipped it keeps the target's mean exactly). Truncated
+transitions are masked as in Brax's critic loss; d is the transition's discount (n-step returns
+store γ^m there: quadcos.training.n_step).
+"""
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from brax.training import networks as brax_networks
+from brax.training import types
+from brax.training.agents.sac import networks as sac_networks
+from flax import linen
+
+N_CRITICS = 2
+
+
+@dataclasses.dataclass(frozen=True)
+class Support:
+    """`atoms` returns evenly spaced on [v_min, v_max]."""
+
+    atoms: int
+    v_min: float
+    v_max: float
+
+    def __post_init__(self):
+        if self.atoms < 2 or not self.v_min < self.v_max:
+            raise ValueError(
+                f"a critic's support needs >= 2 atoms on v_min < v_max, got {self.atoms} atoms on"
+                f" [{self.v_min}, {self.v_max}]"
+            )
+
+    @property
+    def values(self) -> jax.Array:
+        return jnp.linspace(self.v_min, self.v_max, self.atoms)
+
+    def mean(self, logits: jax.Array) -> jax.Array:
+        """The expected return of each distribution of `logits` (..., atoms)."""
+        return jnp.sum(jax.nn.softmax(logits, axis=-1) * self.values, axis=-1)
+
+
+@dataclasses.dataclass(frozen=True)
+class Critics:
+    """The twin categorical critics: `logits(normalizer, params, obs, action)` → (batch, 2,
+    atoms); `q_network` is the same parameters seen through their means, (batch, 2), the shape of
+    Brax's twin Q, so that everything reading Q (the actor's and the temperature's losses) reads
+    the means."""
+
+    support: Support
+    logits: Callable[..., jax.Array]
+    q_network: brax_networks.FeedForwardNetwork
+
+
+def make_critics(
+    observation_size: int,
+    action_size: int,
+    preprocess: types.PreprocessObservationFn,
+    hidden_sizes: Sequence[int],
+    layer_norm: bool,
+    support: Support,
+) -> Critics:
+    """Two MLPs of `hidden_sizes` (Brax's, with LayerNorm where `layer_norm`) on (observation,
+    action), each ending in `support.atoms` logits."""
+
+    class Module(linen.Module):
+        @linen.compact
+        def __call__(self, obs: jax.Array, actions: jax.Array) -> jax.Array:
+            hidden = jnp.concatenate([obs, actions], axis=-1)
+            heads = [
+                brax_networks.MLP(
+                    layer_sizes=[*hidden_sizes, support.atoms],
+                    activation=linen.relu,
+                    kernel_init=jax.nn.initializers.lecun_uniform(),
+                    layer_norm=layer_norm,
+                )(hidden)
+                for _ in range(N_CRITICS)
+            ]
+            return jnp.stack(heads, axis=-2)
+
+    module = Module()
+
+    def logits(normalizer_params, params, obs, actions):
+        return module.apply(params, preprocess(obs, normalizer_params), actions)
+
+    def init(key):
+        return module.init(key, jnp.zeros((1, observation_size)), jnp.zeros((1, action_size)))
+
+    q_network = brax_networks.FeedForwardNetwork(
+        init=init, apply=lambda *args: support.mean(logits(*args))
+    )
+    return Critics(support=support, logits=logits, q_network=q_network)
+
+
+def project(
+    probs: jax.Array, reward: jax.Array, discount: jax.Array, support: Support
+) -> jax.Array:
+    """C51's projection onto `support` of the distributions `probs` (batch, atoms) moved to
+    reward + discount · z (reward and discount (batch,), or (batch, atoms) for a shift per atom):
+    each moved atom, clipped to [v_min, v_max], splits its probability between the two atoms
+    beside it in proportion to its closeness (a hat function of width one atom spacing)."""
+    z = support.values
+    moved = jnp.clip(_column(reward) + _column(discount) * z, support.v_min, support.v_max)
+    position = (moved - support.v_min) / (z[1] - z[0])  # (batch, atoms_from), in atom spacings
+    weight = jnp.clip(1.0 - jnp.abs(position[:, :, None] - jnp.arange(support.atoms)), 0.0, 1.0)
+    return jnp.einsum("bj,bji->bi", probs, weight)
+
+
+def make_critic_loss(
+    networks: sac_networks.SACNetworks,
+    critics: Critics,
+    reward_scaling: float,
+    discounting: float,
+) -> Callable[..., jax.Array]:
+    """The critics' loss with the signature of Brax's SAC critic loss: (q_params, policy_params,
+    normalizer_params, target_q_params, alpha, transitions, key) → the two critics' summed
+    cross-entropy to the projected target, the mean over the batch."""
+    distribution = networks.parametric_action_distribution
+
+    def critic_loss(
+        q_params: Any,
+        policy_params: Any,
+        normalizer_params: Any,
+        target_q_params: Any,
+        alpha: jax.Array,
+        transitions: types.Transition,
+        key: jax.Array,
+    ) -> jax.Array:
+        next_obs = transitions.next_observation
+        next_params = networks.policy_network.apply(normalizer_params, policy_params, next_obs)
+        next_raw = distribution.sample_no_postprocessing(next_params, key)
+        next_log_prob = distribution.log_prob(next_params, next_raw)
+        next_action = distribution.postprocess(next_raw)
+        next_logits = critics.logits(normalizer_params, target_q_params, next_obs, next_action)
+        lower = jnp.argmin(critics.support.mean(next_logits), axis=-1)  # (batch,)
+        next_probs = jnp.take_along_axis(
+            jax.nn.softmax(next_logits, axis=-1), lower[:, None, None], axis=1
+        )[:, 0]
+        discount = transitions.discount * discounting
+        target = project(
+            next_probs,
+            transitions.reward * reward_scaling - discount * alpha * next_log_prob,
+            discount,
+            critics.support,
+        )
+        target = jax.lax.stop_gradient(target)
+        logits = critics.logits(
+            normalizer_params, q_params, transitions.observation, transitions.action
+        )
+        cross_entropy = -jnp.sum(target[:, None] * jax.nn.log_softmax(logits, axis=-1), axis=-1)
+        truncation = transitions.extras["state_extras"]["truncation"]
+        return jnp.mean(jnp.sum(cross_entropy, axis=-1) * (1 - truncation))
+
+    return critic_loss
+
+
+def _column(x: jax.Array) -> jax.Array:
+    return x[:, None] if x.ndim == 1 else x
