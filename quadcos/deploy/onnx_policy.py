@@ -21,7 +21,6 @@ import numpy as np
 
 FORMAT = "quadcos.onnx_policy"
 INPUT, COMMAND, OUTPUT = "observation", "command", "action"
-METADATA_KEYS = ("format", "env_config", "observation_size", "action_size")
 COMMAND_KEYS = (
     "command_speed_min",
     "command_speed_max",

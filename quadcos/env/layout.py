@@ -98,11 +98,6 @@ class Layout:
             mass=description.mass,
         )
 
-    @property
-    def has_abduction(self) -> bool:
-        """Whether every leg has an abduction joint (a 12-joint robot)."""
-        return bool((np.abs(np.asarray(self.abduction_map)).sum(0) > 0).all())
-
     def abduction_targets(self, abduction):
         """(J,) joint offsets (rad) for (4,) abduction angles per leg (LF, RF, LB, RB; positive
         moves the foot to the left, `oscillator.abduction_stride`); other joints none."""

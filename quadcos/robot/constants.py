@@ -17,8 +17,6 @@ JOINTS = tuple(f"{leg}_{joint}" for leg in LEGS for joint in ("hip", "knee"))
 FEET = tuple(f"{leg}_foot" for leg in LEGS)
 TORSO_BODY = "torso"
 TORSO_GEOM = "torso"
-ROOT_JOINT = "root"
-IMU_SITE = "imu"
 IMU_ORIENTATION_SENSOR = "imu_orientation"
 
 # Leg geometry (must match the MJCF; tests compare forward kinematics against MuJoCo).
@@ -33,10 +31,6 @@ SHANK_LENGTH = 0.32
 FOOT_RADIUS = 0.03
 STANDING_HEIGHT = THIGH_LENGTH + SHANK_LENGTH + FOOT_RADIUS  # torso centre above flat ground
 
-# qpos / qvel layout of the free-floating base followed by the 8 joints.
-QPOS_POSITION = slice(0, 3)
+# qpos layout: the free-floating base (position, quaternion) followed by the 8 joints.
 QPOS_QUATERNION = slice(3, 7)
 QPOS_JOINTS = slice(7, 15)
-QVEL_LINEAR = slice(0, 3)
-QVEL_ANGULAR = slice(3, 6)
-QVEL_JOINTS = slice(6, 14)

@@ -20,7 +20,6 @@ import numpy as np
 from quadcos.equations.kinematics import Chains
 
 LEG_LABELS = ("LF", "RF", "LB", "RB")  # the paper's leg order (Eq. 3)
-ACTUATOR_KINDS = ("position", "motor")
 _FINITE_STEP = 0.05  # rad: the probe of each joint's effect on its foot
 _LIFT_SLOPE = 0.02  # m/rad: below it a knee's lift is second order (a straight knee)
 _ALIGNED = 0.7  # |cos| above which an axis counts as along x (abduction) or y (pitch)
