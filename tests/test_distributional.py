@@ -37,6 +37,16 @@ def test_the_projection_keeps_the_mass_and_the_moved_mean_and_clips_at_the_ends(
     # beyond the support every atom lands on its end
     far = distributional.project(probs, jnp.full(64, 100.0), jnp.ones(64), SUPPORT)
     np.testing.assert_allclose(far[:, -1], 1.0, rtol=1e-5)
+    # below it, on the first; a moved atom on an atom keeps its probability there
+    low = distributional.project(probs, jnp.full(64, -100.0), jnp.ones(64), SUPPORT)
+    np.testing.assert_allclose(low[:, 0], 1.0, rtol=1e-5)
+    on_atoms = distributional.project(probs, jnp.ones(64), jnp.ones(64), SUPPORT)
+    np.testing.assert_allclose(on_atoms[:, 1:-1], probs[:, :-2], atol=1e-6)
+    # a spacing that float32 does not hold exactly loses no mass at the ends
+    inexact = distributional.Support(atoms=51, v_min=-60.0, v_max=10.0)
+    uniform = jnp.full((64, 51), 1 / 51)
+    ends = distributional.project(uniform, jnp.full(64, 1e3), jnp.ones(64), inexact)
+    np.testing.assert_allclose(ends.sum(-1), 1.0, rtol=1e-6)
     # a shift per atom (the entropy term moves every atom alike): the same as the scalar shift
     per_atom = distributional.project(probs, jnp.tile(reward[:, None], (1, 11)), discount, SUPPORT)
     np.testing.assert_allclose(per_atom, projected, atol=1e-6)
@@ -63,7 +73,7 @@ def test_the_loss_fits_the_critics_mean_to_a_done_transitions_scaled_reward():
     )
     sac_networks = networks.make_networks(2, 1, (8,), (16,), False)
     critics = networks.make_critics(2, 1, config)
-    loss = distributional.make_critic_loss(sac_networks, critics, 2.0, config.discount)
+    loss = distributional.CriticLoss(sac_networks, critics, 2.0, config.discount)
     observation = jnp.linspace(-1.0, 1.0, 32)[:, None] * jnp.ones((32, 2))
     transitions = types.Transition(
         observation=observation,
@@ -92,6 +102,51 @@ def test_the_loss_fits_the_critics_mean_to_a_done_transitions_scaled_reward():
     q = critics.q_network.apply(None, q_params, observation, transitions.action)
     assert float(value) < 0.5 * float(first)
     np.testing.assert_allclose(q, 2.0 * np.tile(observation[:, :1], (1, 2)), atol=0.15)
+
+
+def _batch(trainer, size: int = 128) -> tuple:
+    state = trainer.prefill(trainer.init())
+    return state, trainer.replay.sample(state.replay, jax.random.PRNGKey(0), size)
+
+
+def test_the_targets_mean_is_brax_soft_bellman_target_and_truncation_counts_nothing():
+    """On a support wide enough that nothing clips, the projected target's mean is Brax's scalar
+    target r·scale + γ·d·(min_k Q_k(s', a') − α log π(a' | s')) with the same a': the reward's
+    scale, γ, the entropy term's sign and the lower critic all as Brax has them."""
+    config = toy_config(critic_atoms=101, critic_value_range=(-400.0, 400.0))
+    trainer = training.SACTrainer(PointEnv(), config)
+    state, batch = _batch(trainer)
+    batch = batch._replace(discount=batch.discount.at[:40].set(0.0))  # some ended
+    loss = trainer._sgd_step.critic_loss  # noqa: SLF001
+    assert isinstance(loss, distributional.CriticLoss)
+    alpha, key = 0.37, jax.random.PRNGKey(5)
+    args = (state.policy_params, state.normalizer_params, state.target_q_params, alpha, batch, key)
+    target = loss.target(*args)
+    # Brax's target, its next action drawn with the same key
+    networks, dist = trainer.networks, trainer.networks.parametric_action_distribution
+    next_params = networks.policy_network.apply(
+        state.normalizer_params, state.policy_params, batch.next_observation
+    )
+    raw = dist.sample_no_postprocessing(next_params, key)
+    next_q = networks.q_network.apply(
+        state.normalizer_params,
+        state.target_q_params,
+        batch.next_observation,
+        dist.postprocess(raw),
+    )
+    next_v = jnp.min(next_q, axis=-1) - alpha * dist.log_prob(next_params, raw)
+    brax = batch.reward * config.reward_scaling + batch.discount * config.discount * next_v
+    np.testing.assert_allclose(target @ loss.critics.support.values, brax, rtol=1e-4, atol=1e-3)
+    # a truncated transition adds nothing to the loss
+    full = loss(state.q_params, *args[:3], alpha, batch, key)
+    truncated = batch.extras["state_extras"]["truncation"].at[:64].set(1.0)
+    extras = {**batch.extras, "state_extras": {"truncation": truncated}}
+    half = loss(state.q_params, *args[:3], alpha, batch._replace(extras=extras), key)
+    first_half = batch.extras["state_extras"]["truncation"].at[64:].set(1.0)
+    other = {**batch.extras, "state_extras": {"truncation": first_half}}
+    rest = loss(state.q_params, *args[:3], alpha, batch._replace(extras=other), key)
+    np.testing.assert_allclose(half + rest, full, rtol=1e-5)
+    assert 0 < float(half) < float(full)
 
 
 def test_a_trainer_with_distributional_critics_learns_the_toy_task():

@@ -167,15 +167,19 @@ def _memory_bytes(device: jax.Device) -> int:
 
 def _check_critic(config: ml_collections.ConfigDict) -> None:
     """Raises ValueError where the distributional critics' settings cannot make a support."""
-    value_range = tuple(config.critic_value_range)
     if config.critic_atoms == 0:
         return
     if config.critic_atoms < 2:
         raise ValueError(f"config.critic_atoms must be 0 (off) or >= 2, got {config.critic_atoms}")
-    if len(value_range) != 2 or not -math.inf < value_range[0] < value_range[1] < math.inf:
+    value_range = config.critic_value_range
+    numbers = all(isinstance(v, int | float) for v in value_range)
+    if (
+        len(value_range) != 2
+        or not numbers
+        or not -math.inf < value_range[0] < value_range[1] < math.inf
+    ):
         raise ValueError(
-            "config.critic_value_range must be two finite returns v_min < v_max, got"
-            f" {value_range}"
+            f"config.critic_value_range must be two finite returns v_min < v_max, got {value_range}"
         )
 
 

@@ -94,8 +94,9 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     config.critic_layer_norm = False
     # Distributional critics (C51, as FastTD3 / FastSAC: quadcos.training.distributional): each
     # critic a categorical distribution over `critic_atoms` returns evenly spaced on
-    # `critic_value_range` (v_min, v_max, in the scaled reward's units: a discounted return's
-    # range); targets beyond it are clipped to its ends. 0: Brax's scalar twin Q.
+    # `critic_value_range` (v_min, v_max: the discounted returns of the scaled reward and the
+    # entropy bonus, −α log π a step); targets beyond it are clipped to its ends. 0: Brax's
+    # scalar twin Q.
     config.critic_atoms = 0
     config.critic_value_range = (-250.0, 250.0)
     # CAPS (Mysore et al. 2021): the actor's loss also charges `temporal` · the squared change of

@@ -2,18 +2,19 @@
 as FastTD3 and FastSAC (arXiv:2512.01996) put it in off-policy locomotion.
 
 Each of the twin critics gives a categorical distribution p(s, a) over `atoms` returns z_1 … z_N
-evenly spaced on `config.critic_value_range` [v_min, v_max] (in the scaled reward's units); its Q
-is the mean Σ_i p_i z_i, so the actor and the temperature learn from it by Brax's own losses. The
-critics learn by cross-entropy against the soft Bellman target's distribution,
+evenly spaced on `config.critic_value_range` [v_min, v_max]; its Q is the mean Σ_i p_i z_i, so
+the actor and the temperature learn from it by Brax's own losses. The critics learn by
+cross-entropy against the soft Bellman target's distribution,
 
     T z_j = r + γ · d · (z_j − α log π(a' | s')),   a' ~ π(· | s'),
 
-with p' the target critic's whose mean is lower (clipped double Q on distributions, as FastTD3),
-each T z_j clipped to the support and its probability split between the two atoms beside it
-(C51's projection: where no T z_j is clipped it keeps the target's mean exactly). Truncated
-transitions are masked as in Brax's critic loss; d is the transition's discount (n-step returns
-store γ^m there: quadcos.training.n_step).
-"""
+with p' the target critic's whose mean is lower (clipped double Q on distributions, as FastTD3;
+FastSAC averages the two), each T z_j clipped to the support and its probability split between
+the two atoms beside it (C51's projection: where no T z_j is clipped it keeps the target's mean,
+so the mean of the target is Brax's scalar target). The returns the support must hold are the
+scaled rewards' and the entropy bonus's, −α log π a step, which `reward_scaling` does not scale.
+Truncated transitions are masked as in Brax's critic loss; d is the transition's discount
+(n-step returns store γ^m there: quadcos.training.n_step)."""
 
 import dataclasses
 from collections.abc import Callable, Sequence
@@ -112,25 +113,53 @@ def project(
     reward + discount · z (reward and discount (batch,), or (batch, atoms) for a shift per atom):
     each moved atom, clipped to [v_min, v_max], splits its probability between the two atoms
     beside it in proportion to its closeness (a hat function of width one atom spacing)."""
-    z = support.values
-    moved = jnp.clip(_column(reward) + _column(discount) * z, support.v_min, support.v_max)
-    position = (moved - support.v_min) / (z[1] - z[0])  # (batch, atoms_from), in atom spacings
+    spacing = (support.v_max - support.v_min) / (support.atoms - 1)  # exact, not float32's
+    moved = _column(reward) + _column(discount) * support.values
+    position = jnp.clip((moved - support.v_min) / spacing, 0.0, support.atoms - 1.0)
     weight = jnp.clip(1.0 - jnp.abs(position[:, :, None] - jnp.arange(support.atoms)), 0.0, 1.0)
     return jnp.einsum("bj,bji->bi", probs, weight)
 
 
-def make_critic_loss(
-    networks: sac_networks.SACNetworks,
-    critics: Critics,
-    reward_scaling: float,
-    discounting: float,
-) -> Callable[..., jax.Array]:
-    """The critics' loss with the signature of Brax's SAC critic loss: (q_params, policy_params,
-    normalizer_params, target_q_params, alpha, transitions, key) → the two critics' summed
-    cross-entropy to the projected target, the mean over the batch."""
-    distribution = networks.parametric_action_distribution
+@dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: a static of the jitted update
+class CriticLoss:
+    """The critics' loss, called with the signature of Brax's SAC critic loss (q_params,
+    policy_params, normalizer_params, target_q_params, alpha, transitions, key) → the two
+    critics' summed cross-entropy to `target`, the mean over the batch (truncated transitions
+    count as 0, as in Brax's loss)."""
 
-    def critic_loss(
+    networks: sac_networks.SACNetworks
+    critics: Critics
+    reward_scaling: float
+    discounting: float
+
+    def target(
+        self,
+        policy_params: Any,
+        normalizer_params: Any,
+        target_q_params: Any,
+        alpha: jax.Array,
+        transitions: types.Transition,
+        key: jax.Array,
+    ) -> jax.Array:
+        """(batch, atoms): the soft Bellman target's distribution on the support, from the
+        target critic whose mean at (s', a' ~ π(· | s')) is lower."""
+        distribution = self.networks.parametric_action_distribution
+        next_obs = transitions.next_observation
+        next_params = self.networks.policy_network.apply(normalizer_params, policy_params, next_obs)
+        next_raw = distribution.sample_no_postprocessing(next_params, key)
+        next_log_prob = distribution.log_prob(next_params, next_raw)
+        next_action = distribution.postprocess(next_raw)
+        next_logits = self.critics.logits(normalizer_params, target_q_params, next_obs, next_action)
+        lower = jnp.argmin(self.critics.support.mean(next_logits), axis=-1)  # (batch,)
+        next_probs = jnp.take_along_axis(
+            jax.nn.softmax(next_logits, axis=-1), lower[:, None, None], axis=1
+        )[:, 0]
+        discount = transitions.discount * self.discounting
+        shift = transitions.reward * self.reward_scaling - discount * alpha * next_log_prob
+        return project(next_probs, shift, discount, self.critics.support)
+
+    def __call__(
+        self,
         q_params: Any,
         policy_params: Any,
         normalizer_params: Any,
@@ -139,32 +168,15 @@ def make_critic_loss(
         transitions: types.Transition,
         key: jax.Array,
     ) -> jax.Array:
-        next_obs = transitions.next_observation
-        next_params = networks.policy_network.apply(normalizer_params, policy_params, next_obs)
-        next_raw = distribution.sample_no_postprocessing(next_params, key)
-        next_log_prob = distribution.log_prob(next_params, next_raw)
-        next_action = distribution.postprocess(next_raw)
-        next_logits = critics.logits(normalizer_params, target_q_params, next_obs, next_action)
-        lower = jnp.argmin(critics.support.mean(next_logits), axis=-1)  # (batch,)
-        next_probs = jnp.take_along_axis(
-            jax.nn.softmax(next_logits, axis=-1), lower[:, None, None], axis=1
-        )[:, 0]
-        discount = transitions.discount * discounting
-        target = project(
-            next_probs,
-            transitions.reward * reward_scaling - discount * alpha * next_log_prob,
-            discount,
-            critics.support,
+        target = jax.lax.stop_gradient(
+            self.target(policy_params, normalizer_params, target_q_params, alpha, transitions, key)
         )
-        target = jax.lax.stop_gradient(target)
-        logits = critics.logits(
+        logits = self.critics.logits(
             normalizer_params, q_params, transitions.observation, transitions.action
         )
         cross_entropy = -jnp.sum(target[:, None] * jax.nn.log_softmax(logits, axis=-1), axis=-1)
         truncation = transitions.extras["state_extras"]["truncation"]
         return jnp.mean(jnp.sum(cross_entropy, axis=-1) * (1 - truncation))
-
-    return critic_loss
 
 
 def _column(x: jax.Array) -> jax.Array:

@@ -72,7 +72,7 @@ class SACUpdate:
             else -2.0 * config.target_entropy,
         )
         if critics is not None:
-            critic_loss = distributional.make_critic_loss(
+            critic_loss = distributional.CriticLoss(
                 sac_networks, critics, config.reward_scaling, config.discount
             )
         return cls(
