@@ -128,6 +128,8 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     assert config["sac"]["smoothness"].pop("anchor") == 0.0
     assert config["sac"].pop("best_policy_max_attitude") == 0.0  # the kept policy's rank as run
     assert config["sac"].pop("n_step") == 1  # Brax's one-step transitions, as trained
+    assert config["sac"].pop("critic_atoms") == 0  # Brax's scalar critics, as trained
+    assert config["sac"].pop("critic_value_range") == [-250.0, 250.0]
     assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search as it ran
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
