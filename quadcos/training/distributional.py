@@ -158,19 +158,11 @@ class CriticLoss:
         shift = transitions.reward * self.reward_scaling - discount * alpha * next_log_prob
         return project(next_probs, shift, discount, self.critics.support)
 
-    def __call__(
-        self,
-        q_params: Any,
-        policy_params: Any,
-        normalizer_params: Any,
-        target_q_params: Any,
-        alpha: jax.Array,
-        transitions: types.Transition,
-        key: jax.Array,
-    ) -> jax.Array:
-        target = jax.lax.stop_gradient(
-            self.target(policy_params, normalizer_params, target_q_params, alpha, transitions, key)
-        )
+    def __call__(self, q_params: Any, *target_args: Any) -> jax.Array:
+        """The loss of the critics `q_params`; `target_args` are `target`'s (policy_params,
+        normalizer_params, target_q_params, alpha, transitions, key)."""
+        _, normalizer_params, _, _, transitions, _ = target_args
+        target = jax.lax.stop_gradient(self.target(*target_args))
         logits = self.critics.logits(
             normalizer_params, q_params, transitions.observation, transitions.action
         )
