@@ -151,7 +151,7 @@ scaling)  # data-parallel training over N GPUs vs 1 (quadcos.bench); IMPL=warp f
   # SCALING_ROWS: the one-GPU train rows (ENVSxBATCHxUPDATES); N GPUs (SCALING_DEVICES, default
   # "2"; "2 4" on a host of four) run each with N times the envs and batch (equal per-GPU work),
   # every row SCALING_SECONDS long (default 30). SCALING_CROSS=0 leaves out the
-  # time-to-cross-slope5 runs.
+  # time-to-cross-slope5 runs. SCALING_PROCESSES=1: the N-GPU rows as N processes of a GPU each.
   export NCCL_NVLS_ENABLE=0 PYTHONFAULTHANDLER=1
   rows1=${SCALING_ROWS:-4096x8192x8,8192x8192x8}
   rows() {  # N: the one-GPU rows scaled N times
@@ -177,14 +177,31 @@ scaling)  # data-parallel training over N GPUs vs 1 (quadcos.bench); IMPL=warp f
   fi
   CUDA_VISIBLE_DEVICES=1 bench slope5_1dev --num_devices 1 --only train --terrain slope5 --train_rows "$rows1"
   wait
-  for n in ${SCALING_DEVICES:-2}; do
-    export CUDA_VISIBLE_DEVICES=$(seq -s, 0 $((n - 1)))
-    bench flat_${n}dev --num_devices "$n" --only train --terrain flat --train_rows "$(rows "$n")"
-    [ "${SCALING_CROSS:-1}" = 1 ] && bench slope5cross_${n}dev --num_devices "$n" --only slope5
-    bench slope5_${n}dev --num_devices "$n" --only train --terrain slope5 --train_rows "$(rows "$n")"
-  done
-  unset CUDA_VISIBLE_DEVICES
-  python3 -m quadcos.benchmarking.scaling --out "$OUT/scaling.json" "$OUT"/*_?dev.json > "$OUT/table.md" 2>&1 ;;
+  processes() {  # N TERRAIN: the N-GPU rows as N processes of one GPU each (jax.distributed)
+    local n=$1 terrain=$2 port=$((20000 + RANDOM % 20000)) i
+    for ((i = 0; i < n; i++)); do
+      CUDA_VISIBLE_DEVICES=$i bench ${terrain}_${n}proc$i --num_devices "$n" --only train \
+        --terrain "$terrain" --train_rows "$(rows "$n")" --coordinator "localhost:$port" \
+        --num_processes "$n" --process_id "$i" &
+    done
+    wait
+    mv "$OUT/${terrain}_${n}proc0.json" "$OUT/${terrain}_${n}proc.json"  # process 0's: the record
+  }
+  if [ "${SCALING_PROCESSES:-0}" = 1 ]; then  # a process per GPU instead of one for all
+    for n in ${SCALING_DEVICES:-2}; do processes "$n" flat; processes "$n" slope5; done
+    python3 -m quadcos.benchmarking.scaling --out "$OUT/scaling.json" "$OUT"/*_1dev.json \
+      "$OUT"/*_?proc.json > "$OUT/table.md" 2>&1
+  else
+    for n in ${SCALING_DEVICES:-2}; do
+      export CUDA_VISIBLE_DEVICES=$(seq -s, 0 $((n - 1)))
+      bench flat_${n}dev --num_devices "$n" --only train --terrain flat --train_rows "$(rows "$n")"
+      [ "${SCALING_CROSS:-1}" = 1 ] && bench slope5cross_${n}dev --num_devices "$n" --only slope5
+      bench slope5_${n}dev --num_devices "$n" --only train --terrain slope5 --train_rows "$(rows "$n")"
+    done
+    unset CUDA_VISIBLE_DEVICES
+    python3 -m quadcos.benchmarking.scaling --out "$OUT/scaling.json" "$OUT"/*_?dev.json \
+      > "$OUT/table.md" 2>&1
+  fi ;;
 bench_slope5)  # docs/benchmarks.md's slope5 rows: time until >= 99 % of 1024 episodes cross
   python3 -m quadcos.bench --preset=gpu --only=slope5 --walk_timeout_s=420 \
     --out="$OUT/bench_warp_slope5_scratch.json" > "$OUT/bench_warp_slope5_scratch.log" 2>&1

@@ -4,6 +4,8 @@
     python -m quadcos.bench --preset cpu --out benchmarks/cpu.json --skip stock,walk,slope5
     python -m quadcos.bench --out benchmarks/h100.json --merge --only walk --walk_timeout_s 420
     python -m quadcos.bench --table benchmarks/h100.json      # the results as Markdown
+    python -m quadcos.bench --only train --num_devices 2 --out b.json \
+        --coordinator localhost:1234 --num_processes 2 --process_id I   # each of 2 processes
 
 Sections (each can be left out with --skip or chosen with --only):
   physics  raw MJX physics steps/s: `mjx.step` of the env's model, vmapped over the envs, one
@@ -67,7 +69,7 @@ from quadcos.benchmarking.time_to_walk import rollout_evaluator, terrain_goal, t
 from quadcos.benchmarking.timing import log, since_start
 from quadcos.env import backends
 from quadcos.evaluation import gait_search
-from quadcos.training import presets
+from quadcos.training import parallel, presets
 from quadcos.training.presets import PRESETS as TRAIN_PRESETS
 
 _PROG = "quadcos.bench"
@@ -146,6 +148,15 @@ def _parser() -> argparse.ArgumentParser:
         default=1,
         help="devices the train / walk / slope5 trainers spread over (rows stay global)",
     )
+    parser.add_argument(
+        "--coordinator",
+        help="HOST:PORT of process 0: one bench of the train rows over several processes"
+        " (`jax.distributed`; e.g. one per GPU of a host, each shown its GPU by"
+        " CUDA_VISIBLE_DEVICES), --num_devices the devices of all of them; process 0 writes --out,"
+        " process I OUT.processI.json",
+    )
+    parser.add_argument("--num_processes", type=int, help="with --coordinator: processes in all")
+    parser.add_argument("--process_id", type=int, help="with --coordinator: this one, 0 to N-1")
     parser.add_argument("--walk_timeout_s", type=float, help="cap of the walk / slope5 sections")
     parser.add_argument("--walk_eval_interval", type=int, help="env steps between evaluations")
     parser.add_argument("--walk_eval_episodes", type=int, help="episodes per evaluation")
@@ -403,7 +414,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         settings = settings_from_args(args)
         for row in settings.train_rows + settings.stock_rows:
             trainer_config(settings.training_preset, row, **dict(settings.sac))
-        out = pathlib.Path(args.out)
+        out = _distributed(args, settings)
         previous = json.loads(out.read_text()) if args.merge and out.exists() else None
 
         jax.devices()  # starts the backend: part of the start-up
@@ -423,6 +434,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         + (f"; {failures} measurement(s) failed, see details.errors" if failures else "")
     )
     return cli.EXIT_FAILURE if failures else cli.EXIT_OK
+
+
+def _distributed(args: argparse.Namespace, settings: Settings) -> pathlib.Path:
+    """Starts `jax.distributed` where `--coordinator` asks for several processes (before the
+    backend starts) and returns the file this process writes: `--out`, or beside it for a
+    process other than 0.
+
+    Raises:
+      UsageError: sections other than train, or `--num_devices` other than all processes'.
+      ValueError: `parallel.initialize_distributed`'s, a flag without the others."""
+    out = pathlib.Path(args.out)
+    if args.coordinator is not None and settings.sections != ("train",):
+        raise cli.UsageError("--coordinator benches the train rows only: add --only train")
+    parallel.initialize_distributed(args.coordinator, args.num_processes, args.process_id)
+    if args.coordinator is None:
+        return out
+    if settings.num_devices != jax.device_count():
+        raise cli.UsageError(
+            f"--num_devices={settings.num_devices}: the {args.num_processes} processes have"
+            f" {jax.device_count()} devices in all; give that number"
+        )
+    return out if args.process_id == 0 else out.with_suffix(f".process{args.process_id}.json")
 
 
 if __name__ == "__main__":

@@ -145,6 +145,7 @@ def process(run_dir: pathlib.Path, coordinator: str, num_processes: int, process
     parallel.initialize_distributed(coordinator, num_processes, process_id)
     result = training.train(PointEnv(), toy_config(), run_dir, progress=False)
     return {
+        **robot_on_this_process(),
         "process_index": jax.process_index(),
         "device_count": jax.device_count(),
         "local_device_count": jax.local_device_count(),
@@ -153,6 +154,22 @@ def process(run_dir: pathlib.Path, coordinator: str, num_processes: int, process
         "policy_checksum": float(
             sum(np.abs(np.asarray(leaf)).sum() for leaf in jax.tree.leaves(result.policy.params))
         ),
+    }
+
+
+def robot_on_this_process() -> dict:
+    """The paper's robot built in this process of several: whether its model and a reset's
+    state live on this process's devices (MJX's default device is the first of all processes'),
+    and its position after a jitted reset and step."""
+    import quadcos  # the toy checks need no MJX
+
+    env = quadcos.make_env("flat")
+    state = jax.jit(env.reset)(jax.random.PRNGKey(0))
+    leaves = jax.tree.leaves((env.model, state))
+    state = jax.jit(env.step)(state, jax.numpy.zeros(env.action_size))
+    return {
+        "robot_addressable": all(leaf.is_fully_addressable for leaf in leaves),
+        "robot_height": float(state.pipeline_state.qpos[2]),
     }
 
 

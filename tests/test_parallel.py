@@ -172,6 +172,10 @@ def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
         runs["devices"]["d2"]["final_eval_reward"], abs=1e-3
     )
     assert first["policy_checksum"] == second["policy_checksum"]
+    # The paper's robot in each process lives on that process's device (MJX puts a model on
+    # the first of all processes' devices by default) and steps there.
+    assert first["robot_addressable"] and second["robot_addressable"]
+    assert first["robot_height"] == second["robot_height"] > 0.3
     run_dir: pathlib.Path = runs["process_dir"]
     names = sorted(path.name for path in run_dir.iterdir())
     assert names == [
@@ -191,6 +195,24 @@ def test_two_processes_train_as_two_devices_and_write_one_set_of_outputs(runs):
         "3200",
         "4000",
     ]
+
+
+def test_a_bench_over_processes_is_of_its_train_rows_timed_alike_in_each(
+    tmp_path, capsys, monkeypatch
+):
+    from quadcos import bench
+    from quadcos.benchmarking import trainers
+
+    argv = [f"--out={tmp_path / 'b.json'}", "--coordinator=localhost:1234", "--num_processes=2"]
+    assert bench.main([*argv, "--process_id=0"]) == 2
+    assert "--coordinator benches the train rows only: add --only train" in capsys.readouterr().err
+    assert not (tmp_path / "b.json").exists()
+    # Each process times the chunks process 0's first timed chunk plans: at least two.
+    sent = []
+    broadcast = lambda value: sent.append(int(value)) or value  # noqa: E731 - process 0's value
+    monkeypatch.setattr(trainers.multihost_utils, "broadcast_one_to_all", broadcast)
+    assert trainers._agreed_chunks(10.0, 0.3) == 34 and sent == [34]  # noqa: SLF001
+    assert trainers._agreed_chunks(0.0, 0.3) == 2  # noqa: SLF001
 
 
 # --- Command line and the committed two-GPU figures (no extra devices needed) ---------------

@@ -38,6 +38,7 @@ def empty_results(
         "device": device.device_kind,
         "platform": device.platform,
         "device_count": jax.device_count(),
+        "process_count": jax.process_count(),
         "host": {"cpu": _cpu_model(), "cores": os.cpu_count()},
         "substeps_per_env_step": substeps,
         "physics_steps_per_s": {},

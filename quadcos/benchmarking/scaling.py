@@ -28,6 +28,7 @@ def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     rows = []
     for run in runs:
         devices = int(run["settings"]["num_devices"])
+        processes = int(run.get("process_count", 1))
         times = {
             "time_to_walk_flat_s": run.get("time_to_walk_flat_s"),
             "time_to_cross_slope5_s": run.get("time_to_cross_slope5_s"),
@@ -42,6 +43,8 @@ def scaling_rows(runs: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
                     "terrain": run["terrain"],
                     "impl": run["impl"],
                     "num_devices": devices,
+                    # a run over several processes (a GPU each): how many
+                    **({"num_processes": processes} if processes > 1 else {}),
                     "num_envs": num_envs,
                     "envs_per_device": num_envs and num_envs // devices,
                     "batch_per_device": batch and batch // devices,
@@ -82,8 +85,10 @@ def table(rows: Sequence[dict[str, Any]]) -> str:
     ]
     for row in rows:
         envs = "—" if row["num_envs"] is None else f"{row['num_envs']} ({row['envs_per_device']})"
+        processes = row.get("num_processes")
+        devices = f"{row['num_devices']}" + (f" ({processes} processes)" if processes else "")
         lines.append(
-            f"| {row['terrain']} | {row['impl']} | {row['num_devices']} | {envs}"
+            f"| {row['terrain']} | {row['impl']} | {devices} | {envs}"
             f" | {number(row['updates_per_step'], 'd')} | {number(row['env_steps_per_s'], ',.0f')}"
             f" | {number(row['speedup'], '.2f')}"
             f" | {number(row['time_to_walk_flat_s'], '.1f')}"

@@ -3,6 +3,7 @@
 
 import contextlib
 import functools
+import math
 import time
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -10,8 +11,10 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import ml_collections
+import numpy as np
 from brax.envs import base
 from brax.training.agents.sac import networks as sac_networks
+from jax.experimental import multihost_utils
 
 from quadcos import training
 from quadcos.benchmarking.settings import TrainRow, make_bench_env, trainer_config
@@ -61,13 +64,15 @@ def measure_trainer(
     first_chunk_s = done - start
     start_to_first_step_s = startup_s + done - section_start
 
-    chunks, seconds = 0, 0.0
-    while chunks < 2 or seconds < train_seconds:
+    chunks, seconds, planned = 0, 0.0, None
+    while chunks < 2 or (seconds < train_seconds if planned is None else chunks < planned):
         start = time.perf_counter()
         state, metrics = trainer.train_chunk(state)
         jax.block_until_ready((state, metrics))
         seconds += time.perf_counter() - start
         chunks += 1
+        if planned is None and jax.process_count() > 1:
+            planned = _agreed_chunks(train_seconds, seconds)
     if profile_dir is not None:
         options = jax.profiler.ProfileOptions()
         options.python_tracer_level = int(profile_python)
@@ -84,6 +89,14 @@ def measure_trainer(
         "start_to_first_step_s": start_to_first_step_s,
         "timed_chunks": chunks,
     }
+
+
+def _agreed_chunks(train_seconds: float, first_chunk_s: float) -> int:
+    """The timed chunks of a row run by several processes: as many as `train_seconds` take at
+    process 0's first timed chunk (`first_chunk_s`), at least 2, the same in every process (each
+    chunk's collectives need all of them)."""
+    count = max(2, math.ceil(train_seconds / first_chunk_s))
+    return int(multihost_utils.broadcast_one_to_all(np.int32(count)))
 
 
 class _EnoughEpochs(Exception):

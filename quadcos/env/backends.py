@@ -160,7 +160,7 @@ def put_model(
     solver reached its iteration limit is off: our MJCF sets few iterations on purpose, and the
     JAX physics stops there silently too. Buffer overflows (dropped contacts) still warn."""
     if impl != "warp":
-        return mjx.put_model(mj_model, impl=impl)
+        return mjx.put_model(mj_model, device=local_device(), impl=impl)
     warp_config = warp_config or default_warp_config()
     mode = None
     if warp_config.graph_mode != "auto":
@@ -169,7 +169,7 @@ def put_model(
         mode = warp.JaxCallableGraphMode[warp_config.graph_mode.upper()]
     if warp_config.arena or warp_config.graph_mode == "jax":
         warp_arena.install()
-    model = mjx.put_model(mj_model, impl=impl, graph_mode=mode)
+    model = mjx.put_model(mj_model, device=local_device(), impl=impl, graph_mode=mode)
     preload_warp_modules()
     from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType  # noqa: PLC0415
 
@@ -212,8 +212,16 @@ def pose(model: mjx.Model, data: mjx.Data) -> mjx.Data:
 def make_data(mj_model, impl: str, config: ml_collections.ConfigDict) -> mjx.Data:
     """A fresh `mjx.Data` for one robot (batch with `jax.vmap`)."""
     if impl == "warp":
-        return mjx.make_data(mj_model, impl="warp", **warp_sizes(config, mj_model))
-    return mjx.make_data(mj_model, impl="jax")
+        return mjx.make_data(
+            mj_model, device=local_device(), impl="warp", **warp_sizes(config, mj_model)
+        )
+    return mjx.make_data(mj_model, device=local_device(), impl="jax")
+
+
+def local_device() -> jax.Device:
+    """This process's first device, where an env's model and data live (MJX's default, the
+    first of `jax.devices()`, is process 0's in a run over several processes)."""
+    return jax.local_devices()[0]
 
 
 # MuJoCo Warp's modules that every MJX-Warp step loads (Warp 1.19's module-load lines), ~40 s of

@@ -33,6 +33,7 @@ import numpy as np
 from quadcos import robot as robot_lib
 from quadcos import terrain as terrain_lib
 from quadcos._util.quiet import warp_absence_unprinted
+from quadcos.env import backends
 from quadcos.env import config as config_lib
 from quadcos.env.layout import Layout
 from quadcos.env.quadruped import QuadrupedEnv
@@ -367,8 +368,8 @@ class _Rollout:
             return self.outcomes[options]
         started = time.perf_counter()
         mj_model = self._model(options)
-        model = mjx.put_model(mj_model, impl="jax")
-        data = mjx.make_data(mj_model, impl="jax")
+        model = mjx.put_model(mj_model, device=backends.local_device(), impl="jax")
+        data = mjx.make_data(mj_model, device=backends.local_device(), impl="jax")
         steps = jnp.asarray(round(self.seconds / options.physics_dt), jnp.int32)
         stats, forward = jax.device_get(self._run(model, data, self.joints, self.roles, steps))
         self.outcomes[options] = outcome = _outcome(stats, forward, self.roles, started)

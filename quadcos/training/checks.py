@@ -139,7 +139,7 @@ def check_memory(trainer: sac.SACTrainer) -> None:
     shards = trainer.layout.shards
     total = (_nbytes(state) - _nbytes(state.env_state) + env_bytes) / shards
     replay_bytes, env_bytes = replay_bytes / shards, env_bytes / shards
-    device = jax.devices()[0]
+    device = jax.local_devices()[0]
     capacity = _memory_bytes(device)
     if total > capacity:
         raise ConfigError(
