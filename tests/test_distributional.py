@@ -2,6 +2,8 @@
 projection, the twin Q as the distributions' means, a loss that fits a known return, a trainer
 that learns the toy task with them, and settings that cannot make a support refused."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -89,7 +91,7 @@ def test_the_loss_fits_the_critics_mean_to_a_done_transitions_scaled_reward():
 
     @jax.jit
     def update(q_params, opt_state, key):
-        value, grad = jax.value_and_grad(loss)(
+        (value, _), grad = jax.value_and_grad(loss, has_aux=True)(
             q_params, policy_params, None, q_params, 0.5, transitions, key
         )
         change, opt_state = optimizer.update(grad, opt_state)
@@ -121,7 +123,8 @@ def test_the_targets_mean_is_brax_soft_bellman_target_and_truncation_counts_noth
     assert isinstance(loss, distributional.CriticLoss)
     alpha, key = 0.37, jax.random.PRNGKey(5)
     args = (state.policy_params, state.normalizer_params, state.target_q_params, alpha, batch, key)
-    target = loss.target(*args)
+    target, clipped = loss.target(*args)
+    assert not clipped.any()  # ±400 holds every moved atom
     # Brax's target, its next action drawn with the same key
     networks, dist = trainer.networks, trainer.networks.parametric_action_distribution
     next_params = networks.policy_network.apply(
@@ -138,13 +141,19 @@ def test_the_targets_mean_is_brax_soft_bellman_target_and_truncation_counts_noth
     brax = batch.reward * config.reward_scaling + batch.discount * config.discount * next_v
     np.testing.assert_allclose(target @ loss.critics.support.values, brax, rtol=1e-4, atol=1e-3)
     # a truncated transition adds nothing to the loss
-    full = loss(state.q_params, *args[:3], alpha, batch, key)
+    full, metrics = loss(state.q_params, *args[:3], alpha, batch, key)
+    assert float(metrics["critic_target_clipped"]) == 0.0
+    # on a support too narrow for these returns the metric says how much of the target clipped
+    narrow = dataclasses.replace(loss.critics, support=distributional.Support(101, -0.1, 0.1))
+    narrow_loss = dataclasses.replace(loss, critics=narrow)
+    _, narrow_metrics = narrow_loss(state.q_params, *args[:3], alpha, batch, key)
+    assert 0.5 < float(narrow_metrics["critic_target_clipped"]) <= 1.0
     truncated = batch.extras["state_extras"]["truncation"].at[:64].set(1.0)
     extras = {**batch.extras, "state_extras": {"truncation": truncated}}
-    half = loss(state.q_params, *args[:3], alpha, batch._replace(extras=extras), key)
+    half, _ = loss(state.q_params, *args[:3], alpha, batch._replace(extras=extras), key)
     first_half = batch.extras["state_extras"]["truncation"].at[64:].set(1.0)
     other = {**batch.extras, "state_extras": {"truncation": first_half}}
-    rest = loss(state.q_params, *args[:3], alpha, batch._replace(extras=other), key)
+    rest, _ = loss(state.q_params, *args[:3], alpha, batch._replace(extras=other), key)
     np.testing.assert_allclose(half + rest, full, rtol=1e-5)
     assert 0 < float(half) < float(full)
 
@@ -158,6 +167,7 @@ def test_a_trainer_with_distributional_critics_learns_the_toy_task():
     )
     result = training.train(PointEnv(), config, None, progress=False)
     assert result.metrics["eval/episode_reward"] > LEARNED_RETURN
+    assert 0.0 <= result.metrics["train/critic_target_clipped"] < 0.01  # the range holds them
     assert result.state.q_params["params"]["MLP_0"]["hidden_2"]["bias"].shape == (51,)
 
 

@@ -122,10 +122,12 @@ def project(
 
 @dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: a static of the jitted update
 class CriticLoss:
-    """The critics' loss, called with the signature of Brax's SAC critic loss (q_params,
-    policy_params, normalizer_params, target_q_params, alpha, transitions, key) → the two
+    """The critics' loss, called with the arguments of Brax's SAC critic loss (q_params,
+    policy_params, normalizer_params, target_q_params, alpha, transitions, key) → (the two
     critics' summed cross-entropy to `target`, the mean over the batch (truncated transitions
-    count as 0, as in Brax's loss)."""
+    count as 0, as in Brax's loss); {"critic_target_clipped": the target's probability that
+    fell beyond the support and was clipped to its ends, the mean over the batch}: where it is
+    more than a little, `critic_value_range` is too narrow for the returns)."""
 
     networks: sac_networks.SACNetworks
     critics: Critics
@@ -140,9 +142,10 @@ class CriticLoss:
         alpha: jax.Array,
         transitions: types.Transition,
         key: jax.Array,
-    ) -> jax.Array:
+    ) -> tuple[jax.Array, jax.Array]:
         """(batch, atoms): the soft Bellman target's distribution on the support, from the
-        target critic whose mean at (s', a' ~ π(· | s')) is lower."""
+        target critic whose mean at (s', a' ~ π(· | s')) is lower; (batch,): its probability
+        that lay beyond the support (clipped to its ends)."""
         distribution = self.networks.parametric_action_distribution
         next_obs = transitions.next_observation
         next_params = self.networks.policy_network.apply(normalizer_params, policy_params, next_obs)
@@ -156,19 +159,24 @@ class CriticLoss:
         )[:, 0]
         discount = transitions.discount * self.discounting
         shift = transitions.reward * self.reward_scaling - discount * alpha * next_log_prob
-        return project(next_probs, shift, discount, self.critics.support)
+        support = self.critics.support
+        moved = _column(shift) + _column(discount) * support.values
+        beyond = (moved < support.v_min) | (moved > support.v_max)
+        clipped = jnp.sum(jnp.where(beyond, next_probs, 0.0), axis=-1)
+        return project(next_probs, shift, discount, support), clipped
 
-    def __call__(self, q_params: Any, *target_args: Any) -> jax.Array:
-        """The loss of the critics `q_params`; `target_args` are `target`'s (policy_params,
-        normalizer_params, target_q_params, alpha, transitions, key)."""
+    def __call__(self, q_params: Any, *target_args: Any) -> tuple[jax.Array, dict]:
+        """The loss of the critics `q_params` and its metric; `target_args` are `target`'s
+        (policy_params, normalizer_params, target_q_params, alpha, transitions, key)."""
         _, normalizer_params, _, _, transitions, _ = target_args
-        target = jax.lax.stop_gradient(self.target(*target_args))
+        target, clipped = jax.lax.stop_gradient(self.target(*target_args))
         logits = self.critics.logits(
             normalizer_params, q_params, transitions.observation, transitions.action
         )
         cross_entropy = -jnp.sum(target[:, None] * jax.nn.log_softmax(logits, axis=-1), axis=-1)
         truncation = transitions.extras["state_extras"]["truncation"]
-        return jnp.mean(jnp.sum(cross_entropy, axis=-1) * (1 - truncation))
+        loss = jnp.mean(jnp.sum(cross_entropy, axis=-1) * (1 - truncation))
+        return loss, {"critic_target_clipped": jnp.mean(clipped)}
 
 
 def _column(x: jax.Array) -> jax.Array:

@@ -97,7 +97,9 @@ class SACUpdate:
         alpha_loss, alpha_grad = jax.value_and_grad(self.alpha_loss)(
             state.log_alpha, state.policy_params, state.normalizer_params, transitions, key_alpha
         )
-        critic_loss, q_grad = jax.value_and_grad(self.critic_loss)(
+        # (distributional critics: the loss and a metric of their target)
+        aux = isinstance(self.critic_loss, distributional.CriticLoss)
+        critic_out, q_grad = jax.value_and_grad(self.critic_loss, has_aux=aux)(
             state.q_params,
             state.policy_params,
             state.normalizer_params,
@@ -106,6 +108,7 @@ class SACUpdate:
             transitions,
             key_critic,
         )
+        critic_loss, critic_metrics = critic_out if aux else (critic_out, {})
         actor_objective = jax.value_and_grad(self._actor_loss, has_aux=True)
         (actor_loss, smoothness), policy_grad = actor_objective(
             state.policy_params,
@@ -159,6 +162,7 @@ class SACUpdate:
             "actor_loss": actor_loss,
             "alpha_loss": alpha_loss,
             "alpha": jnp.exp(log_alpha),
+            **critic_metrics,
             **smoothness,
         }
         return state, metrics
