@@ -110,11 +110,20 @@ def project(
     probs: jax.Array, reward: jax.Array, discount: jax.Array, support: Support
 ) -> jax.Array:
     """C51's projection onto `support` of the distributions `probs` (batch, atoms) moved to
-    reward + discount · z (reward and discount (batch,), or (batch, atoms) for a shift per atom):
-    each moved atom, clipped to [v_min, v_max], splits its probability between the two atoms
-    beside it in proportion to its closeness (a hat function of width one atom spacing)."""
+    reward + discount · z (reward and discount (batch,)): each moved atom, clipped to
+    [v_min, v_max], splits its probability between the two atoms beside it in proportion to its
+    closeness (a hat function of width one atom spacing)."""
+    return _spread(probs, _moved(reward, discount, support), support)
+
+
+def _moved(reward: jax.Array, discount: jax.Array, support: Support) -> jax.Array:
+    """(batch, atoms): reward + discount · z of each atom z."""
+    return reward[:, None] + discount[:, None] * support.values
+
+
+def _spread(probs: jax.Array, moved: jax.Array, support: Support) -> jax.Array:
+    """`project`'s split of each atom's probability, its atom moved to `moved`."""
     spacing = (support.v_max - support.v_min) / (support.atoms - 1)  # exact, not float32's
-    moved = _column(reward) + _column(discount) * support.values
     position = jnp.clip((moved - support.v_min) / spacing, 0.0, support.atoms - 1.0)
     weight = jnp.clip(1.0 - jnp.abs(position[:, :, None] - jnp.arange(support.atoms)), 0.0, 1.0)
     return jnp.einsum("bj,bji->bi", probs, weight)
@@ -160,10 +169,10 @@ class CriticLoss:
         discount = transitions.discount * self.discounting
         shift = transitions.reward * self.reward_scaling - discount * alpha * next_log_prob
         support = self.critics.support
-        moved = _column(shift) + _column(discount) * support.values
+        moved = _moved(shift, discount, support)
         beyond = (moved < support.v_min) | (moved > support.v_max)
         clipped = jnp.sum(jnp.where(beyond, next_probs, 0.0), axis=-1)
-        return project(next_probs, shift, discount, support), clipped
+        return _spread(next_probs, moved, support), clipped
 
     def __call__(self, q_params: Any, *target_args: Any) -> tuple[jax.Array, dict]:
         """The loss of the critics `q_params` and its metric; `target_args` are `target`'s
@@ -177,7 +186,3 @@ class CriticLoss:
         truncation = transitions.extras["state_extras"]["truncation"]
         loss = jnp.mean(jnp.sum(cross_entropy, axis=-1) * (1 - truncation))
         return loss, {"critic_target_clipped": jnp.mean(clipped)}
-
-
-def _column(x: jax.Array) -> jax.Array:
-    return x[:, None] if x.ndim == 1 else x

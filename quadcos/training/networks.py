@@ -33,16 +33,17 @@ def make_networks(
         preprocess_observations_fn=preprocess,
         hidden_layer_sizes=tuple(policy_hidden_sizes),
     )
-    q_side = sac_networks.make_sac_networks(
-        observation_size,
-        action_size,
-        preprocess_observations_fn=preprocess,
-        hidden_layer_sizes=tuple(q_hidden_sizes),
-        q_network_layer_norm=critic_layer_norm,
-    )
+    if critics is None:
+        critics = sac_networks.make_sac_networks(
+            observation_size,
+            action_size,
+            preprocess_observations_fn=preprocess,
+            hidden_layer_sizes=tuple(q_hidden_sizes),
+            q_network_layer_norm=critic_layer_norm,
+        )
     return sac_networks.SACNetworks(
         policy_network=policy_side.policy_network,
-        q_network=q_side.q_network if critics is None else critics.q_network,
+        q_network=critics.q_network,
         parametric_action_distribution=policy_side.parametric_action_distribution,
     )
 
