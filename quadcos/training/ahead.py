@@ -6,9 +6,11 @@ compiles the very programs the run's own trainer loads once the search has found
 `during_search` builds one on a placeholder gait in a thread and compiles its programs into the
 caches while the search runs: on a GPU XLA compiles on the host while the search's robots step
 on the device (on a CPU the two share the cores). It applies to a run on MJX-JAX on one device
-of one process with the compilation cache on: Warp's modules loaded from two threads at once,
-and two threads issuing programs that span several processes, are not known to be safe, and on
-several devices the initial state's program holds the gait as a constant.
+of one process with the compilation cache on. Not on MJX-Warp: each Warp FFI call carries a
+`call_id` counting its callable's traces in the process, so programs traced on the placeholder
+are not the run's and would miss the cache (docs/decisions.md). Not over several processes:
+two threads issuing programs that span them are not known to be safe. Not on several devices:
+the initial state's program holds the gait as a constant.
 """
 
 import contextlib
