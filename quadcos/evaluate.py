@@ -39,6 +39,7 @@ The work is done by `quadcos.evaluation`; this module is its command line.
 """
 
 import argparse
+import logging
 import math
 import pathlib
 import sys
@@ -115,6 +116,10 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+_SEARCH_FLAGS = ("num_candidates", "robots_per_candidate", "min_speed", "min_speed_of",
+                 "max_attitude", "rounds", "confirm_robots")
+
+
 def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
     args, overrides = engines.parse_command(_parser(), argv)
     modes = [args.policy is not None, args.search_fixed, args.render is not None]
@@ -129,10 +134,15 @@ def _parse_args(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]
         raise cli.UsageError("--engine=mujoco evaluates a --policy (--out, no --trace or --video)")
     if args.search_fixed and (args.trace or args.video):
         raise cli.UsageError("--trace and --video go with --policy, not --search_fixed")
+    defaults = _parser().parse_args([])
+    if not args.search_fixed and (given := [
+        f"--{name}" for name in _SEARCH_FLAGS if getattr(args, name) != getattr(defaults, name)
+    ]):
+        raise cli.UsageError(f"{', '.join(given)}: search flags, for --search_fixed only")
     if args.num_envs < 1:
         raise cli.UsageError(f"--num_envs must be >= 1; got {args.num_envs}")
     if not (math.isfinite(args.seconds) and args.seconds > 0):
-        raise cli.UsageError(f"--seconds must be > 0; got {args.seconds}")
+        raise cli.UsageError(f"--seconds must be finite and > 0; got {args.seconds}")
     if not 0 <= args.trace_episode < args.num_envs:
         raise cli.UsageError(
             f"--trace_episode must be in 0..{args.num_envs - 1}; got {args.trace_episode}"
@@ -171,16 +181,22 @@ def _can_create_files_in(directory: pathlib.Path) -> bool:
 
 
 class _Progress:
-    """Steps done on stderr: one updating line on a terminal, else a line every 10 %."""
+    """Steps done on stderr: one updating line on a terminal, else a line every 10 %; at 0 done
+    (the inputs checked, nothing compiled yet) `starting`, if given."""
 
-    def __init__(self, label: str, enabled: bool, unit: str = "steps"):
-        self.label, self.enabled, self.unit = label, enabled, unit
+    def __init__(self, label: str, enabled: bool, unit: str = "steps", starting: str = ""):
+        self.label, self.enabled, self.unit, self.starting = label, enabled, unit, starting
         self.terminal = sys.stderr.isatty()
         self.started = time.monotonic()
         self.last_tenth = -1
 
     def __call__(self, done: int, total: int) -> None:
         if not self.enabled:
+            return
+        if done == 0:
+            if self.starting:
+                print(self.starting, file=sys.stderr, flush=True)
+                self.starting = ""
             return
         line = f"{self.label}: {done}/{total} {self.unit} ({100 * done / total:.0f} %), {time.monotonic() - self.started:.0f} s"
         if self.terminal:
@@ -192,7 +208,11 @@ class _Progress:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status."""
-    argv = sys.argv[1:] if argv is None else list(argv)
+    with cli.logging_to_stderr(_PROG, logging.WARNING):
+        return _main(sys.argv[1:] if argv is None else list(argv))
+
+
+def _main(argv: list[str]) -> int:
     try:
         args, overrides = _parse_args(argv)
         quiet.quiet_warp()  # before anything loads a Warp module
@@ -226,10 +246,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         if args.video:
             video.check_video_support()
-        if not args.no_progress and args.engine == "mjx":
-            print(f"{_PROG}: compiling the rollout...", file=sys.stderr)
+        compiling = f"{_PROG}: compiling the rollout..."
         progress = (
-            _Progress("evaluate", not args.no_progress)
+            _Progress("evaluate", not args.no_progress, starting=compiling)
             if args.engine == "mjx"
             else _Progress("C MuJoCo", not args.no_progress, "episodes")
         )
@@ -262,25 +281,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     summary = result.summary
     if "courses" in summary:
         print(evaluation.course_table(summary))
-    print(_summary_line(summary, args.engine, args.out))
+    print(engines.summary_line(summary, args.engine, args.out))
     return 0
-
-
-def _summary_line(summary: dict[str, Any], engine: str, out: str | None) -> str:
-    """The evaluation in one line: episodes, survival, speed, the command tracking where the
-    robots followed commands, and where the JSON went."""
-    where = " in C MuJoCo" if engine == "mujoco" else ""
-    line = (
-        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}{where}: success"
-        f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
-        f" {summary['mean_forward_speed']:.3f} m/s"
-    )
-    if summary.get("speed_tracking_rms") is not None:
-        line += (
-            f", tracking {summary['speed_tracking_rms']:.3f} m/s,"
-            f" {summary['yaw_rate_tracking_rms']:.3f} rad/s RMS"
-        )
-    return line + (f" -> {out}" if out else "")
 
 
 if __name__ == "__main__":

@@ -359,7 +359,7 @@ def write_pages(root: pathlib.Path) -> list[pathlib.Path]:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = cli.raising(argparse.ArgumentParser(prog="quadcos.results", description=__doc__.split("\n")[0]))
+    parser = cli.raising(argparse.ArgumentParser(prog="python -m quadcos.results", description=__doc__.split("\n")[0]))
     parser.add_argument("--root", type=pathlib.Path, default=pathlib.Path("."), help="the repository")
     parser.add_argument("--check", action="store_true", help="compare the pages with the records")
     commands = parser.add_subparsers(dest="command")

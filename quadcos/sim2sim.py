@@ -27,6 +27,7 @@ Env options: `--env.KEY=VALUE`, as in `quadcos.evaluate`. The library: `quadcos.
 """
 
 import argparse
+import logging
 import math
 import pathlib
 import sys
@@ -53,7 +54,7 @@ def _parser() -> argparse.ArgumentParser:
         "--friction", type=float, default=0.0,
         help="every geom's sliding friction, as the env's randomisation sets it (0: the MJCF's)",
     )
-    parser.add_argument("--out", help="evaluation JSON to write")
+    parser.add_argument("--out", help="evaluation JSON to write (none: the summary line only)")
     parser.add_argument("--no_progress", action="store_true", help="no progress on stderr")
     return parser
 
@@ -64,12 +65,17 @@ def _print_progress(done: int, total: int) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (2, one line on stderr, for bad input)."""
+    with cli.logging_to_stderr(_PROG, logging.WARNING):
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     try:
         args, overrides = engines.parse_command(_parser(), argv)
-        if args.policy is None or args.out is None:
-            raise cli.UsageError("--policy and --out are required")
-        out = pathlib.Path(args.out)
-        if out.suffix != ".json" or not out.absolute().parent.is_dir():
+        if args.policy is None:
+            raise cli.UsageError("--policy is required")
+        out = None if args.out is None else pathlib.Path(args.out)
+        if out is not None and (out.suffix != ".json" or not out.absolute().parent.is_dir()):
             raise ValueError(f"--out must be a .json file in an existing directory; got {out}")
         checked = ("--obs_noise", args.obs_noise), ("--latency_ms", args.latency_ms)
         for flag, value in (*checked, ("--friction", args.friction)):
@@ -93,13 +99,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, FileNotFoundError) as error:
         cli.print_error(_PROG, error)
         return cli.EXIT_USAGE
-    evaluation.write_json(out, result.to_json())
-    summary = result.summary
-    print(
-        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']} in C MuJoCo: success"
-        f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
-        f" {summary['mean_forward_speed']:.3f} m/s -> {out}"
-    )
+    if out is not None:
+        evaluation.write_json(out, result.to_json())
+    print(engines.summary_line(result.summary, "mujoco", out))
     return cli.EXIT_OK
 
 

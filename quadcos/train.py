@@ -12,13 +12,12 @@ directory at the end; logs and progress go to stderr.
 """
 
 import argparse
-import contextlib
 import json
 import logging
 import os
 import pathlib
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 from quadcos import env as env_lib
@@ -67,6 +66,7 @@ def _parser() -> argparse.ArgumentParser:
         "--terrain",
         help=(
             f"terrain: {', '.join(terrain_lib.names())}, sections:ANGLE@LENGTH,...,"
+            " random:max_deg=DEG,... (random courses), testset:SEED (held-out courses),"
             " heightfield:FILE.npy;x_range=MIN,MAX;y_range=MIN,MAX, or MODULE:NAME (a Terrain,"
             " factory or registered name from your module) (default: flat)"
         ),
@@ -201,7 +201,7 @@ def main(argv: Sequence[str] | None = None, trainers: reuse.Trainers | None = No
     argv = sys.argv[1:] if argv is None else list(argv)
     # Read when JAX starts its backend (building the env), so it is set before anything else.
     os.environ.setdefault("XLA_FLAGS", "--xla_gpu_triton_gemm_any=true")
-    with _logging_to_stderr():
+    with cli.logging_to_stderr("quadcos.train"):
         return _main(argv, trainers)
 
 
@@ -288,29 +288,6 @@ def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> i
     if status == 0:
         print(run_dir)
     return status
-
-
-class _Formatter(logging.Formatter):
-    def format(self, record: logging.LogRecord) -> str:
-        level = "" if record.levelno < logging.WARNING else f"{record.levelname.lower()}: "
-        return f"quadcos.train: {level}{record.getMessage()}"
-
-
-@contextlib.contextmanager
-def _logging_to_stderr() -> Iterator[None]:
-    """quadcos's log records at INFO and above as "quadcos.train: ..." lines on stderr."""
-    package_logger = logging.getLogger("quadcos")
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(_Formatter())
-    saved = package_logger.level, package_logger.propagate
-    package_logger.addHandler(handler)
-    package_logger.setLevel(logging.INFO)
-    package_logger.propagate = False
-    try:
-        yield
-    finally:
-        package_logger.removeHandler(handler)
-        package_logger.level, package_logger.propagate = saved
 
 
 def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:

@@ -100,6 +100,7 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
         (["--terrain=sections:5@"], "bad section"),
         (["--config.sac.nope=3"], "unknown config key 'sac.nope'"),
         (["--config.sac.batch_size=big"], "sac.batch_size"),
+        (["--config.env.control_dt=abc"], "'env.control_dt': it takes a float, not a str"),
         (["--reward=yx"], "invalid choice"),
         (["--preset=huge"], "invalid choice"),
         ([], "--output_dir is required"),
@@ -189,3 +190,30 @@ def test_every_policy_command_refuses_an_unknown_env_key(command, tmp_path, caps
     err = capsys.readouterr().err.strip()
     assert "unknown config key 'observe_slop'; did you mean observe_slope" in err
     assert len(err.splitlines()) == 1 and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["evaluate", "sim2sim", "bench"])
+@pytest.mark.parametrize(
+    "flag, message",
+    [
+        ("--terrain=math:pi", "math.pi is float, not a Terrain"),  # MODULE:NAME gives no Terrain
+        ("--robot=menagerie:unitree_go1", "could not fetch Menagerie robot 'unitree_go1'"),
+    ],
+)
+def test_a_terrain_or_robot_that_cannot_be_had_is_one_line(
+    command, flag, message, tmp_path, capsys, monkeypatch
+):
+    import importlib
+
+    # no Menagerie here, and a mirror that does not hold it (refused at once, not retried)
+    monkeypatch.delenv("MENAGERIE_ROOT", raising=False)
+    monkeypatch.setenv("MENAGERIE_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("MENAGERIE_BASE_URL", f"file://{tmp_path}/mirror/")
+    module = importlib.import_module(f"quadcos.{command}")
+    out = tmp_path / "out" / "r.json"
+    out.parent.mkdir()
+    first = ["--only=physics"] if command == "bench" else ["--policy=fixed:trot"]
+    assert module.main([*first, flag, f"--out={out}"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1, err
+    assert list(out.parent.iterdir()) == []

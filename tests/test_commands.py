@@ -535,8 +535,22 @@ def test_sizes_grow_only_with_commands_and_turning(commanded_env):
         quadcos.make_env("flat", turn_mode="abduction_stride")
     with pytest.raises(ValueError, match="segment 1"):
         quadcos.make_env("flat", **{"commands.spec": "fast"})
-    with pytest.raises(ValueError, match="only an env with commands"):
+    with pytest.raises(ValueError, match="not trained with velocity commands"):
         plain.with_commands("random")
+    with pytest.raises(ValueError, match="cannot run without them"):
+        commanded_env.with_commands("")
+
+
+def test_a_command_beyond_the_trained_ranges_is_followed_with_a_warning(commanded_env, caplog):
+    limits = commanded_env.config.commands
+    assert limits.speed_max > 0 and limits.yaw_rate_max > 0  # resolved from the robot
+    inside = f"{limits.speed_max},{-limits.yaw_rate_max}@1;0,0@1"
+    with caplog.at_level("WARNING", logger="quadcos.env.commands"):
+        commanded_env.with_commands(inside)
+        assert not caplog.records
+        commanded_env.with_commands(f"{inside};0.2,{2 * limits.yaw_rate_max}@1")
+    (record,) = caplog.records
+    assert "segment 3" in record.getMessage() and "outside the ranges" in record.getMessage()
     # every foot moves to the left with a larger abduction angle on quad12: all signs +1
     np.testing.assert_array_equal(np.abs(commanded_env.layout.abduction_map).sum(0), 1.0)
 

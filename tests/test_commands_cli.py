@@ -104,7 +104,7 @@ def test_the_host_stands_in_its_share_of_random_draws_and_draws_as_before_withou
 
 
 def test_commands_for_a_policy_without_them_are_refused():
-    with pytest.raises(ValueError, match="only an env with commands"):
+    with pytest.raises(ValueError, match="not trained with velocity commands"):
         host_robot.HostRobot("flat", evaluation.env_config({}), commands="0.5,0@5")
 
 

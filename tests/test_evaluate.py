@@ -359,6 +359,8 @@ def test_search_ranks_fixed_parameters_by_reward_without_falls(tmp_path):
             ["--search_fixed", "--policy=fixed:trot"],
             "exactly one of --policy, --search_fixed and --render",
         ),
+        (["--policy=fixed:trot", "--rounds=2"], "--rounds: search flags, for --search_fixed only"),
+        (["--policy=fixed:trot", "--terrain=math:pi"], "math.pi is float, not a Terrain"),
     ],
 )
 def test_bad_input_is_one_line_and_status_2(args, message, tmp_path, capsys):
@@ -369,6 +371,12 @@ def test_bad_input_is_one_line_and_status_2(args, message, tmp_path, capsys):
     assert error.startswith("quadcos.evaluate: error:") and "\n" not in error
     assert message in error
     assert list(tmp_path.iterdir()) == []
+
+
+def test_nothing_is_said_to_compile_before_the_inputs_are_checked(tmp_path, capsys):
+    assert evaluate.main([f"--policy={tmp_path / 'missing'}"]) == 2  # progress on
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("quadcos.evaluate: error: no policy at") and "\n" not in error
 
 
 def test_out_in_a_missing_directory_is_refused(tmp_path, capsys):

@@ -84,8 +84,11 @@ def test_cli_exports_and_refuses_bad_input(tmp_path, capsys):
     capsys.readouterr()
     assert export.main(["--policy", str(tmp_path / "nowhere"), "--out", str(out)]) == 2
     assert export.main(["--policy", str(POLICIES / "flat"), "--out", str(tmp_path / "a.pt")]) == 2
+    no_folder = tmp_path / "no" / "a.onnx"
+    assert export.main(["--policy", str(POLICIES / "flat"), "--out", str(no_folder)]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 2 and "nowhere" in lines[0] and ".npz or .onnx" in lines[1]
+    assert len(lines) == 3 and "nowhere" in lines[0] and ".npz or .onnx" in lines[1]
+    assert lines[2].endswith(f"{no_folder.parent} is not a directory"), lines[2]
     assert export.main(["--policy", str(POLICIES / "flat"), "--out", str(tmp_path / "a.onnx")]) == 0
     assert OnnxPolicy.load(tmp_path / "a.onnx").action_size == 5
     assert sorted(path.name for path in tmp_path.iterdir()) == ["a.onnx", "flat.npz"]  # no temp
@@ -148,7 +151,8 @@ def _tiny_onnx(path: pathlib.Path) -> pathlib.Path:
 
 def test_onnx_that_is_not_a_quadcos_policy_is_named(tmp_path, capsys):
     tiny = _tiny_onnx(tmp_path / "tiny.onnx")
-    with pytest.raises(ValueError, match="tiny.onnx is not a quadcos.onnx_policy file"):
+    plain = "tiny.onnx is not a quadcos.onnx_policy file: metadata 'format' missing"
+    with pytest.raises(ValueError, match=plain):
         OnnxPolicy.load(tiny)
     (tmp_path / "text.onnx").write_text("not a protobuf")
     with pytest.raises(ValueError, match="text.onnx is not an ONNX model"):

@@ -195,6 +195,12 @@ def test_describe_prints_json_and_refuses_in_one_line(tmp_path, capsys, menageri
     assert summary["name"] == "quad12" and len(summary["legs"]) == 4
     assert summary["legs"][0]["joints"]["hip"] == "FL_thigh_joint"
     assert summary["actuator_kind"] == "position" and summary["mass_kg"] > 12
+    # docs/robots.md's sample (one leg of four): the same keys, physics and first gains
+    docs = (pathlib.Path(__file__).parents[1] / "docs" / "robots.md").read_text()
+    sample = json.loads(docs.split("describe`\n")[1].split("```json\n")[1].split("```")[0])
+    assert list(sample) == list(summary) and sample["physics"] == summary["physics"]
+    assert sample["gains"]["FL_hip_joint"] == summary["gains"]["FL_hip_joint"]
+    assert sample["legs"][0] == summary["legs"][0]
     # The refusals through the same main() in this process (a Python each costs seconds).
     bad = robot_variants.three_legs(tmp_path)
     for spec in (str(bad), str(tmp_path / "missing.xml"), "menagerie:unitree_go3"):

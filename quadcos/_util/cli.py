@@ -1,8 +1,11 @@
 """What the command lines share: a user error is one line on stderr and exit status 2."""
 
 import argparse
+import contextlib
 import gc
+import logging
 import sys
+from collections.abc import Iterator
 from typing import NoReturn
 
 EXIT_OK = 0
@@ -38,3 +41,30 @@ def exit_process(status: int) -> NoReturn:
     program that goes on after the command (a test, a notebook) keeps its collector."""
     gc.freeze()
     sys.exit(status)
+
+
+class _Formatter(logging.Formatter):
+    def __init__(self, prog: str):
+        super().__init__()
+        self.prog = prog
+
+    def format(self, record: logging.LogRecord) -> str:
+        level = "" if record.levelno < logging.WARNING else f"{record.levelname.lower()}: "
+        return f"{self.prog}: {level}{record.getMessage()}"
+
+
+@contextlib.contextmanager
+def logging_to_stderr(prog: str, level: int = logging.INFO) -> Iterator[None]:
+    """quadcos's log records at `level` and above as "<prog>: [warning: ]..." lines on stderr."""
+    package_logger = logging.getLogger("quadcos")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Formatter(prog))
+    saved = package_logger.level, package_logger.propagate
+    package_logger.addHandler(handler)
+    package_logger.setLevel(level)
+    package_logger.propagate = False
+    try:
+        yield
+    finally:
+        package_logger.removeHandler(handler)
+        package_logger.level, package_logger.propagate = saved

@@ -83,7 +83,12 @@ def apply_overrides(
             raise ValueError(f"bad value {value!r} for config key {key!r}: not finite")
         try:
             node[leaf] = value
-        except (TypeError, ValueError) as error:
+        except TypeError:  # ml_collections' words name its internals: say what the field takes
+            raise ValueError(
+                f"bad value {value!r} for config key {key!r}: it takes a"
+                f" {node.get_type(leaf).__name__}, not a {type(value).__name__}"
+            ) from None
+        except ValueError as error:
             raise ValueError(f"bad value {value!r} for config key {key!r}: {error}") from None
     return config
 

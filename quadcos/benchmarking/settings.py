@@ -8,6 +8,7 @@ from typing import Any
 import ml_collections
 
 from quadcos import env as env_lib
+from quadcos import terrain as terrain_lib
 from quadcos import training
 from quadcos._util.overrides import apply_overrides, parse_value
 from quadcos.equations import oscillator
@@ -274,6 +275,7 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
             raise ValueError(f"--{name} must be >= 1, got {preset[name]}")
     if args.num_devices < 1:
         raise ValueError(f"--num_devices must be >= 1, got {args.num_devices}")
+    terrain_lib.parse(args.terrain)  # a bad spec says why here, before anything is written
     for name in ("train_seconds", "stock_timeout_s", "walk_timeout_s"):
         if not preset[name] >= 0:
             raise ValueError(f"--{name} must be >= 0, got {preset[name]}")

@@ -374,3 +374,20 @@ def parse_command(
     if getattr(args, "robot", None) is not None:
         overrides["robot"] = args.robot
     return args, overrides
+
+
+def summary_line(summary: Mapping[str, Any], engine: str, out: Any = None) -> str:
+    """The evaluation in one line: episodes, survival, speed, the command tracking where the
+    robots followed commands, and where the JSON went."""
+    where = " in C MuJoCo" if engine == "mujoco" else ""
+    line = (
+        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}{where}: success"
+        f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
+        f" {summary['mean_forward_speed']:.3f} m/s"
+    )
+    if summary.get("speed_tracking_rms") is not None:
+        line += (
+            f", tracking {summary['speed_tracking_rms']:.3f} m/s,"
+            f" {summary['yaw_rate_tracking_rms']:.3f} rad/s RMS"
+        )
+    return line + (f" -> {out}" if out else "")

@@ -186,11 +186,13 @@ def export_policy(
 
     Raises:
       FileNotFoundError, ValueError: no loadable policy there, `out` ends in neither .npz nor
-        .onnx, or the policy drives another robot.
+        .onnx or lies in no existing folder, or the policy drives another robot.
     """
     out = pathlib.Path(out)
     if out.suffix not in SUFFIXES:
         raise ValueError(f"--out must end in {' or '.join(SUFFIXES)}; got {out}")
+    if not out.absolute().parent.is_dir():
+        raise ValueError(f"--out {out}: {out.absolute().parent} is not a directory")
     spec = policy if isinstance(policy, PolicySpec) else PolicySpec.parse(policy)
     if robot is not None and robot != spec.robot:
         raise ValueError(f"the policy {spec.text} was trained on robot {spec.robot!r}, not {robot!r}")

@@ -30,12 +30,7 @@ def follow(config: ml_collections.ConfigDict, spec: str | None) -> ml_collection
     """
     if spec is None:
         return config
-    parsed = env_commands.parse_commands(spec)
-    if not (parsed.enabled and env_commands.parse_commands(config.commands.spec).enabled):
-        raise ValueError(
-            f"commands {spec!r}: only an env with commands can take other ones (its policy"
-            f" observes them); this one has commands.spec {config.commands.spec!r}"
-        )
+    env_commands.followed(spec, config.commands)
     config = ml_collections.ConfigDict(config.to_dict())
     config.commands.spec = spec
     return config

@@ -47,7 +47,8 @@ class OnnxPolicy:
                 for key in (COMMAND_KEYS if commanded else ())
             }
         except (KeyError, ValueError) as error:
-            raise ValueError(f"{source} is not a {FORMAT} file: {error} missing or wrong") from None
+            what = f"metadata {error.args[0]!r}" if isinstance(error, KeyError) else str(error)
+            raise ValueError(f"{source} is not a {FORMAT} file: {what} missing or wrong") from None
         self.command_size = 2 if commanded else 0
         names = [INPUT, COMMAND] if commanded else [INPUT]
         sizes = [self.observation_size - self.command_size, self.command_size][: len(names)]

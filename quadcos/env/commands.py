@@ -27,6 +27,7 @@ Pure functions of arrays (jit / vmap-able, one robot; batch with `jax.vmap`); th
 is `command_spec`'s; nothing here touches MuJoCo.
 """
 
+import logging
 import math
 from typing import Any
 
@@ -53,6 +54,7 @@ SPEED_MAP_SCALES = (0.25, 0.5, 0.75, 1.0)
 # The drive's gain (`corrected_gain`): its range, and the least v* (m/s) it is corrected at.
 GAIN_RANGE = (0.5, 2.0)
 GAIN_MIN_SPEED = 0.1
+logger = logging.getLogger(__name__)
 
 
 def default_config() -> ml_collections.ConfigDict:
@@ -160,6 +162,38 @@ def validate(config: ml_collections.ConfigDict) -> CommandSpec:
         raise ValueError(f"commands.half_track must be finite; got {config.half_track}")
     if config.speed_map:
         speed_map(config)  # raises naming a bad map
+    return parsed
+
+
+def followed(spec: str, config: ml_collections.ConfigDict) -> CommandSpec:
+    """The parsed spec `spec` that an env of `commands` config `config` follows instead of its
+    own (`QuadrupedEnv.with_commands`, `deploy.host_commands.follow`); logs a warning for a
+    scheduled command outside the ranges `config` was trained on (where it gives them).
+
+    Raises:
+      ValueError: a bad or empty spec, or a config without commands (its policy observes none).
+    """
+    parsed = parse_commands(spec)
+    if not parse_commands(config.spec).enabled:
+        raise ValueError(
+            f"commands {spec!r}: the policy was not trained with velocity commands (its env's"
+            f" commands.spec is {config.spec!r}): it observes no command, so it follows none"
+        )
+    if not parsed.enabled:
+        raise ValueError(
+            f"commands {spec!r}: give {RANDOM!r} or a schedule 'v,ω@s;...'; a policy trained"
+            " with commands cannot run without them"
+        )
+    limits = (config.speed_min, config.speed_max, config.yaw_rate_max)
+    for index, segment in enumerate(parsed.schedule, 1):
+        speed_out = not limits[0] - 1e-6 <= segment.speed <= limits[1] + 1e-6
+        turn_out = abs(segment.yaw_rate) > limits[2] + 1e-6
+        if limits[1] > 0 and limits[2] > 0 and (speed_out or turn_out):
+            logger.warning(
+                "commands %r: segment %d (v* %g m/s, ω* %g rad/s) is outside the ranges the"
+                " policy was trained on (v* %g–%g m/s, |ω*| <= %g rad/s)",
+                spec, index, segment.speed, segment.yaw_rate, *limits,
+            )
     return parsed
 
 

@@ -376,14 +376,9 @@ class QuadrupedEnv(base.Env):
 
     def with_commands(self, spec: str) -> "QuadrupedEnv":
         """This env (a shallow copy sharing its models) following command spec `spec` ("random"
-        or a schedule) instead of its own. Raises ValueError for a bad spec, "", or an env without
-        commands (its policy observes none)."""
-        parsed = commands.parse_commands(spec)
-        if not (parsed.enabled and self.commanded):
-            raise ValueError(
-                f"commands {spec!r}: only an env with commands can take other ones (its policy"
-                f" observes them); this one has commands.spec {self.config.commands.spec!r}"
-            )
+        or a schedule) instead of its own (`commands.followed`: a ValueError for a bad spec, "",
+        or an env without commands)."""
+        parsed = commands.followed(spec, self.config.commands)
         config = ml_collections.ConfigDict(self.config.to_dict())
         config.commands.spec = spec
         copy = object.__new__(type(self))

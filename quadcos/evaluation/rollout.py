@@ -353,7 +353,8 @@ def rollout(
       act_params: overrides `source.params` (e.g. (num_envs, 5) fixed parameters, one row per
         robot, for a search).
       lanes: (num_envs,) the lane of each robot (a lane terrain's course; 0 elsewhere).
-      progress: called as progress(steps_done, num_steps) after each compiled chunk.
+      progress: called as progress(0, num_steps) once the inputs are checked, before anything
+        compiles, then as progress(steps_done, num_steps) after each compiled chunk.
     """
     if num_envs < 1 or num_steps < 1:
         raise ValueError(f"num_envs and num_steps must be >= 1; got {num_envs}, {num_steps}")
@@ -365,13 +366,15 @@ def rollout(
     if source.kind == "fixed":  # parameters -> the constant actions that command them here
         params = jnp.broadcast_to(jnp.asarray(params, jnp.float32), (num_envs, 5))
         params = env.action_for(oscillator.RhythmParameters(*jnp.moveaxis(params, -1, 0)))
-    chunk = _compiled_chunk(env, source.act, chunk_steps)
     if lanes is None:
         lanes = np.arange(num_envs) % env.terrain.num_lanes  # evenly over lanes
     lanes = np.asarray(lanes)
     if lanes.shape != (num_envs,) or lanes.min() < 0 or lanes.max() >= env.terrain.num_lanes:
         raise ValueError(f"lanes must be {num_envs} lanes in 0..{env.terrain.num_lanes - 1}")
     lanes = jnp.asarray(lanes, jnp.int32)
+    if progress is not None:
+        progress(0, num_steps)
+    chunk = _compiled_chunk(env, source.act, chunk_steps)
     state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs), lanes)
     start_qpos = np.asarray(state.pipeline_state.qpos[trace_index])
     stats = _initial_gait_stats(env, state, _initial_stats(state, lanes))

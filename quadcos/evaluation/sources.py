@@ -429,7 +429,10 @@ def build_env(
       ValueError: bad terrain or override, or an env whose observation / action sizes differ from
         the policy's.
     """
-    config = env_config(env_overrides, source.env_overrides, keep_robot=source.kind != "fixed")
+    try:
+        config = env_config(env_overrides, source.env_overrides, keep_robot=source.kind != "fixed")
+    except ValueError as error:
+        raise ValueError(f"the policy {source.name}: {error}") from None
     if source.kind == "fixed":
         _check_fixed(source.name, source.fixed_parameters, config)
     env = _env(terrain if terrain is not None else source.training_terrain, config)

@@ -95,13 +95,15 @@ def render_trace(
       ValueError: not a trace, or its terrain / env config cannot be rebuilt.
       video.VideoError: no headless OpenGL or no mp4 writer here.
     """
+    where = "the trace"
     if not isinstance(trace, Mapping):
+        where = str(trace)
         try:
             trace = json.loads(pathlib.Path(trace).read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError) as error:
             raise ValueError(f"cannot read trace {trace}: {error}") from None
     if trace.get("format") != TRACE_FORMAT or "qpos" not in trace or "env" not in trace:
-        raise ValueError("not a quadcos trace with positions (qpos) and an env config")
+        raise ValueError(f"{where} is not a quadcos trace with positions (qpos) and an env config")
     overrides = overrides_lib.flatten(trace["env"])
     terrain = overrides.pop("terrain")
     env = env_lib.make_env(terrain, **overrides)

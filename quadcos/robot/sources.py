@@ -46,6 +46,11 @@ _README_FILES = re.compile(r"([A-Za-z0-9_.-]+\.xml)|\(([0-9a-f]{7,40})\)")
 _REGISTRY: dict[str, pathlib.Path | Callable[[], str | os.PathLike]] = {}
 
 
+class RobotUnavailable(OSError, ValueError):
+    """A Menagerie robot that could not be fetched: an OSError, and a bad `--robot` where a
+    command line reads it (one line naming the variable to set, exit status 2)."""
+
+
 @dataclasses.dataclass(frozen=True)
 class RobotSource:
     """A resolved robot spec.
@@ -109,7 +114,8 @@ def resolve(spec: str) -> RobotSource:
       FileNotFoundError: the MJCF file does not exist.
       ValueError: an unknown name or Menagerie robot, naming the known or close ones.
       ImportError: a Menagerie spec without MENAGERIE_ROOT and without `mujoco-menagerie`.
-      OSError: the Menagerie model could not be downloaded; says which variable to set.
+      RobotUnavailable (an OSError): the Menagerie model could not be downloaded; says which
+        variable to set.
     """
     spec = spec.strip()
     if spec in ("", "quadcos", "quad12"):
@@ -230,7 +236,7 @@ def _from_package(name: str, file: str | None) -> tuple[pathlib.Path, str, str]:
     try:
         folder = robot.path(progress=None)
     except mujoco_menagerie.MenagerieError as error:
-        raise OSError(
+        raise RobotUnavailable(
             f"could not fetch Menagerie robot {name!r} ({error}); set MENAGERIE_ROOT to a Menagerie"
             " checkout, MENAGERIE_CACHE_DIR to a cache that holds it, or MENAGERIE_BASE_URL to a"
             " reachable mirror of its archives"

@@ -39,7 +39,7 @@ def parse_external(spec: str) -> Terrain | None:
     Raises:
       ValueError: a module that cannot be imported or lacks NAME, an unreadable or unfit
         heights file, or a malformed option, naming the spec and the cause.
-      TypeError: NAME is neither a Terrain nor a function returning one.
+      registry.NotATerrain (a TypeError): NAME is neither a Terrain nor a function returning one.
     """
     if spec.startswith(HEIGHTFIELD_PREFIX):
         return _heightfield(spec)
@@ -68,7 +68,7 @@ def _from_module(spec: str, module_name: str, name: str) -> Terrain:
         if found is None and callable(entry):
             found = entry()
         if not isinstance(found, Terrain):
-            raise TypeError(
+            raise registry.NotATerrain(
                 f"terrain spec {spec!r}: {module_name}.{name} is {type(entry).__name__}, not a"
                 " Terrain or a function returning one"
             )

@@ -44,6 +44,11 @@ def register(
     _REGISTRY[name] = terrain
 
 
+class NotATerrain(TypeError, ValueError):
+    """A spec's factory or `MODULE:NAME` that gives no Terrain: a TypeError of the value, and a
+    bad value where a command line reads the spec (one line, exit status 2)."""
+
+
 def names() -> list[str]:
     """Registered terrain names, sorted."""
     return sorted(_REGISTRY)
@@ -53,14 +58,14 @@ def registered(name: str) -> Terrain | None:
     """The terrain registered as `name`, with `name` and `spec` set to it; None if none is.
 
     Raises:
-      TypeError: the registered factory returned no Terrain.
+      NotATerrain (a TypeError): the registered factory returned no Terrain.
     """
     if name not in _REGISTRY:
         return None
     entry = _REGISTRY[name]
     terrain = entry if isinstance(entry, Terrain) else entry()
     if not isinstance(terrain, Terrain):
-        raise TypeError(
+        raise NotATerrain(
             f"the factory registered as {name!r} returned {type(terrain).__name__}, not a Terrain"
         )
     return dataclasses.replace(terrain, name=name, spec=name)

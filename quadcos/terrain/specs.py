@@ -23,7 +23,8 @@ def parse(spec: str) -> Terrain:
 
     Raises:
       ValueError: unknown name or malformed sections spec, naming the bad token.
-      TypeError: `spec` is not a string, or a registered factory returned no Terrain.
+      TypeError: `spec` is not a string; `registry.NotATerrain` (also a ValueError): a
+        registered factory or `MODULE:NAME` gave no Terrain.
     """
     if not isinstance(spec, str):
         raise TypeError(f"terrain spec must be a string, got {type(spec).__name__}")
