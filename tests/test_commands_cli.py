@@ -69,6 +69,15 @@ def test_host_robot_observes_the_schedule_it_follows(commanded):
     assert host.commands.heading != 0.0  # ψ* integrates ω*
 
 
+def test_the_host_robot_warns_of_a_command_beyond_the_trained_ranges(commanded, caplog):
+    pilot = host_robot.Pilot.load(str(commanded))  # its config leaves the ranges to the robot
+    with caplog.at_level("WARNING", logger="quadcos.env.commands"):
+        host_robot.HostRobot("flat", pilot.config, commands="0.3,0@1")
+        assert not caplog.records
+        host_robot.HostRobot("flat", pilot.config, commands="0.3,0@1;9,0@1")
+    assert "segment 2 (v* 9 m/s" in caplog.text and "outside the ranges" in caplog.text
+
+
 def test_random_commands_are_drawn_in_range_and_resampled():
     config = env_commands.default_config()
     config.update(spec="random", speed_min=0.2, speed_max=0.8, yaw_rate_max=0.4)

@@ -146,7 +146,7 @@ class HostRobot:
             raise ValueError(f"the friction must be >= 0 and finite; got {friction}")
         self.terrain = terrain_lib.get(terrain) if isinstance(terrain, str) else terrain
         self.robot = robot.load(config.robot)
-        config = env_lib.resolve(host_commands.follow(config, commands))
+        config = host_commands.follow(env_lib.resolve(config), commands)
         self.config = config
         commanded = env_commands.parse_commands(config.commands.spec).enabled
         self.commands = host_commands.HostCommands(config.commands) if commanded else None
