@@ -20,6 +20,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+import ml_collections
+
 from quadcos import env as env_lib
 from quadcos import evaluation
 from quadcos import terrain as terrain_lib
@@ -120,10 +122,8 @@ def _parser() -> argparse.ArgumentParser:
         "--preset",
         choices=tuple(PRESETS),
         default="cpu",
-        help=(
-            "smoke (a tiny test run), cpu (default), gpu (thousands of robots from the fixed"
-            " trot), scratch (gpu, from no gait), any_slope (one policy for any slope)"
-        ),
+        help="smoke (tiny), cpu (default), gpu (from the trot), scratch (from no gait), any_slope,"
+        " robust (randomised), command (follows velocity commands): docs/training.md's table",
     )
     parser.add_argument(
         "--num_devices",
@@ -179,17 +179,19 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
     """Parse the command line into (flags, the config overrides it names). Raises UsageError."""
     parser = cli.raising(_parser())  # one line, no SystemExit from inside the library
     args, rest = parser.parse_known_args(argv)
-    overrides = {}
+    overrides, flags = {}, {}
     for flag, key in FLAGS.items():
         value = getattr(args, flag)
         if value is not None and value is not False:
-            overrides[key] = value
+            overrides[key], flags[key] = value, flag
     for item in rest:
         if not item.startswith("--config.") or "=" not in item:
             raise UsageError(
                 f"unrecognised argument {item!r} (config overrides look like --config.sac.batch_size=1024)"
             )
         key, text = item[len("--config.") :].split("=", 1)
+        if key in flags:
+            raise UsageError(f"--{flags[key]} and --config.{key} set the same value: give one")
         overrides[key] = parse_value(text)
     return args, overrides
 
@@ -213,10 +215,14 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
         args, overrides = resolve(argv)
         quiet.quiet_warp(args.verbose)  # before anything loads a Warp module
         run_dir = pathlib.Path(args.output_dir) if args.output_dir else None
+        run_info = {"argv": argv}
         if args.resume:
-            config = build_config(_saved_config(run_dir), overrides)
+            saved = _saved_config(run_dir)
+            config = build_config(saved, overrides)
+            run_info = _resumed(run_dir, saved, overrides, argv)
         else:
             config = build_config(PRESETS[args.preset], overrides)
+        selection = _population_selection(args, config)  # before --print_config: checked either way
         if args.print_config:
             print(json.dumps(config.to_dict(), indent=2))
             return 0
@@ -225,8 +231,8 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
         ):
             logger.info("%s", message)
             return 0
-        if args.population is not None:
-            return _population(argv, args, config, run_dir)
+        if selection is not None:
+            return _population(argv, args, config, run_dir, selection)
         if args.numbered and args.coordinator:
             raise UsageError(
                 "--numbered with --coordinator: give every process the same --output_dir"
@@ -244,7 +250,7 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
             trainers=trainers,
             find_gait=calibration.find_gait,
             progress_bar=not args.no_progress,
-            extra_run_info={"argv": argv, "caches": cache_dirs},
+            extra_run_info={**run_info, "caches": cache_dirs},
             started_at=provenance.process_start(),
             startup=startup,
         )
@@ -260,8 +266,19 @@ def _main(argv: list[str], trainers: reuse.Trainers | None) -> int:
     return 0
 
 
-def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> int:
-    """`--population=N` (training.population): checked, then its members run."""
+def _population_selection(
+    args: argparse.Namespace, config: ml_collections.ConfigDict
+) -> tuple[str, float] | None:
+    """Where and on how long episodes `--population` compares its members (terrain spec, s),
+    its flags checked; None without `--population` (whose own flags then may not be given)."""
+    if args.population is None:
+        given = [
+            f"--{name}" for name in ("population_terrain", "population_envs", "population_seconds")
+            if getattr(args, name) != _parser().get_default(name)
+        ]
+        if given:
+            raise UsageError(f"{', '.join(given)}: for --population only")
+        return None
     if args.population < 2:
         raise UsageError(f"--population runs at least 2 members, not {args.population}")
     if args.resume or args.coordinator:
@@ -275,6 +292,14 @@ def _population(argv: list[str], args: argparse.Namespace, config, run_dir) -> i
     if args.population_envs < 1 or seconds <= 0:
         raise UsageError("--population_envs and --population_seconds must be positive")
     terrain_lib.parse(select)  # a bad spec is refused now, not after the training
+    return select, seconds
+
+
+def _population(
+    argv: list[str], args: argparse.Namespace, config, run_dir, selection: tuple[str, float]
+) -> int:
+    """`--population=N` (training.population): its members run, then the best is kept."""
+    select, seconds = selection
     if args.numbered and run_dir is not None:
         run_dir = run_dirs.numbered_dir(run_dir)
     run_dirs.check_output_dir(run_dir, resume=False)
@@ -304,6 +329,26 @@ def _saved_config(run_dir: pathlib.Path | None) -> dict[str, Any]:
             f"--resume: {path} cannot be read, likely truncated or not a quadcos run config"
             f" ({error})"
         ) from None
+
+
+def _resumed(
+    run_dir: pathlib.Path, saved: dict[str, Any], overrides: dict[str, Any], argv: list[str]
+) -> dict[str, Any]:
+    """What a resumed run keeps in its run_info: the first command's argv and every resume's
+    (`resumed_argv`); warns of the values the resume changes beyond the run's length."""
+    extends = ("sac.num_timesteps", "sac.max_seconds")
+    changed = [
+        f"{key} {saved[key]!r} -> {value!r}"
+        for key, value in overrides.items()
+        if key in saved and key not in extends and json.dumps(saved[key]) != json.dumps(value)
+    ]
+    if changed:
+        logger.warning("resuming with changed values: %s", ", ".join(changed))
+    before = json.loads((run_dir / "config.json").read_text()).get("run_info", {})
+    return {
+        "argv": before.get("argv", argv),
+        "resumed_argv": [*before.get("resumed_argv", []), argv],
+    }
 
 
 if __name__ == "__main__":

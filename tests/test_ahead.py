@@ -12,6 +12,12 @@ from quadcos import train
 from quadcos.training import ahead, session
 
 
+@pytest.fixture(autouse=True)
+def cpu_as_an_accelerator(monkeypatch):
+    """The tests' CPU taken as a GPU would be, so that the compilation overlaps the search."""
+    monkeypatch.setattr(ahead, "PLATFORMS", (*ahead.PLATFORMS, "cpu"))
+
+
 def _config(**overrides: str):
     flags = {"env.action_centre": "search", "env.impl": "jax", **overrides}
     return train.build_config(train.PRESETS["smoke"], flags)
@@ -29,6 +35,11 @@ def _config(**overrides: str):
 )
 def test_a_searching_run_on_mjx_jax_compiles_its_trainer_during_the_search(overrides, applies):
     assert ahead.applies(_config(**overrides)) is applies
+
+
+def test_not_on_a_cpu(monkeypatch):
+    monkeypatch.setattr(ahead, "PLATFORMS", ("gpu", "cuda", "rocm", "tpu"))
+    assert not ahead.applies(_config())
 
 
 def test_the_trainer_compiles_on_a_placeholder_gait_beside_the_search_and_is_waited_for():

@@ -76,9 +76,16 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
     before = [
         json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()
     ]
-    args = (f"--output_dir={run_dir}", "--resume", "--num_timesteps=2048", "--no_progress")
+    argv = json.loads((run_dir / "config.json").read_text())["run_info"]["argv"]
+    args = (f"--output_dir={run_dir}", "--resume", "--num_timesteps=2048", "--no_progress",
+            "--config.sac.keep_checkpoints=2")
     result = run_in_process(*args)
     assert result.returncode == 0, result.stderr[-3000:]
+    # A change beyond the run's length is said; the first command and the resume's are kept.
+    assert "resuming with changed values: sac.keep_checkpoints 3 -> 2" in result.stderr
+    assert "num_timesteps" not in result.stderr.split("changed values")[1].splitlines()[0]
+    run_info = json.loads((run_dir / "config.json").read_text())["run_info"]
+    assert run_info["argv"] == argv and run_info["resumed_argv"] == [list(args)]
     steps = [
         json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()
     ]
@@ -101,6 +108,9 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
         (["--config.sac.nope=3"], "unknown config key 'sac.nope'"),
         (["--config.sac.batch_size=big"], "sac.batch_size"),
         (["--config.env.control_dt=abc"], "'env.control_dt': it takes a float, not a str"),
+        (["--seed=2", "--config.sac.seed=1"], "--seed and --config.sac.seed set the same value"),
+        (["--population=1", "--print_config"], "runs at least 2 members"),
+        (["--population_envs=8"], "--population_envs: for --population only"),
         (["--reward=yx"], "invalid choice"),
         (["--preset=huge"], "invalid choice"),
         ([], "--output_dir is required"),
@@ -118,8 +128,14 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, messag
 def test_an_occupied_output_dir_is_refused(tmp_path, capsys):
     (tmp_path / "config.json").write_text("{}")
     assert train.main(["--preset=smoke", f"--output_dir={tmp_path}"]) == 2
-    assert "already holds files" in capsys.readouterr().err
+    assert "already holds a run; pass --resume" in capsys.readouterr().err
     assert (tmp_path / "config.json").read_text() == "{}"
+    stray = tmp_path / "stray"
+    stray.mkdir()
+    (stray / "notes.txt").write_text("mine")
+    assert train.main(["--preset=smoke", f"--output_dir={stray}"]) == 2
+    assert "holds files but no run (no config.json)" in capsys.readouterr().err
+    assert [path.name for path in stray.iterdir()] == ["notes.txt"]
 
 
 def test_resume_of_nothing_is_refused(tmp_path, capsys):

@@ -219,12 +219,14 @@ def test_a_library_run_with_a_search_centre_needs_the_search(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path):
+def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path, monkeypatch):
     # On the test robot quad12 (12 joints): one end-to-end run for both paths, the
     # search and a robot other than the paper's (each alone compiles a trainer of its own). In
     # this process: a subprocess would import and trace everything again. No prefill (the smoke
     # run's covers it): the trainer's first chunk fills the buffer, a program fewer to compile.
     run_dir = tmp_path / "scratch"
+    # The trainer compiles during the search as on a GPU (quadcos.training.ahead, not on a CPU).
+    monkeypatch.setattr(training.ahead, "PLATFORMS", (*training.ahead.PLATFORMS, "cpu"))
     result = run_in_process(
         "--preset=smoke",
         "--robot=quad12",

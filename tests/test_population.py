@@ -98,6 +98,22 @@ def test_sigterm_stops_every_member_and_waits_for_them(tmp_path):
     assert signal.getsignal(signal.SIGTERM) is handler  # the previous handler back
 
 
+def test_a_second_signal_still_waits_for_the_members(tmp_path):
+    members = [{"index": index, "gpu": None, "run_dir": str(tmp_path / f"member_{index}")}
+               for index in range(2)]
+    # a member that takes 1.5 s to stop after its SIGTERM (a chunk, a checkpoint)
+    slow_to_stop = [sys.executable, "-c", "import signal, sys, time; signal.signal("
+                    "signal.SIGTERM, lambda *_: (time.sleep(1.5), sys.exit(3))); time.sleep(60)"]
+    timers = [threading.Timer(delay, os.kill, (os.getpid(), signal.SIGTERM)) for delay in (1, 1.5)]
+    for timer in timers:
+        timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        population._train_all(members, [slow_to_stop] * 2, tmp_path, poll_s=0.2)
+    for timer in timers:
+        timer.join()
+    assert [member["train_exit"] for member in members] == [3, 3]  # both waited for
+
+
 def test_a_stopped_population_says_so_and_exits_130(tmp_path, monkeypatch):
     def interrupted(members, *_):
         for member in members:

@@ -1,15 +1,16 @@
 """Physics for a robot without a preset: the cheapest solver options that simulate it as its MJCF's
 own do, measured (`probe`).
 
-A robot quadcos has no preset for (`quadcos.robot.presets`) keeps its MJCF's solver: a 2-ms step,
-its cone and up to 100 iterations, which trains several times slower than a preset's 5-ms step at
-4 / 8 iterations. The probe runs a few robots on flat ground: a third hold the home pose, a third
-walk the fixed trot (the env's zero action, `QuadrupedEnv.zero_action_targets`), a third a fast
-gait (`_FAST`). It runs them first at the options the env would otherwise run, in C MuJoCo (the
-reference: the MJCF simulated as its author did, with nothing to compile), then at each candidate
-from the cheapest on in MJX-JAX (vmapped; the CPU too), and takes the first candidate whose robots
-stay finite, upright and close to the reference (`judge`). The presets were chosen the same way
-(experiments/robots/physics); MJX-JAX, as there, whatever the training physics.
+A robot quadcos has no preset for (`quadcos.robot.presets`) keeps its MJCF's solver (its cone and
+up to 100 iterations) at `RobotPreset`'s 2-ms step (not the MJCF's timestep), which trains several
+times slower than a preset's 5-ms step at 4 / 8 iterations. The probe runs a few robots on flat
+ground: a third hold the home pose, a third walk the fixed trot (the env's zero action,
+`QuadrupedEnv.zero_action_targets`), a third a fast gait (`_FAST`). It runs them first at the
+options the env would otherwise run, in C MuJoCo (the reference: the MJCF's solver, with nothing to
+compile), then at each candidate from the cheapest on in MJX-JAX (vmapped; the CPU too), and takes
+the first candidate whose robots stay finite, upright and close to the reference (`judge`). The
+presets were chosen the same way (experiments/robots/physics); MJX-JAX, as there, whatever the
+training physics.
 
 One compiled rollout serves every candidate of the same cone and iteration counts: the physics
 step and the number of steps are traced values. Both engines follow one schedule of joint targets
@@ -120,8 +121,8 @@ class ProbeResult:
     def message(self) -> str:
         """One line: what the probe chose."""
         if self.passed:
-            return f"solver probe: {self.chosen.label} (the MJCF's: {self.reference.label})"
-        return f"solver probe: no candidate passed; keeping the MJCF's {self.reference.label}"
+            return f"solver probe: {self.chosen.label} (without it: {self.reference.label})"
+        return f"solver probe: no candidate passed; keeping {self.reference.label}"
 
     def record(self) -> dict:
         """For a run's config.json (strict JSON: NaN as None)."""

@@ -5,12 +5,14 @@ the caches without it (`quadcos._util.caches`), so a trainer built on any gait t
 compiles the very programs the run's own trainer loads once the search has found its gait.
 `during_search` builds one on a placeholder gait in a thread and compiles its programs into the
 caches while the search runs: on a GPU XLA compiles on the host while the search's robots step
-on the device (on a CPU the two share the cores). It applies to a run on MJX-JAX on one device
-of one process with the compilation cache on. Not on MJX-Warp: each Warp FFI call carries a
-`call_id` counting its callable's traces in the process, so programs traced on the placeholder
-are not the run's and would miss the cache (docs/decisions.md). Not over several processes:
-two threads issuing programs that span them are not known to be safe. Not on several devices:
-the initial state's program holds the gait as a constant.
+on the device. It applies to a run on MJX-JAX on one GPU or TPU of one process with the
+compilation cache on. Not on a CPU: there the search and the compilation share the cores, so
+the first chunk comes no sooner (docs/benchmarks.md), and XLA's CPU runtime can hang for good
+with programs run from both threads (a search round that never returns). Not on MJX-Warp: each
+Warp FFI call carries a `call_id` counting its callable's traces in the process, so programs
+traced on the placeholder are not the run's and would miss the cache (docs/decisions.md). Not
+over several processes: two threads issuing programs that span them are not known to be safe.
+Not on several devices: the initial state's program holds the gait as a constant.
 """
 
 import contextlib
@@ -29,6 +31,7 @@ from quadcos.equations import oscillator
 from quadcos.training import checks, parallel, policy, sac
 
 PLACEHOLDER_CENTRE = "midpoint"  # valid for any period floor; its values reach no program
+PLATFORMS = ("gpu", "cuda", "rocm", "tpu")  # where the compilation overlaps the search
 logger = logging.getLogger(__name__)
 
 # env config -> (training env, evaluation env), as the run builds them
@@ -38,11 +41,12 @@ BuildEnvs = Callable[[ml_collections.ConfigDict], tuple[Any, Any]]
 def applies(config: ml_collections.ConfigDict) -> bool:
     """Whether the run `config` ({"env", "sac"}) compiles its trainer during its gait search:
     it searches, `sac.gait_search.compile_trainer` is on, its physics is MJX-JAX, it runs on one
-    device of one process and the persistent compilation cache is on (the thread's programs reach
-    the run's trainer through it)."""
+    GPU or TPU (`PLATFORMS`) of one process and the persistent compilation cache is on (the
+    thread's programs reach the run's trainer through it)."""
     return (
         config.env.action_centre == oscillator.SEARCH_CENTRE
         and bool(config.sac.gait_search.compile_trainer)
+        and backends.local_device().platform in PLATFORMS
         and jax.process_count() == 1
         and parallel.make_layout(config.sac.num_devices).mesh is None
         and bool(jax.config.jax_compilation_cache_dir)

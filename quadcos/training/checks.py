@@ -149,7 +149,8 @@ def check_memory(trainer: sac.SACTrainer) -> None:
             f" {device.platform} device has {capacity / 1e9:.3g} GB"
             + (f" (per device, over {shards})" if shards > 1 else "")
             + ";"
-            " lower config.replay_size or config.num_envs"
+            " lower the SAC config's replay_size or num_envs (quadcos.train:"
+            " --config.sac.replay_size, --num_envs)"
         )
 
 

@@ -164,7 +164,8 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
     # robots each (as many as the batch holds; 0: none) and the gait kept is the best of that
     # run — the clean ones by reward, else the one that fell least.
     # compile_trainer: while the search runs, a thread compiles the trainer's programs on a
-    # placeholder gait into the compilation caches (quadcos.training.ahead; MJX-JAX, one process).
+    # placeholder gait into the compilation caches (quadcos.training.ahead; MJX-JAX, one GPU or
+    # TPU of one process).
     # max_fraction: in a run with a time budget (max_seconds), the search runs no round (nor its
     # confirmation) that would end past this fraction of the budget, as timed by the round before
     # (0: every round).

@@ -211,12 +211,25 @@ def _train_all(
                 process.terminate()
         raise
     finally:
-        for process in processes:
-            process.wait()
+        _wait_for(processes)
         for member, process in zip(members, processes):
             member["train_exit"] = process.returncode
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+
+
+def _wait_for(processes: list[subprocess.Popen]) -> None:
+    """Waits for every member, however many more Ctrl-Cs or SIGTERMs come (`timeout -s INT`
+    signals the population twice): the population ends after its members, with each one's exit
+    status, and no member writes into its run after the population has said where things are."""
+    while True:
+        try:
+            for process in processes:
+                process.wait()
+            return
+        except KeyboardInterrupt:
+            running = [process.pid for process in processes if process.poll() is None]
+            logger.warning("population: waiting for members %s to stop (kill -9 to force)", running)
 
 
 def _copy(source: pathlib.Path, folder: pathlib.Path) -> None:

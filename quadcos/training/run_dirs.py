@@ -17,8 +17,14 @@ def check_output_dir(run_dir: pathlib.Path | None, resume: bool) -> None:
     if run_dir.exists() and not run_dir.is_dir():
         raise UsageError(f"--output_dir {run_dir} is not a directory")
     if not resume and run_dir.exists() and any(run_dir.iterdir()):
+        if (run_dir / "config.json").is_file():
+            raise UsageError(
+                f"--output_dir {run_dir} already holds a run; pass --resume to continue it, or"
+                " --numbered (or another directory) for a new one"
+            )
         raise UsageError(
-            f"--output_dir {run_dir} already holds files; pass --resume to continue that run, or choose another directory"
+            f"--output_dir {run_dir} holds files but no run (no config.json); choose an empty or"
+            " new directory, or pass --numbered for the first free DIR-2, DIR-3, ..."
         )
     existing = next(
         path for path in (run_dir.absolute(), *run_dir.absolute().parents) if path.exists()
