@@ -109,10 +109,13 @@ def test_no_progress_prints_one_line_per_evaluation_even_on_a_terminal():
     }
     progress.update(512, 900.0, [row])  # the bar: not drawn
     progress.log_row(row)
+    progress.log_row({**row, "step": 1536})  # a last chunk past num_timesteps: its own end
     progress.close()
     assert terminal == [
         "step 512/1,024  900 env steps/s  eval reward 601.2  speed 0.655 m/s  fall rate 0"
-        "  ETA 0:00:00\n"
+        "  ETA 0:00:00\n",
+        "step 1,536/1,536  900 env steps/s  eval reward 601.2  speed 0.655 m/s  fall rate 0"
+        "  ETA 0:00:00\n",
     ]
 
 

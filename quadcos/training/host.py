@@ -170,7 +170,7 @@ class Progress:
         fraction = min(step / self._total, 1.0)
         bar = "#" * int(24 * fraction)
         self._stream.write(
-            f"\r[{bar:<24}] {step:,}/{self._total:,} env steps"
+            f"\r[{bar:<24}] {step:,}/{max(step, self._total):,} env steps"
             f"  {steps_per_second:,.0f}/s"
             f"  eval reward {_last_reward(history)}"
             f"  ETA {_eta(step, self._total, steps_per_second)}\033[K"
@@ -193,8 +193,9 @@ class Progress:
             )
             if key in row
         )
+        end = max(row["step"], self._total)  # the last chunk may end past num_timesteps
         self._stream.write(
-            f"step {row['step']:,}/{self._total:,}"
+            f"step {row['step']:,}/{end:,}"
             f"  {steps_per_second:,.0f} env steps/s"
             f"  eval reward {_last_reward([row])}{extras}"
             f"  ETA {_eta(row['step'], self._total, steps_per_second)}\n"
