@@ -117,6 +117,11 @@ PRESET = ("go1cmd_tauyaw3gait_s0", "go1cmd_tauyaw3gait_s1", "go1cmd_tauyaw3gait_
 # error (`sac.best_policy_max_attitude`, lever `att`): Go1's three seeds two sharing one GPU,
 # Go2's sharing another with Go1 seed 2 and ANYmal C's `anymalcmd_nstep3_s0`
 ATTITUDE = ("go1cmd_att_s0", "go1cmd_att_s1", "go1cmd_att_s2", "go2cmd_att_s0")
+# the preset with the gait search ranking only gaits within 0.085 rad of mean peak roll and pitch
+# error (`sac.gait_search.max_attitude`, lever `searchatt`): Go1's three seeds and Go2's sharing
+# one GPU
+SEARCH_ATTITUDE = ("go1cmd_searchatt_s0", "go1cmd_searchatt_s1", "go1cmd_searchatt_s2",
+                   "go2cmd_searchatt_s0")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
