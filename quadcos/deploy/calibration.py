@@ -236,7 +236,7 @@ def _walk(
     where more than half of them fall), with every geom's sliding friction set to `friction`
     (None: the MJCF's)."""
     walking = ml_collections.ConfigDict(config.to_dict())
-    walking.commands.spec = schedule  # its own: speeds past the ranges are meant, not warned of
+    walking.commands.spec = schedule  # its own: not warned of past the ranges
     robot = host_robot.HostRobot("flat", walking, physics=PHYSICS)
     if friction is not None:  # as the randomisation draws it: every geom's
         robot.model.geom_friction[:, 0] = friction
