@@ -306,18 +306,17 @@ def shortfalls(kept: dict, gait: dict) -> list[str]:
 
 def against_gait() -> str:
     """The rows of the kept-against-gait table: each run of campaign.json whose step-0 gait was
-    measured in the four conditions beside its kept and last policies (run_gpu.sh evaluate):
-    survival; speed, yaw-rate tracking per condition, and where each policy falls short of it."""
+    measured in the four conditions beside its kept (unless step 0) and last policies (run_gpu.sh
+    evaluate): survival; speed, yaw-rate tracking per condition, and where each falls short."""
     runs = _campaign()
     rows = []
     for name, run in runs.items():
         if "gait_robustness" not in run or name in GO1_LEVERS:  # those: in their levers table
             continue
         gait = run["gait_robustness"]
-        policies = [
-            ("step-0 gait", 0, gait),
-            ("kept policy", run["kept"]["policy_env_steps"], run["robustness"]),
-        ]
+        policies = [("step-0 gait", 0, gait)]
+        if run["kept"]["policy_env_steps"]:  # a kept step 0 is the gait under the untrained actor
+            policies.append(("kept policy", run["kept"]["policy_env_steps"], run["robustness"]))
         if run["last"] and run.get("last_robustness"):
             policies.append(("last policy", run["last"]["policy_env_steps"], run["last_robustness"]))
         for label, steps, conditions in policies:
