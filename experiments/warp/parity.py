@@ -37,7 +37,16 @@ def run(out: Path, num_envs: int, seconds_scale: float = 1.0) -> None:
             print(policy, impl, json.dumps({k: result.summary[k] for k in ("success_rate", "mean_forward_speed")}))
 
 
+def _missing(out: Path, kind: str) -> str:
+    """The `kind` files (eval, trace) that `run` writes and `out` lacks, and the command."""
+    names = [f"{kind}_{policy}_{impl}.json" for policy in CASES for impl in IMPLS]
+    missing = [name for name in names if not (out / name).exists()]
+    return f"{', '.join(missing)} missing in {out} (parity.py run --dir={out})" if missing else ""
+
+
 def report(out: Path) -> None:
+    if missing := _missing(out, "eval"):
+        raise SystemExit(f"parity.py report: {missing}")
     rows = {}
     for policy in CASES:
         summary = {impl: json.loads((out / f"eval_{policy}_{impl}.json").read_text()) for impl in IMPLS}
@@ -54,7 +63,8 @@ def report(out: Path) -> None:
         }
     (out / "parity.json").write_text(json.dumps(rows, indent=1) + "\n")
     print(json.dumps(rows, indent=1))
-    _figure(out)
+    missing = _missing(out, "trace")  # the traces stay out of git
+    print(f"parity.png not redrawn: {missing}") if missing else _figure(out)
 
 
 def _figure(out: Path) -> None:
