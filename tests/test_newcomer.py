@@ -12,6 +12,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 from unittest import mock
 
 import pytest
@@ -117,6 +118,16 @@ def test_no_progress_prints_one_line_per_evaluation_even_on_a_terminal():
         "step 1,536/1,536  900 env steps/s  eval reward 601.2  speed 0.655 m/s  fall rate 0"
         "  ETA 0:00:00\n",
     ]
+
+
+def test_the_eta_is_the_time_budget_where_it_ends_the_run_first():
+    terminal = _Terminal()
+    row = {"step": 512, "env_steps_per_s": 1.0, "eval/episode_reward": 1.0}
+    ends = time.monotonic() + 65.5  # 400 M env steps at 1/s would take years
+    host.Progress(400_000_000, enabled=True, bar=False, stream=terminal, deadline=ends).log_row(row)
+    host.Progress(400_000_000, enabled=True, bar=False, stream=terminal).log_row(row)
+    assert terminal[0].endswith("ETA 0:01:05\n"), terminal[0]
+    assert terminal[1].endswith("ETA 111110:58:08\n"), terminal[1]
 
 
 # --- 5, 15: a corrupt checkpoint's fallback, the step counter's rounding -------------------------

@@ -149,14 +149,21 @@ class SignalStop:
 
 
 class Progress:
-    """One redrawn status line on a terminal, one line per row otherwise."""
+    """One redrawn status line on a terminal, one line per row otherwise; its ETA is the sooner of
+    num_timesteps at the current rate and the time budget's `deadline` (`time.monotonic()`)."""
 
     _REDRAW_SECONDS = 0.2
 
     def __init__(
-        self, total_steps: int, enabled: bool, bar: bool = True, stream: TextIO | None = None
+        self,
+        total_steps: int,
+        enabled: bool,
+        bar: bool = True,
+        stream: TextIO | None = None,
+        deadline: float | None = None,
     ):
         self._total = total_steps
+        self._deadline = deadline
         self._stream = sys.stderr if stream is None else stream
         self._enabled = enabled
         self._tty = enabled and bar and self._stream.isatty()
@@ -173,7 +180,7 @@ class Progress:
             f"\r[{bar:<24}] {step:,}/{max(step, self._total):,} env steps"
             f"  {steps_per_second:,.0f}/s"
             f"  eval reward {_last_reward(history)}"
-            f"  ETA {_eta(step, self._total, steps_per_second)}\033[K"
+            f"  ETA {self._eta(step, steps_per_second)}\033[K"
         )
         self._stream.flush()
 
@@ -198,9 +205,19 @@ class Progress:
             f"step {row['step']:,}/{end:,}"
             f"  {steps_per_second:,.0f} env steps/s"
             f"  eval reward {_last_reward([row])}{extras}"
-            f"  ETA {_eta(row['step'], self._total, steps_per_second)}\n"
+            f"  ETA {self._eta(row['step'], steps_per_second)}\n"
         )
         self._stream.flush()
+
+    def _eta(self, step: int, steps_per_second: float) -> str:
+        seconds = max(self._total - step, 0) / steps_per_second if steps_per_second > 0 else None
+        if self._deadline is not None:
+            left = max(self._deadline - time.monotonic(), 0.0)
+            seconds = left if seconds is None else min(seconds, left)
+        if seconds is None:
+            return "-"
+        seconds = int(seconds)
+        return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
 
     def close(self) -> None:
         if self._tty:
@@ -214,8 +231,3 @@ def _last_reward(history: list[dict[str, Any]]) -> str:
     return f"{history[-1]['eval/episode_reward']:.4g}"
 
 
-def _eta(step: int, total: int, steps_per_second: float) -> str:
-    if steps_per_second <= 0:
-        return "-"
-    seconds = int(max(total - step, 0) / steps_per_second)
-    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"

@@ -147,6 +147,7 @@ def train(
         run = run_files.open_run_dir(run_dir, config, state, resume, run_info, spec, startup)
     startup.mark("run_dir_ready")
     writer = parallel.is_writer()  # of several processes (hosts), only process 0 writes files
+    deadline = host.deadline(config.max_seconds, started_at)
     try:
         with host.SignalStop() as stop:
             state, history = _train_loop(
@@ -156,9 +157,11 @@ def train(
                 run.log,
                 stop,
                 host.Clock(host.run_age(run.wall_time_offset, started_at)),
-                host.Progress(config.num_timesteps, enabled=progress and writer, bar=progress_bar),
+                host.Progress(
+                    config.num_timesteps, progress and writer, progress_bar, deadline=deadline
+                ),
                 run.best,
-                host.deadline(config.max_seconds, started_at),
+                deadline,
                 startup,
             )
     finally:
