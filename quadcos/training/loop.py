@@ -148,21 +148,13 @@ def train(
     startup.mark("run_dir_ready")
     writer = parallel.is_writer()  # of several processes (hosts), only process 0 writes files
     deadline = host.deadline(config.max_seconds, started_at)
+    meter = host.Progress(config.num_timesteps, progress and writer, progress_bar, None, deadline)
     try:
         with host.SignalStop() as stop:
             state, history = _train_loop(
-                trainer,
-                run.state,
-                run.store,
-                run.log,
-                stop,
+                trainer, run.state, run.store, run.log, stop,
                 host.Clock(host.run_age(run.wall_time_offset, started_at)),
-                host.Progress(
-                    config.num_timesteps, progress and writer, progress_bar, deadline=deadline
-                ),
-                run.best,
-                deadline,
-                startup,
+                meter, run.best, deadline, startup,
             )
     finally:
         run.close()
