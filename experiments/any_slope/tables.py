@@ -80,6 +80,10 @@ def _where_failures_end(test: dict, ground: terrain.Terrain) -> collections.Coun
 
 
 def main() -> None:
+    paths = [path for *_, path in POLICIES.values()]
+    if missing := [str(path.relative_to(HERE.parent)) for path in paths if _load(path) is None]:
+        raise SystemExit(f"tables.py: {len(missing)} test-set evaluations missing: "
+                         f"{', '.join(missing)} (not in git: experiments/run_gpu.sh writes them)")
     print("| policy | test set: mean course success | worst course | falls | named courses (1024 episodes each): slope5, s4, flat success | flat: max pitch err / yaw / roll (rad), lateral drift (m) |")
     print("|---|---:|---|---:|---|---|")
     tests = {}

@@ -107,6 +107,10 @@ def main() -> None:
     from quadcos.viz import plots
 
     curves = {**RUNS, **ABLATIONS, **TROT_START}
+    missing = [str(run.relative_to(HERE.parent)) for run in curves.values() if not run.is_dir()]
+    if missing:  # run folders stay out of git
+        raise SystemExit(f"fig7.py: {len(missing)} run folders missing: {', '.join(missing)}"
+                         " (experiments/run_gpu.sh writes them under $OUT/runs)")
     summary = {}
     fig, axes = plt.subplots(2, 3, figsize=(15, 8), constrained_layout=True)
     for name, run in curves.items():

@@ -150,6 +150,9 @@ def main() -> None:
         "--traces", type=pathlib.Path, help="folder of trace_NAME_flat.json (default: folder)"
     )
     args = parser.parse_args()
+    if not (args.folder / "runs").is_dir():  # run folders stay out of git
+        parser.error(f"{args.folder / 'runs'} missing: copy the run folders (config.json,"
+                     " metrics.jsonl) that experiments/run_gpu.sh robots_alone wrote")
     from quadcos import robot
 
     found = rows(args.folder)
