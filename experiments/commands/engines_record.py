@@ -43,7 +43,7 @@ def measure_engines(name: str, episodes: int = 64) -> None:
             summaries[label] = summary
     record = {"policy": f"experiments/policies/{policy_name}", "flags": list(flags),
               "commands": schedule, "engines": summaries}
-    (HERE / f"{name}_engines.json").write_text(json.dumps(record, indent=1) + "\n")
+    (HERE / f"{name}_engines.json").write_text(json.dumps(record, separators=(",", ":")) + "\n")
 
 
 if __name__ == "__main__":

@@ -67,7 +67,7 @@ def main() -> None:
         "robot": args.robot, "centre": args.centre, "feed_forward": args.feed_forward,
         "commands": args.commands, "engines": summaries,
     }
-    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+    Path(args.out).write_text(json.dumps(record, separators=(",", ":")) + "\n")
     for label, s in summaries.items():
         print(f"{label}: {s['success_rate'] * s['num_episodes']:.0f} / {s['num_episodes']},"
               f" {s['speed_tracking_rms']:.3f} m/s, {s['yaw_rate_tracking_rms']:.3f} rad/s,"

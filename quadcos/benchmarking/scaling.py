@@ -116,7 +116,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     files.atomic_write_text(
-        out, json.dumps({"rows": rows, "runs": runs, "inputs": args.inputs}, indent=2) + "\n"
+        out, json.dumps({"rows": rows, "runs": runs, "inputs": args.inputs}, separators=(",", ":")) + "\n"
     )
     print(table(rows))
     return cli.EXIT_OK
