@@ -109,6 +109,9 @@ def test_a_share_of_draws_stands_and_the_others_are_the_draws_without_it():
     assert abs(still.mean() - 0.3) < 0.025  # binomial std 0.007
     assert not np.any(np.all(walking == 0, axis=1))  # v* >= 0.2: no standing draw without it
     np.testing.assert_array_equal(standing[~still], walking[~still])
+    # which draws stand is independent of the others: the turns left walking span both ends
+    turns = walking[~still, 1]
+    assert turns.min() < -0.45 and turns.max() > 0.45 and abs(turns.mean()) < 0.03
     config = _config(spec="random", zero_command_probability=1.5)
     with pytest.raises(ValueError, match=r"commands.zero_command_probability must be in \[0, 1\]"):
         commands.validate(config)

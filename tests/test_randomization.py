@@ -2,13 +2,17 @@
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 import pytest
+import robot_variants
 
 import quadcos
+from quadcos import robot as robot_lib
 from quadcos._util.overrides import apply_overrides
 from quadcos.env import randomization
-from quadcos.robot import constants
+from quadcos.env.layout import Layout
+from quadcos.robot import constants, prepare
 
 
 def _config(**values):
@@ -98,6 +102,22 @@ def test_torque_motors_keep_their_gains():
     np.testing.assert_allclose(
         servos.actuator_biasprm[:, 1], -0.8 * env.model.actuator_gainprm[:, 0], rtol=1e-6
     )
+
+
+def test_a_weaker_draw_clips_the_torque_motors_pd(tmp_path):
+    path = robot_variants.motors_without_gains(tmp_path)
+    model = prepare.load_spec(path).compile()
+    description = robot_lib.describe(model, name="motors", kp=100.0, kd=2.0)
+    layout = Layout.of(description, model, np)
+    data = mujoco.MjData(model)
+    far = data.qpos[layout.joint_qpos] + 2.0  # a PD torque beyond every limit
+    full, weak = layout.controls(far, data), layout.controls(far, data, 0.75)
+    limits = layout.torque_limit[layout.actuator_joint]
+    np.testing.assert_allclose(np.abs(full), limits)
+    np.testing.assert_allclose(np.abs(weak), 0.75 * limits)
+    physics = randomization.sample(jax.random.PRNGKey(0), randomization.default_config(), 0.005)
+    physics = physics._replace(strength_scale=jnp.float32(0.6), level=jnp.float32(0.5))
+    assert float(randomization.strength(physics)) == pytest.approx(0.8)  # at half its level
 
 
 def test_a_draw_acts_at_its_level_from_the_nominal_robot():

@@ -406,14 +406,15 @@ def sample(key: jax.Array, config: ml_collections.ConfigDict) -> jax.Array:
     """(2,) one random command: v* ~ U(speed_min, speed_max), ω* ~ U(−yaw_rate_max,
     yaw_rate_max), ω* = 0 with probability `zero_yaw_rate_probability`, both 0 with
     `zero_command_probability` (a resolved config). The standing draw's key is folded from `key`,
-    not split from it: without it the draws are those of a config that has none."""
+    not split from it: without it the draws are those of a config that has none. It folds in 3:
+    fold_in(key, i) is split(key, n)[i] (JAX's partitionable threefry), and 0–2 are the others'."""
     speed_key, yaw_key, straight_key = jax.random.split(key, 3)
     speed = jax.random.uniform(speed_key, (), minval=config.speed_min, maxval=config.speed_max)
     bound = config.yaw_rate_max
     yaw_rate = jax.random.uniform(yaw_key, (), minval=-bound, maxval=bound)
     straight = jax.random.uniform(straight_key) < config.zero_yaw_rate_probability
     velocity = jnp.stack([speed, jnp.where(straight, 0.0, yaw_rate)])
-    standing = jax.random.uniform(jax.random.fold_in(key, 1)) < config.zero_command_probability
+    standing = jax.random.uniform(jax.random.fold_in(key, 3)) < config.zero_command_probability
     return jnp.where(standing, 0.0, velocity)
 
 

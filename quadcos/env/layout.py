@@ -109,13 +109,15 @@ class Layout:
         # Elementwise, not a matrix product: exact in float32 (no TF32 on a GPU).
         return self.home + (self.rhythm_map * rhythm).sum(-1)
 
-    def controls(self, targets, data):
+    def controls(self, targets, data, strength=1.0):
         """(nu,) actuator controls for (J,) joint targets: the targets for position servos, PD
-        torques (clipped to the torque limits) for motors."""
+        torques for motors, clipped to the torque limits × `strength` (a randomised draw's; the
+        servos' limits are their model's `actuator_forcerange`)."""
         if self.motor:
             error = targets - data.qpos[self.joint_qpos]
             torque = self.kp * error - self.kd * data.qvel[self.joint_qvel]
-            targets = self.xp.clip(torque, -self.torque_limit, self.torque_limit)
+            limit = self.torque_limit * strength
+            targets = self.xp.clip(torque, -limit, limit)
         return targets[self.actuator_joint]
 
     def foot_positions(self, data):

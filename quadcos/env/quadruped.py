@@ -345,6 +345,7 @@ class QuadrupedEnv(base.Env):
             # behind a barrier they are built once a control step (docs/benchmarks.md).
             model = jax.lax.optimization_barrier(model)
         drive = self.drive_for(info["velocity_command"].driven()) if self.commanded else None
+        strength = randomization.strength(info["physics"]) if self.randomized else 1.0
 
         def substep(carry, index):
             data, phase, command = carry
@@ -354,7 +355,7 @@ class QuadrupedEnv(base.Env):
                 target = jnp.where(late, info["action"], action)
             command = command + blend * (target - command)
             targets = self.joint_targets(command, phase, data.time, drive)
-            data = data.replace(ctrl=self.layout.controls(targets, data))
+            data = data.replace(ctrl=self.layout.controls(targets, data, strength))
             data = backends.step(model, data)
             period = controller.period(self.config, self.action_map, command)
             return (data, oscillator.advance_phase(phase, period, dt), command), period

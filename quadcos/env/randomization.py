@@ -18,7 +18,7 @@ friction U(0.4, 1.0), body masses ×U(0.9, 1.1), base mass ±1 kg, joint frictio
 - torso mass (×) and the torso's centre of mass (± metres on each axis);
 - the position servos' gain kp (×; torque motors, whose PD the env closes, keep their gains) and
   the joints' damping (×);
-- motor strength: the servos' torque limit (×);
+- motor strength: the torque limit (×) of the servos and of the torque motors' PD;
 - control latency: a new action reaches the command filter this many seconds late (whole physics
   steps; the previous action acts meanwhile);
 - pushes: a force of `push_force_n` in a random horizontal direction on the torso for
@@ -160,8 +160,14 @@ def apply(model, physics: Physics, torso_body: int):
         actuator_gainprm=model.actuator_gainprm.at[:, 0].set(kp),
         actuator_biasprm=model.actuator_biasprm.at[:, 1].set(bias),
         dof_damping=model.dof_damping * _scale(physics, "damping_scale"),
-        actuator_forcerange=model.actuator_forcerange * _scale(physics, "strength_scale"),
+        actuator_forcerange=model.actuator_forcerange * strength(physics),
     )
+
+
+def strength(physics: Physics) -> jax.Array:
+    """The torque motors' limit scale at the draw's level (the env clips their PD torques; a
+    servo's limit is its `actuator_forcerange`, scaled by `apply`)."""
+    return _scale(physics, "strength_scale")
 
 
 def latency_steps(physics: Physics) -> jax.Array:

@@ -231,7 +231,7 @@ class SACTrainer:
 
     def _init_state(self, key: jax.Array, gait: dict[str, jax.Array] | None) -> TrainingState:
         key_policy, key_q, key_env, key_train = jax.random.split(key, 4)
-        key_noise = jax.random.fold_in(key, 1)
+        key_noise = jax.random.fold_in(key, 4)  # fold_in(key, i) is split(key, n)[i]: i ≥ 4
         policy_params = networks.initial_output_layer(
             self.networks.policy_network.init(key_policy),
             self.config.policy_output_scale,
