@@ -304,7 +304,7 @@ class QuadrupedEnv(base.Env):
         """A randomised robot's physics for this step: drawn anew after a reset (Brax's
         auto-reset keeps `info`), then the push process advanced."""
         if not self.randomized:
-            return info
+            return dict(info)  # the step writes into it: not into the caller's state
         config = self.config.randomization
         rng, draw_key, push_key = jax.random.split(info["rng"], 3)
         fresh = randomization.sample(draw_key, config, self.config.physics_dt)
