@@ -13,7 +13,7 @@ from brax.envs.wrappers import training as training_wrappers
 
 import quadcos
 from quadcos.deploy import twins
-from quadcos.env import commands, tracking
+from quadcos.env import commands, observation, tracking
 from quadcos.equations import oscillator, reward
 from quadcos.evaluation import metrics, rollout, sources
 from quadcos.robot import presets
@@ -516,6 +516,21 @@ def commanded_env():
     compiled reset and step."""
     commanded = {"commands.spec": SCHEDULE, "commands.observed_speed_tau": 0.5}
     return quadcos.make_env("flat", robot="quad12", turn_mode="abduction_stride", **commanded)
+
+
+def test_the_drive_s_state_is_observed_between_the_speed_and_the_command():
+    config = quadcos.env.default_config()
+    config.commands.update(spec="0.5,0.2@5", observe_drive=True, observed_speed_tau=0.3)
+    plan = commands.Plan(commands.validate(config.commands), config.commands)
+    drive = plan.start(jax.random.PRNGKey(0)).replace(
+        speed=jnp.float32(0.4), gain=jnp.float32(1.2), correction=jnp.float32(-0.1),
+        yaw_rate=jnp.float32(0.15),
+    )
+    obs = observation.with_command(config, jnp.zeros(3), {"velocity_command": drive})
+    np.testing.assert_allclose(obs, [0, 0, 0, 0.4, 1.2, -0.1, 0.15, 0.5, 0.2])
+    sizes = [quadcos.make_env("flat", **{"commands.spec": "random", "commands.observe_drive": on})
+             .observation_size for on in (False, True)]
+    assert sizes[1] == sizes[0] + 3
 
 
 def test_sizes_grow_only_with_commands_and_turning(commanded_env):

@@ -478,6 +478,21 @@ def test_the_host_robot_lets_the_rhythm_in_as_the_env_does():
     np.testing.assert_allclose(halfway, full / 2, atol=1e-12)
 
 
+def test_the_host_robot_observes_the_drive_s_state_before_the_command():
+    """`commands.observe_drive`: g, s and the low-passed yaw rate before (v*, ω*) in C MuJoCo, as
+    MJX's `observation.with_command` puts them (tests/test_commands.py)."""
+    overrides = {"commands.spec": "0.5,0.2@5", "commands.observe_drive": True,
+                 "commands.speed_gain_rate": 1.0, "commands.heading_gain": 2.0,
+                 "commands.yaw_rate_tau": 0.25, "commands.tracking": "yaw_rate"}
+    host = host_robot.HostRobot("flat", evaluation.env_config(overrides))
+    assert host.reset(0).size == 19 + 3 + 2
+    for _ in range(4):
+        obs = host.step(np.full(host.action_size, 0.3)).obs
+    drive = host.commands
+    np.testing.assert_array_equal(obs[-5:-2], [drive.gain, drive.correction, drive.yaw_rate])
+    assert drive.gain != 1.0 and drive.yaw_rate != 0.0  # the loops and the filter moved
+
+
 def test_the_host_robot_observes_its_low_passed_speed_before_the_command():
     """`commands.observed_speed_tau`: the robot's progress along its heading at each step's start,
     low-passed, sits before (v*, ω*) — as `QuadrupedEnv._with_command` puts it."""

@@ -268,6 +268,9 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # distributional critics (FastSAC's 101 atoms) on the default ±250 of scaled returns
     # (reward × 0.1 / (1 − γ): the shipped ANYmal C policy earns 4885 in 400 steps, so about +120)
     [dist]="--config.sac.critic_atoms=101"
+    # what the reward and the drive depend on observed (the drive's gain, heading correction, the
+    # yaw term's low-passed yaw rate) and the gyro: the critic's state was not Markov in them
+    [drive]="--config.env.commands.observe_drive=True $gyro"
   )
   [[ -z ${MAX_SECONDS:-} || $MAX_SECONDS =~ ^[0-9]+$ ]] ||
     { echo "bad MAX_SECONDS '$MAX_SECONDS': whole seconds" >&2; exit 2; }

@@ -338,9 +338,12 @@ class HostRobot:
         if self.config.observe_angular_velocity:
             parts.append(self.data.qvel[layout.angular_velocity])
         if self.commands is not None:
+            commands = self.commands
             if self.config.commands.observed_speed_tau > 0:
-                parts.append([self.commands.speed])
-            parts.append(self.commands.velocity)
+                parts.append([commands.speed])
+            if self.config.commands.observe_drive:
+                parts.append([commands.gain, commands.correction, commands.yaw_rate])
+            parts.append(commands.velocity)
         return np.concatenate(parts), body, slope_estimate
 
     def _fell(self, body: slope.Attitude, slope_truth: float) -> bool:

@@ -83,6 +83,10 @@ def default_config() -> ml_collections.ConfigDict:
     # (`Command.speed`), before (v*, ω*); 0: not observed (the policy sees the torso's velocity
     # in the world frame only, as the paper's state has it)
     config.observed_speed_tau = 0.0
+    # True observes the drive's state before (v*, ω*), after the observed speed: its speed gain g,
+    # heading correction s (rad/s) and the reward's low-passed yaw rate (rad/s; `Command`), which
+    # the reward depends on and the policy's other observations do not show
+    config.observe_drive = False
     # The command's feed-forward (beyond the paper), off by default: each side's hip swing scaled
     # by its commanded speed, a differential drive (`drive_scales`), before the policy acts.
     config.feed_forward = False

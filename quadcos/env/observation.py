@@ -2,7 +2,7 @@
 the leg joints, the slope estimate (Eq. 5; `observe_slope`), cos ψ / sin ψ (`observe_phase`), the
 filtered action (`action_filter_tau` > 0), the torso's angular velocity in its own frame (3;
 `observe_angular_velocity`), then, with commands, the observed speed
-(`commands.observed_speed_tau` > 0) and (v*, ω*)."""
+(`commands.observed_speed_tau` > 0), the drive's state (`commands.observe_drive`) and (v*, ω*)."""
 
 from typing import Any, NamedTuple
 
@@ -32,7 +32,8 @@ def size(
     """The observation's length under an env `config`: `observe`'s parts, then `with_command`'s;
     counted, as tracing a reset for its shape would cost seconds of every env's start."""
     filtered = action_size if config.action_filter_tau > 0 else 0
-    command = (2 + (config.commands.observed_speed_tau > 0)) * commanded
+    drive = 3 * config.commands.observe_drive
+    command = (2 + (config.commands.observed_speed_tau > 0) + drive) * commanded
     joints = len(layout.joint_qpos)
     gyro = 3 * config.observe_angular_velocity
     return 6 + joints + config.observe_slope + 2 * config.observe_phase + filtered + gyro + command
@@ -72,8 +73,12 @@ def with_command(
     config: ml_collections.ConfigDict, obs: jax.Array, info: dict[str, Any]
 ) -> jax.Array:
     """`obs` with the velocity command (v*, ω*) of `info["velocity_command"]` last; before it the
-    observed speed (`commands.observed_speed_tau`)."""
+    observed speed (`commands.observed_speed_tau`) and the drive's state (`commands.observe_drive`:
+    g, s, the low-passed yaw rate)."""
     command = info["velocity_command"]
+    parts = [obs]
     if config.commands.observed_speed_tau > 0:
-        return jnp.concatenate([obs, command.speed[None], command.velocity])
-    return jnp.concatenate([obs, command.velocity])
+        parts.append(command.speed[None])
+    if config.commands.observe_drive:
+        parts.append(jnp.stack([command.gain, command.correction, command.yaw_rate]))
+    return jnp.concatenate([*parts, command.velocity])
