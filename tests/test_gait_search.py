@@ -135,6 +135,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     env, trained = config["env"], recorded["run_info"]["env"]
     assert env["commands"].pop("zero_command_probability") == 0.0
     assert env["commands"].pop("speed_tau") == 0.0  # the forward term on each step's progress
+    assert env["commands"].pop("observe_drive") is False  # the observation as trained
     assert (env.pop("robot"), trained.pop("robot")) == ("quadcos", "menagerie:unitree_go1")
     assert env.pop("action_centre") == "search" and trained.pop("action_centre") != "search"
     for resolved in ("reference_speed", "half_track", "speed_map"):  # the calibration's
