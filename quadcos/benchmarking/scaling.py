@@ -115,9 +115,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return cli.EXIT_USAGE
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    files.atomic_write_text(
-        out, json.dumps({"rows": rows, "runs": runs, "inputs": args.inputs}, separators=(",", ":")) + "\n"
-    )
+    record = {"rows": rows, "runs": runs, "inputs": args.inputs}
+    files.atomic_write_text(out, json.dumps(record, separators=(",", ":")) + "\n")
     print(table(rows))
     return cli.EXIT_OK
 

@@ -12,8 +12,8 @@ robot stack) needs to give the same deterministic actions as `quadcos.load_polic
 - `env_config`: JSON of the full quadcos env config the policy expects (observation layout:
   `observe_slope`, `observe_phase`, the command when `action_filter_tau` > 0, the torso's angular
   velocity with `observe_angular_velocity`, the observed speed with `commands.observed_speed_tau`
-  > 0, the drive's state with `commands.observe_drive`, then (v*, ω*) last; `control_dt`, the action map `action_centre` / `period_min`; its
-  training terrain as `terrain`);
+  > 0, the drive's state with `commands.observe_drive`, then (v*, ω*) last; `control_dt`, the
+  action map `action_centre` / `period_min`; its training terrain as `terrain`);
 - `format`, `observation_size` (the whole observation, the command included);
 - `env_steps`: the env steps of training behind the policy, where its directory records them
   (`PolicySpec.env_steps`);
