@@ -374,8 +374,9 @@ def anymal_sac() -> str:
         run = runs[name]
         first, *trained = run["evaluations"]
         best = {key: min(trained, key=lambda e: e[key]) for key in ("speed_rms", "yaw_rate_rms")}
+        search = f"{run['gait_search']['seconds']} s" if "gait_search" in run else "— (given)"
         rows.append(
-            f"| `{name}` | {change} | {run['gait_search']['seconds']} s |"
+            f"| `{name}` | {change} | {search} |"
             f" {run['env_steps_per_s'] / 1e3:.1f} k, {trained[-1]['env_steps'] / 1e6:.1f} M |"
             f" {first['speed_rms']:.3f}, {first['yaw_rate_rms']:.3f} | "
             + ", ".join(f"{e[key]:.3f} ({e['env_steps'] / 1e6:.1f} M)" for key, e in best.items())
