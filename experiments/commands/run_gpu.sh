@@ -256,6 +256,12 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # roll; 0.085 kept 5 of 7 Go1 gaits that meet the targets and none of 5 that miss them, two
     # of those by 0.0006 rad: search_attitude.py, README "The attitude gate")
     [searchatt]="--config.sac.gait_search.max_attitude=0.085"
+    # that bound with the best 32 gaits rerun on 128 robots each (ANYmal C's preset confirms on
+    # 256): searchatt's seed-2 gait never fell on its 4 robots and survives 0.36–0.41 at step 0
+    [searchattc]="--config.sac.gait_search.max_attitude=0.085 --config.sac.gait_search.confirm_robots=128"
+    # the turn action's reach cut to the rhythm's (turn_bound 0.5 × action_scale 0.2): the drive
+    # turns; SAC's turn value moves each side's hip swing by up to ±50 % at the default
+    [turn10]="--config.env.turn_bound=0.1"
     # n-step returns (FastTD3's 3): the critic's target sums three steps of rewards
     [nstep3]="--config.sac.n_step=3"
     # the forward term on the speed low-passed over 0.25 s, as the yaw term's yaw rate (per step
