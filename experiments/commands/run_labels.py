@@ -119,9 +119,11 @@ PRESET = ("go1cmd_tauyaw3gait_s0", "go1cmd_tauyaw3gait_s1", "go1cmd_tauyaw3gait_
 ATTITUDE = ("go1cmd_att_s0", "go1cmd_att_s1", "go1cmd_att_s2", "go2cmd_att_s0")
 # the preset with the gait search ranking only gaits within 0.085 rad of mean peak roll and pitch
 # error (`sac.gait_search.max_attitude`, lever `searchatt`): Go1's three seeds and Go2's sharing
-# one GPU
+# one GPU; then Go1's three with the best 32 gaits confirmed on 128 robots each (`searchattc`:
+# `sac.gait_search.confirm_robots`), sharing one GPU with two ANYmal C runs
 SEARCH_ATTITUDE = ("go1cmd_searchatt_s0", "go1cmd_searchatt_s1", "go1cmd_searchatt_s2",
-                   "go2cmd_searchatt_s0")
+                   "go2cmd_searchatt_s0", "go1cmd_searchattc_s0", "go1cmd_searchattc_s1",
+                   "go1cmd_searchattc_s2")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
@@ -135,12 +137,14 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalcmd_dist_s0": "a distributional critic, 101 atoms (`sac.critic_atoms`; two sharing)",
     "anymalfix_drive_s0": "the drive's state and the gyro observed (`commands.observe_drive`,"
     " `observe_angular_velocity`), `anymalcmd_dist_s0`'s gait given; 160 s alone, 512 episodes",
+    "anymalfix_turn10_s0": "the turn action's reach ÷5 (`env.turn_bound` 0.1, the preset 0.5), the"
+    " same gait given; 400 s, five runs sharing one GPU",
+    "anymalfix_spdtau_s0": "the forward term on the speed low-passed over 0.25 s"
+    " (`commands.speed_tau`), the same gait given; 400 s, five sharing",
 }
 SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
-# the same without the drive's loops (both off), 300 s and 540 s, and with its gain alone, 300 s
-SEEDS_NO_LOOPS = ("go1_rate_s0", "go1_rate_s1", "go1_rate_s2")
+# the same without the drive's loops (both off), 540 s
 SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")
-SEEDS_GAIN = ("go1gain2_s0", "go1gain2_s1", "go1gain2_s2")
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
     "go2_ln": "LayerNorm critics",

@@ -29,8 +29,6 @@ from run_labels import (
     SEARCH_ATTITUDE,
     SEEDS,
     SEEDS_540,
-    SEEDS_GAIN,
-    SEEDS_NO_LOOPS,
     WARP,
 )
 
@@ -462,8 +460,8 @@ def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
         table(), seeds(PRESET, "run"), seeds(ATTITUDE, "run"), seeds(SEARCH_ATTITUDE, "run"),
-        anymal_sac(), seeds(), seeds(SEEDS_NO_LOOPS),
-        seeds(SEEDS_540), seeds(SEEDS_GAIN), gain(), campaign(), anymal(), seeds(WARP, "run"),
+        anymal_sac(), seeds(),
+        seeds(SEEDS_540), gain(), campaign(), anymal(), seeds(WARP, "run"),
         sac_levers(), sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
         no_preset(),
     )
