@@ -5,11 +5,14 @@
     python -m quadcos.results record --name flat --claim "..." --device "NVIDIA H200" \\
         --command "bash experiments/run_gpu.sh flat" eval_s0.json eval_s1.json eval_s2.json
     python -m quadcos.results rebuild         # every record again from its sources, as recorded
+    python -m quadcos.results compact JSON... # an evaluation / bench JSON as a summary, in place
 
 A record (`results/NAME.json`) backs one claim: its name, the claim in one line, the command that
 produced it, the commit, the device, the numbers and the evaluation or bench JSONs it summarises
-(`quadcos.evaluate --out`, `quadcos.bench --out`), stripped of per-episode data, so that a record
-stands on its own once the JSONs are gone. `numbers` is every number of those summaries, flat:
+(`quadcos.evaluate --out`, `quadcos.bench --out`), stripped of per-episode data and with floats
+to SIGNIFICANT_DIGITS (`compact`: what `compact JSON...` makes of a JSON kept in the tree), so
+that a record stands on its own once the JSONs are gone. `numbers` is every number of those
+summaries, flat:
 `SOURCE.path.to.value` (`SOURCE` the file's stem, or `FOLDER/STEM` for each source where two
 share a stem; left out for a single source; list items by index). `--keep GLOB ...` keeps only the values whose path (without `SOURCE.`) matches one of
 the globs, for a record of a few numbers out of large JSONs; the record lists them as `keep`.
@@ -32,6 +35,7 @@ Bad arguments, an unknown record or number: one line on stderr, exit status 2.
 import argparse
 import fnmatch
 import json
+import math
 import pathlib
 import re
 import subprocess
@@ -45,6 +49,7 @@ RESULTS_DIR = "results"
 LAYOUT_FILE = "tables.json"
 PAGES = ("README.md", "docs/*.md", "experiments/*/README.md")
 PER_EPISODE_KEYS = ("episodes",)  # the list `quadcos.evaluate --out` writes, one item an episode
+SIGNIFICANT_DIGITS = 6  # a summary's floats: the pages quote at most four
 MARKER = re.compile(
     r"<!-- results:(?P<name>[\w.-]+) -->(?P<body>.*?)<!-- /results:(?P=name) -->", re.S
 )
@@ -64,6 +69,54 @@ def strip_episodes(value: Any) -> Any:
     if isinstance(value, list):
         return [strip_episodes(item) for item in value]
     return value
+
+
+def compact(value: Any) -> Any:
+    """`value` (a loaded evaluation or bench JSON) as a summary keeps it: without its
+    per-episode data, every float rounded to SIGNIFICANT_DIGITS significant digits, or to units
+    where it has more whole digits (idempotent)."""
+    value = strip_episodes(value)
+    if isinstance(value, dict):
+        return {k: compact(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [compact(item) for item in value]
+    if isinstance(value, float) and math.isfinite(value):
+        whole = len(str(int(abs(value))))  # a rate of 1,195,864 keeps its units
+        return float(f"{value:.{max(SIGNIFICANT_DIGITS, whole)}g}")
+    return value
+
+
+def compacted_text(path: pathlib.Path) -> str | None:
+    """The JSON at `path` `compact`ed, in its layout (one line, or its indent; a record of
+    results/ as `record_text` writes it); None where that would not make it smaller."""
+    text = pathlib.Path(path).read_text()
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path}: not a readable JSON file ({error})") from error
+    small = compact(value)
+    if isinstance(value, dict) and {"name", "claim", "numbers", "sources"} <= set(value):
+        new = record_text(small)
+    else:
+        lines = text.splitlines()
+        indent = len(lines[1]) - len(lines[1].lstrip(" ")) if len(lines) > 1 else 0
+        new = json.dumps(
+            small, indent=indent or None, ensure_ascii=text.isascii(),
+            separators=None if indent else (",", ":"),
+        ) + ("\n" if text.endswith("\n") else "")
+    return new if len(new) < len(text) else None
+
+
+def compact_files(paths: Sequence[pathlib.Path]) -> int:
+    """Rewrites each JSON at `paths` as `compacted_text` makes it, once every one has been read
+    (a bad one: ValueError, nothing written); returns the bytes saved."""
+    texts = {path: compacted_text(path) for path in paths}
+    saved = 0
+    for path, new in texts.items():
+        if new is not None:
+            saved += len(pathlib.Path(path).read_text()) - len(new)
+            pathlib.Path(path).write_text(new)
+    return saved
 
 
 def keep_only(value: Any, patterns: Sequence[str], prefix: str = "") -> Any:
@@ -125,7 +178,7 @@ def numbers_of(sources: Sequence[dict]) -> dict[str, float]:
 def summarise(path: pathlib.Path, keep: Sequence[str] = ()) -> dict:
     """The JSON at `path` without per-episode data (and with only the `keep` globs' values)."""
     try:
-        summary = strip_episodes(json.loads(pathlib.Path(path).read_text()))
+        summary = compact(json.loads(pathlib.Path(path).read_text()))
     except (OSError, json.JSONDecodeError) as error:
         raise ValueError(f"{path}: not a readable JSON file ({error})") from error
     if keep:
@@ -375,6 +428,9 @@ def _parser() -> argparse.ArgumentParser:
     again = commands.add_parser("rebuild", help="every record (or NAME ...) again from its sources")
     cli.raising(again)
     again.add_argument("names", nargs="*", metavar="NAME")
+    small = commands.add_parser("compact", help="rewrite evaluation / bench JSONs as summaries")
+    cli.raising(small)
+    small.add_argument("paths", nargs="+", type=pathlib.Path, metavar="JSON")
     return parser
 
 
@@ -399,6 +455,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             for name in args.names or sorted(records):
                 path = write_record(rebuild(records[name], root), root)
                 print(f"{path}: {len(records[name]['numbers'])} numbers")
+            return cli.EXIT_OK
+        if args.command == "compact":
+            saved = compact_files(args.paths)
+            print(f"{len(args.paths)} files compacted, {saved:,} bytes saved")
             return cli.EXIT_OK
         if args.check:
             problems = check(root)

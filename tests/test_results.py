@@ -228,3 +228,27 @@ def test_the_time_to_targets_record_is_what_its_script_computes(tmp_path, monkey
     assert not time_to_targets.meets(dict(met, testset2026_mean=None))  # not evaluated: missed
     four = json.loads(committed)["rows"][-1]  # a population of four: its chosen member meets them
     assert four["num_devices"] == 4 and four["seconds_to_targets"] == four["seconds"]
+
+
+def test_compact_rounds_to_six_digits_keeps_units_and_drops_episodes(tmp_path, capsys):
+    value = {"rate": 1195864.25, "speed": 0.123456789, "tiny": 1.23456789e-7, "steps": 6004736,
+             "flag": True, "none": None, "episodes": [{"speed": 0.5}], "rows": [2.718281828]}
+    small = results.compact(value)
+    assert small == {"rate": 1195864.0, "speed": 0.123457, "tiny": 1.23457e-07, "steps": 6004736,
+                     "flag": True, "none": None, "rows": [2.71828]}
+    assert results.compact(small) == small  # idempotent: a record of a compacted source agrees
+    indented = tmp_path / "eval.json"
+    indented.write_text(json.dumps(value, indent=1) + "\n")
+    one_line = tmp_path / "robustness.json"
+    one_line.write_text(json.dumps(value, separators=(",", ":")))
+    assert results.main(["compact", str(indented), str(one_line)]) == 0
+    assert "2 files compacted" in capsys.readouterr().out
+    assert json.loads(indented.read_text()) == small and indented.read_text().startswith('{\n "')
+    assert "\n" not in one_line.read_text() and json.loads(one_line.read_text()) == small
+    assert results.compacted_text(indented) is None  # no smaller: left as it is
+    broken, fresh = tmp_path / "broken.json", tmp_path / "fresh.json"
+    broken.write_text("{")
+    fresh.write_text(json.dumps(value))
+    assert results.main(["compact", str(fresh), str(broken)]) == 2
+    assert "broken.json: not a readable JSON file" in capsys.readouterr().err
+    assert json.loads(fresh.read_text()) == value  # nothing written where one input is bad
