@@ -2,6 +2,7 @@
 command as an input, play's keys steer, bad specs are refused, and every evaluation JSON says how
 much training is behind its policy. All on a tiny randomly initialised commanded policy."""
 
+import dataclasses
 import json
 import math
 import pathlib
@@ -12,6 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from quadcos import env as env_lib
 from quadcos import evaluate, evaluation, play, sim2sim
 from quadcos.deploy import engines, host_commands, host_robot, twins
 from quadcos.deploy import export as export_lib
@@ -581,3 +583,97 @@ def test_the_feed_forward_is_measured_on_the_gait_and_applied_to_the_run(monkeyp
     assert run.env.action_centre == found["action_centre"]
     assert (run.env.commands.reference_speed, run.env.commands.half_track) == (0.7, 0.4)
     assert run.env.commands.speed_map == (0.2, 0.4, 0.55, 0.7)
+
+
+def test_track_gaits_keeps_the_best_tracking_gait_that_never_fell(monkeypatch, caplog):
+    from quadcos.deploy import calibration
+    from quadcos.evaluation import gait_search, gait_tracking
+    from quadcos.training import presets
+
+    one_way, first, second, third = (f"0.1,0.2,0.3,{phi},{phi - 3.14:g}" for phi in (0, 1, 2, 3))
+    ranking = [
+        {"parameters": dict(zip("abcde", map(float, centre.split(",")), strict=True)), "score": 1.0}
+        for centre in (one_way, first, second, third)
+    ]
+    turning = {one_way: (0.007, -0.5), first: (0.2, -0.2), second: (0.3, -0.3), third: (0.4, -0.4)}
+
+    def walk(config, schedule, seed, robots, friction=None):
+        side = float(schedule.split(",")[1].split("@")[0])
+        left, right = turning[config.action_centre]
+        return 0.6 * float(schedule.split(",")[0]), {0.0: 0.0, 0.3: left, -0.3: right}[side]
+
+    tracked = []  # each call's gaits: (centre, half track b of its measured feed-forward)
+
+    def track(terrain, configs, seed=0):
+        tracked.append([(c.action_centre, c.commands.half_track) for c in configs])
+        lines = {  # first tracks best but falls; third tracks better than second but rolls
+            first: (0.01, 0.05, 0.05, 0.05), second: (0.0, 0.09, 0.08, 0.07),
+            third: (0.0, 0.07, 0.06, 0.12),
+        }
+        return [
+            dict(zip(("fall_rate", "speed_tracking_rms", "yaw_rate_tracking_rms",
+                      "mean_max_abs_roll"), lines[c.action_centre]), mean_max_abs_pitch_error=0.05,
+                 score=-max(lines[c.action_centre][1] / 0.1, lines[c.action_centre][2] / 0.15))
+            for c in configs
+        ]  # fmt: skip
+
+    monkeypatch.setattr(calibration, "_walk", walk)
+    monkeypatch.setattr(gait_tracking, "track", track)
+    monkeypatch.setattr(gait_search, "find_gait", lambda config: {"action_centre": one_way,
+                                                                  "ranking": ranking})
+    config = presets.build_config(presets.PRESETS["command"], {"sac.gait_search.track_gaits": 3})
+    with caplog.at_level("INFO", logger=calibration.logger.name):
+        found = calibration.find_gait(config)
+    # the three that turn both ways, each with its own feed-forward (b = 0.3 * 0.6 / left)
+    assert tracked == [[(first, pytest.approx(0.9)), (second, pytest.approx(0.6)),
+                        (third, pytest.approx(0.45))]]  # fmt: skip
+    assert found["action_centre"] == third  # no attitude bound: the better of the clean ones
+    assert found["feed_forward"]["half_track"] == pytest.approx(0.45)
+    assert [g["action_centre"] for g in found["tracked_gaits"]] == [first, second, third]
+    assert f"gait tracking #3 {third}: 0.0 % falls, 0.070 m/s" in caplog.text
+    bounded = presets.build_config(
+        presets.PRESETS["command"],
+        {"sac.gait_search.track_gaits": 3, "sac.gait_search.max_attitude": 0.1},
+    )
+    assert calibration.find_gait(bounded)["action_centre"] == second  # third rolls 0.12
+    with pytest.raises(presets.UsageError, match="track_gaits must be a whole number >= 0"):
+        presets.build_config(presets.PRESETS["command"], {"sac.gait_search.track_gaits": -1})
+
+
+def test_gaits_given_as_data_walk_as_envs_built_with_them():
+    from quadcos.evaluation import gait_tracking
+    from quadcos.evaluation import rollout as rollout_lib
+
+    base = evaluation.env_config({"commands.spec": "random", "commands.feed_forward": True,
+                                  "commands.reference_speed": 0.8, "commands.half_track": 0.5})
+    other = evaluation.env_config({"commands.spec": "random", "commands.feed_forward": True,
+                                   "commands.reference_speed": 0.5, "commands.half_track": 0.9,
+                                   "action_centre": "0.45,0.3,0.35,-3.14159,0"})
+    source = sources.ActionSource(
+        name="gait", kind="gait", act=sources.zero_action, params=np.zeros(1, np.float32),
+        env_overrides={}, training_terrain="flat",
+    )  # fmt: skip
+    built = env_lib.QuadrupedEnv("flat", other)
+    source = dataclasses.replace(source, params=np.zeros(built.action_size, np.float32))
+    maps = gait_tracking.gait_maps(other)
+    assert maps.keys() == built.gait.keys()
+    for name in maps:
+        np.testing.assert_array_equal(maps[name], built.gait[name])
+    own = rollout_lib.rollout(built, source, num_envs=2, num_steps=10, seed=3).stats
+    gaits = {name: np.stack([value] * 2) for name, value in maps.items()}
+    given = rollout_lib.rollout(
+        env_lib.QuadrupedEnv("flat", base), source, num_envs=2, num_steps=10, seed=3, gaits=gaits
+    ).stats
+    np.testing.assert_allclose(given.x, own.x, atol=1e-6)
+    np.testing.assert_allclose(
+        given.tracking.speed_sq_error, own.tracking.speed_sq_error, atol=1e-6
+    )
+    lines = gait_tracking.track("flat", [base, other], robots=2, seconds=0.5, seed=3)
+    assert len(lines) == 2 and all(line["fall_rate"] == 0.0 for line in lines)
+    assert lines[0]["speed_tracking_rms"] != lines[1]["speed_tracking_rms"]  # each its own gait
+    for line in lines:
+        worse = max(line["speed_tracking_rms"] / 0.10, line["yaw_rate_tracking_rms"] / 0.15)
+        assert line["score"] == pytest.approx(-worse)
+    with pytest.raises(ValueError, match="one row per robot"):
+        rollout_lib.rollout(built, source, num_envs=2, num_steps=1, gaits={
+            name: value[:1] for name, value in gaits.items()})

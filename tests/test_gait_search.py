@@ -82,6 +82,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     # ... and the search's share of the time budget, which came later.
     assert config["sac"]["gait_search"].pop("max_fraction") == 0.5
     assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search's bound: off
+    assert config["sac"]["gait_search"].pop("track_gaits") == 0  # the best gait only, as run
     # ... and the kept policy ranked by tracking, an option: by reward, as the runs ranked it.
     assert config["sac"].pop("best_policy_by") == "reward"
     assert config["sac"].pop("best_policy_tracking_targets") == [0.1, 0.15]
@@ -131,6 +132,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     assert config["sac"].pop("critic_atoms") == 0  # Brax's scalar critics, as trained
     assert config["sac"].pop("critic_value_range") == [-250.0, 250.0]
     assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search as it ran
+    assert config["sac"]["gait_search"].pop("track_gaits") == 0  # its best gait, as it ran
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
     assert env["commands"].pop("zero_command_probability") == 0.0

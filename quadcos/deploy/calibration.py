@@ -35,7 +35,7 @@ from quadcos import env as env_lib
 from quadcos.deploy import host_robot, twins
 from quadcos.env import commands as env_commands
 from quadcos.equations import oscillator
-from quadcos.evaluation import gait_search
+from quadcos.evaluation import gait_search, gait_tracking
 
 logger = logging.getLogger("quadcos.train")
 
@@ -56,6 +56,9 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     if not (commands.feed_forward and env_commands.parse_commands(commands.spec).enabled):
         return search
     env_config = ml_collections.ConfigDict(config.env.to_dict())
+    count = config.sac.gait_search.track_gaits
+    if count:
+        return search | tracked_gait(config, env_config, search, count)
     env_config.action_centre, yaw_rate = turning_centre(env_config, search, seed=config.sac.seed)
     return search | {
         "action_centre": env_config.action_centre,
@@ -63,13 +66,68 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
     }
 
 
+def tracked_gait(
+    config: ml_collections.ConfigDict,
+    env_config: ml_collections.ConfigDict,
+    search: dict[str, Any],
+    count: int,
+) -> dict[str, Any]:
+    """{"action_centre", "feed_forward", "tracked_gaits"}: of the `count` best gaits of `search`
+    that turn both ways (`turning_centres`), each with its feed-forward measured, the one that
+    tracks random commands best (`gait_tracking.track`) without a fall and within the search's
+    `max_attitude` where set (else the best of those that come nearest)."""
+    seed, bound = config.sac.seed, config.sac.gait_search.max_attitude
+    configs, feeds = [], []
+    for centre, yaw_rate in turning_centres(env_config, search, seed=seed, count=count):
+        gait = ml_collections.ConfigDict(env_config.to_dict())
+        gait.action_centre = centre
+        feeds.append(measure(gait, seed=seed, yaw_rate=yaw_rate))
+        for key in ("reference_speed", "half_track", "speed_map"):
+            gait.commands[key] = feeds[-1][key]
+        configs.append(gait)
+    lines = gait_tracking.track(config.env.terrain, configs, seed=seed)
+
+    def rank(i: int) -> tuple:
+        line = lines[i]
+        attitude = max(line["mean_max_abs_roll"], line["mean_max_abs_pitch_error"])
+        return line["fall_rate"] == 0, bound <= 0 or attitude <= bound, line["score"]
+
+    best = max(range(len(lines)), key=rank)
+    for i, line in enumerate(lines):
+        logger.info(
+            "gait tracking #%d %s: %.1f %% falls, %.3f m/s, %.3f rad/s, roll %.3f, pitch error"
+            " %.3f rad%s", i + 1, configs[i].action_centre, 100 * line["fall_rate"],
+            line["speed_tracking_rms"], line["yaw_rate_tracking_rms"], line["mean_max_abs_roll"],
+            line["mean_max_abs_pitch_error"], ": kept" if i == best else "",
+        )  # fmt: skip
+    tracked = [{"action_centre": c.action_centre, **line} for c, line in zip(configs, lines)]
+    return {
+        "action_centre": configs[best].action_centre,
+        "feed_forward": feeds[best],
+        "tracked_gaits": tracked,
+    }
+
+
 def turning_centre(
     env_config: ml_collections.ConfigDict, search: dict[str, Any], seed: int = 0, robots: int = 2
 ) -> tuple[str, float]:
-    """(action centre, its yaw rate with the sides at 1 ∓ δ) of the best gait of `search` (its
-    "action_centre", then its "ranking"'s others without falls, in order) whose open-loop walk
-    the sides at 1 ∓ δ and at 1 ± δ turn in opposite directions, each at MIN_YAW_RATE or more,
-    walking MIN_SPEED or more; of the best, with a warning, where none does."""
+    """(action centre, its yaw rate with the sides at 1 ∓ δ) of the best gait of `search` that
+    turns both ways (`turning_centres`); of the best, with a warning, where none does."""
+    return turning_centres(env_config, search, seed, robots)[0]
+
+
+def turning_centres(
+    env_config: ml_collections.ConfigDict,
+    search: dict[str, Any],
+    seed: int = 0,
+    robots: int = 2,
+    count: int = 1,
+) -> list[tuple[str, float]]:
+    """(action centre, its yaw rate with the sides at 1 ∓ δ) of each of the `count` best gaits
+    of `search` (its "action_centre", then its "ranking"'s others without falls, in order) whose
+    open-loop walk the sides at 1 ∓ δ and at 1 ± δ turn in opposite directions, each at
+    MIN_YAW_RATE or more, walking MIN_SPEED or more (fewer where fewer do); of the best alone,
+    with a warning, where none does."""
     ranked = [
         oscillator.centre_spec(c["parameters"].values())
         for c in search.get("ranking", [])
@@ -77,7 +135,8 @@ def turning_centre(
     ]
     centres = list(dict.fromkeys([search["action_centre"], *ranked]))
     config, seconds = _open_loop(env_config), SETTLE_S + MEASURE_S
-    one_way = []  # (yaw rate at 1 ∓ δ, at 1 ± δ) of each better gait
+    one_way = []  # (yaw rate at 1 ∓ δ, at 1 ± δ) of each better gait that turns one way
+    found = []
     for centre in centres:
         config.action_centre = centre
         (speed_left, left), (speed_right, right) = (
@@ -86,21 +145,26 @@ def turning_centre(
         )
         walks = min(speed_left, speed_right) >= MIN_SPEED
         if walks and min(abs(left), abs(right)) >= MIN_YAW_RATE and left * right < 0:
-            if one_way:
+            if one_way and not found:
                 logger.warning(
                     "feed-forward: the search's best gaits turn one way at most with the sides at"
                     " 1 -/+ %g / 1 +/- %g (%s); its #%d, %s, turns %s: kept",
                     SIDE_DIFFERENCE, SIDE_DIFFERENCE, _turns(one_way), len(one_way) + 1, centre,
                     _turns([(left, right)]),
                 )  # fmt: skip
-            return centre, left
-        one_way.append((left, right))
+            found.append((centre, left))
+            if len(found) == count:
+                break
+        else:
+            one_way.append((left, right))
+    if found:
+        return found
     logger.warning(
         "feed-forward: none of the search's %d best gaits turns both ways with the sides at"
         " 1 -/+ %g / 1 +/- %g (%s): keeping its best",
         len(centres), SIDE_DIFFERENCE, SIDE_DIFFERENCE, _turns(one_way),
     )  # fmt: skip
-    return search["action_centre"], one_way[0][0]
+    return [(search["action_centre"], one_way[0][0])]
 
 
 def _turns(yaw_rates: list[tuple[float, float]]) -> str:

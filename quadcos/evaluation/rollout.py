@@ -342,6 +342,7 @@ def rollout(
     chunk_steps: int = CHUNK_STEPS,
     lanes: np.ndarray | None = None,
     commands: str | None = None,
+    gaits: dict[str, np.ndarray] | None = None,
 ) -> Rollout:
     """Runs `num_envs` robots for at most `num_steps` control steps each, deterministically;
     on a lane terrain, robot i on lane i mod num_lanes unless `lanes` says otherwise.
@@ -353,6 +354,8 @@ def rollout(
       act_params: overrides `source.params` (e.g. (num_envs, 5) fixed parameters, one row per
         robot, for a search).
       lanes: (num_envs,) the lane of each robot (a lane terrain's course; 0 elsewhere).
+      gaits: each robot's gait maps ((num_envs, ...) each, `QuadrupedEnv.gait`'s keys) instead of
+        the env's, as data (`GAIT_KEY`, as a trainer passes them): one program for every gait.
       progress: called as progress(0, num_steps) once the inputs are checked, before anything
         compiles, then as progress(steps_done, num_steps) after each compiled chunk.
     """
@@ -376,6 +379,11 @@ def rollout(
         progress(0, num_steps)
     chunk = _compiled_chunk(env, source.act, chunk_steps)
     state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs), lanes)
+    if gaits is not None:
+        batched = {name: jnp.asarray(value) for name, value in gaits.items()}
+        if any(value.shape[:1] != (num_envs,) for value in batched.values()):
+            raise ValueError(f"gaits must hold one row per robot ({num_envs})")
+        state = state.replace(info={**state.info, env_lib.quadruped.GAIT_KEY: batched})
     start_qpos = np.asarray(state.pipeline_state.qpos[trace_index])
     stats = _initial_gait_stats(env, state, _initial_stats(state, lanes))
     traces = []

@@ -135,7 +135,7 @@ def fixed_source(params: oscillator.RhythmParameters, name: str | None = None) -
     )
 
 
-def _zero_action(zeros: jax.Array, obs: jax.Array) -> jax.Array:
+def zero_action(zeros: jax.Array, obs: jax.Array) -> jax.Array:
     """(n, action_size) zeros: the action centre for each of the n observations."""
     return jnp.broadcast_to(zeros, (obs.shape[0], zeros.shape[-1]))
 
@@ -261,7 +261,7 @@ class PolicySpec:
             return ActionSource(
                 name=self.text,
                 kind=self.source_kind,
-                act=_zero_action,
+                act=zero_action,
                 params=jnp.zeros(self.action_size, jnp.float32),
                 env_overrides=dict(self.env_options),
                 training_terrain=self.training_terrain,

@@ -75,6 +75,11 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 "config.gait_search.confirm_robots must be 0 or a whole number dividing"
                 f" num_candidates x robots_per_candidate = {envs}, got {search.confirm_robots}"
             )
+        if not (isinstance(search.track_gaits, int) and search.track_gaits >= 0):
+            raise ValueError(
+                "config.gait_search.track_gaits must be a whole number >= 0 (0: off), got"
+                f" {search.track_gaits}"
+            )
         if not 0 < search.seconds < math.inf:
             raise ValueError(
                 f"config.gait_search.seconds must be finite and > 0, got {search.seconds}"

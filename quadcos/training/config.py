@@ -163,6 +163,10 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
     # confirm_robots: after the rounds, the best distinct candidates run once more on that many
     # robots each (as many as the batch holds; 0: none) and the gait kept is the best of that
     # run — the clean ones by reward, else the one that fell least.
+    # track_gaits: with the command's feed-forward, its measurement on that many of the best
+    # gaits that turn both ways (not only the best), each then walked under random commands and
+    # the run's randomisation (quadcos.evaluation.gait_tracking), and the gait kept is the one
+    # that tracks best without a fall (within max_attitude, where set); 0: the best only.
     # compile_trainer: while the search runs, a thread compiles the trainer's programs on a
     # placeholder gait into the compilation caches (quadcos.training.ahead; MJX-JAX, one GPU or
     # TPU of one process).
@@ -181,6 +185,7 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
             min_speed_of="mean",
             max_attitude=0.0,
             confirm_robots=0,
+            track_gaits=0,
             compile_trainer=True,
             max_fraction=0.5,
         )
