@@ -668,9 +668,10 @@ def test_gaits_given_as_data_walk_as_envs_built_with_them():
     np.testing.assert_allclose(
         given.tracking.speed_sq_error, own.tracking.speed_sq_error, atol=1e-6
     )
-    lines = gait_tracking.track("flat", [base, other], robots=2, seconds=0.5, seed=3)
-    assert len(lines) == 2 and all(line["fall_rate"] == 0.0 for line in lines)
+    lines = gait_tracking.track("flat", [base, other, base], robots=2, seconds=0.5, seed=3)
+    assert len(lines) == 3 and all(line["fall_rate"] == 0.0 for line in lines)
     assert lines[0]["speed_tracking_rms"] != lines[1]["speed_tracking_rms"]  # each its own gait
+    assert lines[2] == lines[0]  # on the same episodes: the same gait, the same line
     for line in lines:
         worse = max(line["speed_tracking_rms"] / 0.10, line["yaw_rate_tracking_rms"] / 0.15)
         assert line["score"] == pytest.approx(-worse)

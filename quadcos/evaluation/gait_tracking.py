@@ -11,6 +11,8 @@ their maps go in as data (`rollout`'s `gaits`), so one program serves every gait
 from collections.abc import Sequence
 from typing import Any
 
+import jax
+import jax.numpy as jnp
 import ml_collections
 import numpy as np
 
@@ -43,7 +45,8 @@ def track(
     seed: int = 0,
 ) -> list[dict[str, Any]]:
     """Each config's gait (its action centre and feed-forward; the configs alike otherwise, with
-    commands) walked by `robots` robots under random commands, the zero action acting: per gait
+    commands) walked by `robots` robots under random commands, the zero action acting, every gait
+    on the same episodes (robot i of each: the same key, so the same commands and physics): per gait
     its "fall_rate", "speed_tracking_rms" (m/s), "yaw_rate_tracking_rms" (rad/s, both pooled over
     its robots' windows, as evaluations pool them), "mean_max_abs_roll",
     "mean_max_abs_pitch_error" (rad) and "score" (−max of the two tracking RMS over `TARGETS`:
@@ -59,9 +62,10 @@ def track(
         name="gait", kind="gait", act=sources.zero_action,
         params=np.zeros(env.action_size, np.float32), env_overrides={}, training_terrain=terrain,
     )  # fmt: skip
+    keys = jnp.tile(jax.random.split(jax.random.PRNGKey(seed), robots), (len(maps), 1))
     stats = rollout_lib.rollout(
         env, source, num_envs=robots * len(env_configs), num_steps=round(seconds / env.dt),
-        seed=seed, gaits=gaits,
+        gaits=gaits, keys=keys,
     ).stats  # fmt: skip
     return [_gait_entry(stats, slice(i * robots, (i + 1) * robots)) for i in range(len(maps))]
 

@@ -343,6 +343,7 @@ def rollout(
     lanes: np.ndarray | None = None,
     commands: str | None = None,
     gaits: dict[str, np.ndarray] | None = None,
+    keys: jax.Array | None = None,
 ) -> Rollout:
     """Runs `num_envs` robots for at most `num_steps` control steps each, deterministically;
     on a lane terrain, robot i on lane i mod num_lanes unless `lanes` says otherwise.
@@ -356,6 +357,8 @@ def rollout(
       lanes: (num_envs,) the lane of each robot (a lane terrain's course; 0 elsewhere).
       gaits: each robot's gait maps ((num_envs, ...) each, `QuadrupedEnv.gait`'s keys) instead of
         the env's, as data (`GAIT_KEY`, as a trainer passes them): one program for every gait.
+      keys: (num_envs, 2) each robot's episode key (its reset draws, commands, randomisation);
+        default: `seed`'s, split.
       progress: called as progress(0, num_steps) once the inputs are checked, before anything
         compiles, then as progress(steps_done, num_steps) after each compiled chunk.
     """
@@ -378,7 +381,9 @@ def rollout(
     if progress is not None:
         progress(0, num_steps)
     chunk = _compiled_chunk(env, source.act, chunk_steps)
-    state = _compiled_reset(env)(jax.random.split(jax.random.PRNGKey(seed), num_envs), lanes)
+    if keys is None:
+        keys = jax.random.split(jax.random.PRNGKey(seed), num_envs)
+    state = _compiled_reset(env)(keys, lanes)
     if gaits is not None:
         batched = {name: jnp.asarray(value) for name, value in gaits.items()}
         if any(value.shape[:1] != (num_envs,) for value in batched.values()):

@@ -1,0 +1,102 @@
+"""The gait tracking measure (`sac.gait_search.track_gaits`, `quadcos.evaluation.gait_tracking`)
+against the training's own step-0 evaluation: each run's searched gait (its action centre and
+measured feed-forward in campaign.json) walked as `track` walks a finalist (`--robots` robots
+each, 20 s, random commands under `--preset=command`'s randomisation, MJX-JAX on this machine),
+beside the run's step-0 evaluation (the same gait under the untrained actor, on the GPU it
+trained on):
+
+    MENAGERIE_ROOT=DIR python experiments/commands/track_gaits.py --robot=unitree_go1 \\
+        --runs go1cmd_tauyaw3gait_s0 ... --out=experiments/commands/track_gaits.json
+
+A row per run: the measure's fall rate, speed and yaw-rate tracking RMS and score (−max(speed
+RMS / 0.10, yaw-rate RMS / 0.15)), and the step-0 evaluation's; then how well the measure orders
+the gaits as the step-0 evaluations do (Spearman's rank correlation of the scores) and, for each
+pair of gaits, how often it prefers the one the step-0 evaluations prefer. The runs must train
+the preset's env (their flags change the trainer or restate the preset's values).
+"""
+
+import argparse
+import itertools
+import json
+from pathlib import Path
+
+import ml_collections
+import numpy as np
+
+from quadcos.evaluation import gait_tracking
+from quadcos.training import presets
+
+HERE = Path(__file__).parent
+
+
+def gait_config(robot: str, run: dict) -> ml_collections.ConfigDict:
+    """The command preset's env for `robot` (MJX-JAX) with `run`'s gait and feed-forward."""
+    config = presets.build_config(
+        presets.PRESETS["command"], {"env.robot": f"menagerie:{robot}", "env.impl": "jax"}
+    ).env
+    config.action_centre = run["action_centre"]
+    for key, value in run["feed_forward"].items():
+        config.commands[key] = tuple(value) if isinstance(value, list) else value
+    return config
+
+
+def spearman(a: list[float], b: list[float]) -> float:
+    """Spearman's rank correlation of two equally long lists (no ties expected)."""
+    ranks = [np.argsort(np.argsort(x)) for x in (a, b)]
+    return float(np.corrcoef(*ranks)[0, 1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--robot", default="unitree_go1", help="a Menagerie name")
+    parser.add_argument("--runs", nargs="+", required=True, help="runs in campaign.json")
+    parser.add_argument("--robots", type=int, default=16, help="robots per gait")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--batch", type=int, default=128, help="robots a rollout at most")
+    parser.add_argument("--out")
+    args = parser.parse_args()
+    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    missing = [
+        name for name in args.runs
+        if not all((runs.get(name) or {}).get(key) for key in ("action_centre", "feed_forward"))
+    ]  # fmt: skip
+    if missing:
+        parser.error(f"no run with a searched gait and feed-forward: {', '.join(missing)}")
+    configs = [gait_config(args.robot, runs[name]) for name in args.runs]
+    per = max(1, args.batch // args.robots)  # gaits a rollout (MJX-JAX on a CPU hangs at 160)
+    lines = [
+        line
+        for first in range(0, len(configs), per)
+        for line in gait_tracking.track(
+            "flat", configs[first:first + per], robots=args.robots, seed=args.seed
+        )
+    ]
+    rows = []
+    for name, line in zip(args.runs, lines):
+        step0 = runs[name]["evaluations"][0]
+        targets = gait_tracking.TARGETS
+        rows.append({
+            "run": name,
+            "measure": {key: round(value, 4) for key, value in line.items()},
+            "step0": {"speed_tracking_rms": step0["speed_rms"],
+                      "yaw_rate_tracking_rms": step0["yaw_rate_rms"],
+                      "score": round(-max(step0["speed_rms"] / targets[0],
+                                          step0["yaw_rate_rms"] / targets[1]), 4)},
+        })  # fmt: skip
+        print(json.dumps(rows[-1]))
+    measured = [r["measure"]["score"] for r in rows]
+    trained = [r["step0"]["score"] for r in rows]
+    pairs = [(i, j) for i, j in itertools.combinations(range(len(rows)), 2)
+             if trained[i] != trained[j]]  # fmt: skip
+    agree = sum((measured[i] > measured[j]) == (trained[i] > trained[j]) for i, j in pairs)
+    summary = {"spearman": round(spearman(measured, trained), 3), "pairs": len(pairs),
+               "pairs_ordered_alike": agree}  # fmt: skip
+    print(json.dumps(summary))
+    if args.out:
+        record = {"robot": args.robot, "robots_per_gait": args.robots,
+                  "seconds": gait_tracking.SECONDS, "seed": args.seed, "rows": rows, **summary}
+        Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
