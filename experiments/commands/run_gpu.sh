@@ -259,8 +259,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # that bound with the best 32 gaits rerun on 128 robots each (ANYmal C's preset confirms on
     # 256): searchatt's seed-2 gait never fell on its 4 robots and survives 0.36–0.41 at step 0
     [searchattc]="--config.sac.gait_search.max_attitude=0.085 --config.sac.gait_search.confirm_robots=128"
-    # the best of the search's 4 best gaits by command tracking with its own feed-forward (the
-    # searched gaits' step-0 tracking spreads 0.099–0.123 m/s; SAC moves it by 0.01 at most)
+    # the best of the search's 4 best gaits by command tracking with its own feed-forward (README,
+    # "Gaits chosen by their tracking": step 0 spreads more than SAC moves it)
     [tracked]="--config.sac.gait_search.track_gaits=4"
     # the turn action's reach cut to the rhythm's (turn_bound 0.5 × action_scale 0.2): the drive
     # turns; SAC's turn value moves each side's hip swing by up to ±50 % at the default

@@ -1,9 +1,9 @@
 """Gaits compared by how well they track random commands, as SAC's step 0 meets them.
 
 The gait search ranks candidates by the reward before the command's feed-forward is measured on
-them, so its best gait is not the one that tracks best: Go1's searched gaits tracked speed at
-0.099–0.123 m/s at step 0 under the same preset, and SAC moved that by 0.01 m/s at most
-(experiments/commands, "The attitude gate"). `track` walks several gaits, each with its own
+them, so its best gait need not be the one that tracks best, and SAC moves a gait's tracking
+little (experiments/commands, "Gaits chosen by their tracking": Go1's searched gaits under one
+preset track speed at 0.084–0.153 m/s at step 0; their kept policies a median 0.006 m/s better). `track` walks several gaits, each with its own
 measured feed-forward, as one batch of robots under random commands and the run's randomisation:
 their maps go in as data (`rollout`'s `gaits`), so one program serves every gait.
 """
