@@ -40,10 +40,19 @@ def gait_config(robot: str, run: dict) -> ml_collections.ConfigDict:
     return config
 
 
+def ranks(values: list[float]) -> np.ndarray:
+    """Each value's rank (0 the least), tied values sharing their ranks' mean."""
+    values = np.asarray(values)
+    found = np.empty(len(values))
+    found[np.argsort(values, kind="stable")] = np.arange(len(values))
+    for value in np.unique(values):
+        found[values == value] = found[values == value].mean()
+    return found
+
+
 def spearman(a: list[float], b: list[float]) -> float:
-    """Spearman's rank correlation of two equally long lists (no ties expected)."""
-    ranks = [np.argsort(np.argsort(x)) for x in (a, b)]
-    return float(np.corrcoef(*ranks)[0, 1])
+    """Spearman's rank correlation of two equally long lists (ties by their mean ranks)."""
+    return float(np.corrcoef(ranks(a), ranks(b))[0, 1])
 
 
 def main() -> None:

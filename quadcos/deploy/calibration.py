@@ -75,7 +75,8 @@ def tracked_gait(
     """{"action_centre", "feed_forward", "tracked_gaits"}: of the `count` best gaits of `search`
     that turn both ways (`turning_centres`), each with its feed-forward measured, the one that
     tracks random commands best (`gait_tracking.track`) without a fall and within the search's
-    `max_attitude` where set (else the best of those that come nearest)."""
+    `max_attitude` where set (where none is, the best-tracking without a fall; where every one
+    fell, the best-tracking)."""
     seed, bound = config.sac.seed, config.sac.gait_search.max_attitude
     configs, feeds = [], []
     for centre, yaw_rate in turning_centres(env_config, search, seed=seed, count=count):

@@ -3,9 +3,10 @@
 The gait search ranks candidates by the reward before the command's feed-forward is measured on
 them, so its best gait need not be the one that tracks best, and SAC moves a gait's tracking
 little (experiments/commands, "Gaits chosen by their tracking": Go1's searched gaits under one
-preset track speed at 0.084–0.153 m/s at step 0; their kept policies a median 0.006 m/s better). `track` walks several gaits, each with its own
-measured feed-forward, as one batch of robots under random commands and the run's randomisation:
-their maps go in as data (`rollout`'s `gaits`), so one program serves every gait.
+preset track speed at 0.084–0.153 m/s at step 0; their kept policies a median 0.006 m/s
+better). `track` walks several gaits, each with its own measured feed-forward, as one batch of
+robots under random commands and the run's randomisation: their maps go in as data
+(`rollout`'s `gaits`), so one program serves every gait.
 """
 
 from collections.abc import Sequence
@@ -45,10 +46,10 @@ def track(
     seed: int = 0,
 ) -> list[dict[str, Any]]:
     """Each config's gait (its action centre and feed-forward; the configs alike otherwise, with
-    commands) walked by `robots` robots under random commands, the zero action acting, every gait
-    on the same episodes (robot i of each: the same key, so the same commands and physics): per gait
-    its "fall_rate", "speed_tracking_rms" (m/s), "yaw_rate_tracking_rms" (rad/s, both pooled over
-    its robots' windows, as evaluations pool them), "mean_max_abs_roll",
+    commands) walked by `robots` robots under random commands, the zero action acting, every
+    gait on the same episodes (robot i of each: the same key, so the same commands and physics):
+    per gait its "fall_rate", "speed_tracking_rms" (m/s), "yaw_rate_tracking_rms" (rad/s, both
+    pooled over its robots' windows, as evaluations pool them), "mean_max_abs_roll",
     "mean_max_abs_pitch_error" (rad) and "score" (−max of the two tracking RMS over `TARGETS`:
     > −1 where both are within)."""
     if not env_configs or robots < 1:
