@@ -75,21 +75,23 @@ def compact(value: Any) -> Any:
     """`value` (a loaded evaluation or bench JSON) as a summary keeps it: without its
     per-episode data, every float rounded to SIGNIFICANT_DIGITS significant digits, or to units
     where it has more whole digits (idempotent)."""
-    value = strip_episodes(value)
+    return _rounded(strip_episodes(value))
+
+
+def _rounded(value: Any) -> Any:
     if isinstance(value, dict):
-        return {k: compact(v) for k, v in value.items()}
+        return {k: _rounded(v) for k, v in value.items()}
     if isinstance(value, list):
-        return [compact(item) for item in value]
+        return [_rounded(item) for item in value]
     if isinstance(value, float) and math.isfinite(value):
         whole = len(str(int(abs(value))))  # a rate of 1,195,864 keeps its units
         return float(f"{value:.{max(SIGNIFICANT_DIGITS, whole)}g}")
     return value
 
 
-def compacted_text(path: pathlib.Path) -> str | None:
-    """The JSON at `path` `compact`ed, in its layout (one line, or its indent; a record of
+def compacted_text(path: pathlib.Path, text: str) -> str | None:
+    """`text`, the JSON at `path`, `compact`ed in its layout (one line, or its indent; a record of
     results/ as `record_text` writes it); None where that would not make it smaller."""
-    text = pathlib.Path(path).read_text()
     try:
         value = json.loads(text)
     except json.JSONDecodeError as error:
@@ -110,13 +112,12 @@ def compacted_text(path: pathlib.Path) -> str | None:
 def compact_files(paths: Sequence[pathlib.Path]) -> int:
     """Rewrites each JSON at `paths` as `compacted_text` makes it, once every one has been read
     (a bad one: ValueError, nothing written); returns the bytes saved."""
-    texts = {path: compacted_text(path) for path in paths}
-    saved = 0
-    for path, new in texts.items():
+    texts = {path: pathlib.Path(path).read_text() for path in paths}
+    smaller = {path: compacted_text(path, text) for path, text in texts.items()}
+    for path, new in smaller.items():
         if new is not None:
-            saved += len(pathlib.Path(path).read_text()) - len(new)
             pathlib.Path(path).write_text(new)
-    return saved
+    return sum(len(texts[path]) - len(new) for path, new in smaller.items() if new is not None)
 
 
 def keep_only(value: Any, patterns: Sequence[str], prefix: str = "") -> Any:

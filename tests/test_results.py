@@ -245,7 +245,7 @@ def test_compact_rounds_to_six_digits_keeps_units_and_drops_episodes(tmp_path, c
     assert "2 files compacted" in capsys.readouterr().out
     assert json.loads(indented.read_text()) == small and indented.read_text().startswith('{\n "')
     assert "\n" not in one_line.read_text() and json.loads(one_line.read_text()) == small
-    assert results.compacted_text(indented) is None  # no smaller: left as it is
+    assert results.compacted_text(indented, indented.read_text()) is None  # no smaller: as is
     broken, fresh = tmp_path / "broken.json", tmp_path / "fresh.json"
     broken.write_text("{")
     fresh.write_text(json.dumps(value))

@@ -83,14 +83,13 @@ def main() -> None:
     rows = []
     for name, line in zip(args.runs, lines):
         step0 = runs[name]["evaluations"][0]
-        targets = gait_tracking.TARGETS
         rows.append({
             "run": name,
             "measure": {key: round(value, 4) for key, value in line.items()},
             "step0": {"speed_tracking_rms": step0["speed_rms"],
                       "yaw_rate_tracking_rms": step0["yaw_rate_rms"],
-                      "score": round(-max(step0["speed_rms"] / targets[0],
-                                          step0["yaw_rate_rms"] / targets[1]), 4)},
+                      "score": round(gait_tracking.score(step0["speed_rms"],
+                                                         step0["yaw_rate_rms"]), 4)},
         })  # fmt: skip
         print(json.dumps(rows[-1]))
     measured = [r["measure"]["score"] for r in rows]

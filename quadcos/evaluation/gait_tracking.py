@@ -28,6 +28,12 @@ SECONDS = 20.0  # each robot's episode: four commands at the preset's 5-s resamp
 TARGETS = (0.10, 0.15)  # m/s, rad/s: the tracking RMS a gait is scored against (issue 58's)
 
 
+def score(speed_rms: float, yaw_rate_rms: float) -> float:
+    """A gait's tracking score: −max(speed RMS / 0.10 m/s, yaw-rate RMS / 0.15 rad/s) (`TARGETS`),
+    > −1 where both are within."""
+    return -max(speed_rms / TARGETS[0], yaw_rate_rms / TARGETS[1])
+
+
 def gait_maps(env_config: ml_collections.ConfigDict) -> dict[str, np.ndarray]:
     """The maps an env of `env_config` would hold for its action centre and feed-forward
     (`QuadrupedEnv.gait`), without building the env."""
@@ -50,8 +56,7 @@ def track(
     gait on the same episodes (robot i of each: the same key, so the same commands and physics):
     per gait its "fall_rate", "speed_tracking_rms" (m/s), "yaw_rate_tracking_rms" (rad/s, both
     pooled over its robots' windows, as evaluations pool them), "mean_max_abs_roll",
-    "mean_max_abs_pitch_error" (rad) and "score" (−max of the two tracking RMS over `TARGETS`:
-    > −1 where both are within)."""
+    "mean_max_abs_pitch_error" (rad) and its "score"."""
     if not env_configs or robots < 1:
         raise ValueError(f"track needs gaits and robots >= 1; got {len(env_configs)}, {robots}")
     env = env_lib.QuadrupedEnv(terrain, env_configs[0])
@@ -84,5 +89,5 @@ def _gait_entry(stats: rollout_lib.GaitEpisodeStats, robots: slice) -> dict[str,
         "yaw_rate_tracking_rms": yaw_rate,
         "mean_max_abs_roll": float(np.mean(stats.max_abs_roll[robots])),
         "mean_max_abs_pitch_error": float(np.mean(stats.max_abs_pitch_error[robots])),
-        "score": -max(speed / TARGETS[0], yaw_rate / TARGETS[1]),
+        "score": score(speed, yaw_rate),
     }
