@@ -107,7 +107,6 @@ NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path a
     "go1ref200_s0": "`menagerie:unitree_go1`: the preset's physics (rate only, 200 s)",
     "go1pathloops_s0": "Go1's MJCF by its path, the drive's loops closed (the preset)",
 }
-WARP = ("go1warp_s0", "go2warp_s0")  # Go1 and Go2 from nothing on MJX-Warp, sharing one GPU
 # the command preset as it is (the yaw rate low-passed, w4 x3, the kept policy ranked against
 # step 0 every 2 M env steps), 480 s from nothing: Go1's three seeds and Go2's sharing one GPU,
 # ANYmal C's two another
@@ -142,9 +141,6 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalfix_spdtau_s0": "the forward term on the speed low-passed over 0.25 s"
     " (`commands.speed_tau`), the same gait given; 400 s, five sharing",
 }
-SEEDS = ("go1loops_s0", "go1loops_s1", "go1loops_s2")  # Go1 from nothing, --preset=command, 300 s
-# the same without the drive's loops (both off), 540 s
-SEEDS_540 = ("go1long_s0", "go1long_s1", "go1long_s2")
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
     "go2_ln": "LayerNorm critics",

@@ -27,9 +27,6 @@ from run_labels import (
     PRESET,
     SAC_LEVERS,
     SEARCH_ATTITUDE,
-    SEEDS,
-    SEEDS_540,
-    WARP,
 )
 
 HERE = Path(__file__).parent
@@ -179,20 +176,18 @@ def _flag(argv: list[str], name: str) -> str:
     return next(arg.split("=", 1)[1] for arg in argv if arg.startswith(f"{name}="))
 
 
-def seeds(names: tuple[str, ...] = SEEDS, label: str = "seed") -> str:
-    """The rows of a Go1 seeds table: each seed's kept policy under random commands with the
-    training randomisation and in the four robustness conditions (nominal: none drawn).
-    `label` "run": the first cell names the run, its robot and seed."""
+def seeds(names: tuple[str, ...]) -> str:
+    """The rows of a seeds table: each run's kept policy under random commands with the training
+    randomisation and in the four robustness conditions (nominal: none drawn); the first cell
+    names the run, its robot and seed."""
     runs = _campaign()
     rows = []
     for name in names:
         run, kept = runs[name], runs[name]["kept"]
         conditions = run["robustness"]
         nominal = conditions["nominal"]
-        seed = _flag(run["argv"], "--seed")
-        first = seed if label == "seed" else (
-            f"`{name}`: {_flag(run['argv'], '--robot').split(':')[-1]}, seed {seed}"
-        )
+        robot = _flag(run["argv"], "--robot").split(":")[-1]
+        first = f"`{name}`: {robot}, seed {_flag(run['argv'], '--seed')}"
         rows.append(
             f"| {first} | {kept['policy_env_steps'] / 1e6:.1f} M | "
             + _rates(conditions.values())
@@ -459,11 +454,9 @@ def figure() -> None:
 def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
-        table(), seeds(PRESET, "run"), seeds(ATTITUDE, "run"), seeds(SEARCH_ATTITUDE, "run"),
-        anymal_sac(), seeds(),
-        seeds(SEEDS_540), gain(), campaign(), anymal(), seeds(WARP, "run"),
-        sac_levers(), sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
-        no_preset(),
+        table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), anymal_sac(),
+        no_preset(), gain(), campaign(), anymal(), sac_levers(),
+        sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
 
 
