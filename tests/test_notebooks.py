@@ -1,8 +1,10 @@
 """The notebooks run top to bottom at tiny sizes (QUADCOS_NOTEBOOK_TINY=1) and draw their figures.
 
 Their kernels share the tests' JAX compilation cache: notebook (a)'s rollouts have the shapes of
-tests/test_evaluate.py's, so only notebook (b)'s course and the own-robot notebook's quad12
-rollouts compile anew.
+tests/test_evaluate.py's, so only notebook (b)'s course, the own-robot notebook's quad12 rollouts
+and the commands notebook's Go1 rollouts compile anew. The commands notebook needs MuJoCo
+Menagerie's Go1 (MENAGERIE_ROOT, or the copies beside the repository that tests/test_robot.py
+uses).
 """
 
 import asyncio
@@ -18,13 +20,18 @@ from tests.cli_runs import cache_env
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 NOTEBOOKS = ROOT / "notebooks"
-NOTEBOOKS_RUN = ("evaluate_and_plot.ipynb", "custom_course.ipynb", "own_robot.ipynb")
+MENAGERIE = pathlib.Path(os.environ.get("MENAGERIE_ROOT") or ROOT.parent / "shared" / "menagerie")
+NOTEBOOKS_RUN = ("evaluate_and_plot.ipynb", "custom_course.ipynb", "own_robot.ipynb") + (
+    ("commands.ipynb",) if MENAGERIE.is_dir() else ()
+)
 
 
 def _run_all(out: pathlib.Path) -> dict[str, nbformat.NotebookNode | BaseException]:
     """Every notebook of NOTEBOOKS_RUN executed at once, each in its own kernel (a process of
     its own) writing to out/<name>: name -> the executed notebook, or what stopped it."""
     base = {**os.environ, **cache_env(), "QUADCOS_NOTEBOOK_TINY": "1"}
+    if MENAGERIE.is_dir():
+        base["MENAGERIE_ROOT"] = str(MENAGERIE)
 
     async def run(name: str) -> nbformat.NotebookNode:
         notebook = nbformat.read(NOTEBOOKS / name, as_version=4)
@@ -106,3 +113,17 @@ def test_own_robot_notebook(run_notebook):
     assert "FL_thigh_joint" in text  # the legs' table
     for name in ("cog_quad12", "attitude_quad12"):
         assert (out / f"{name}.png").stat().st_size > 1000, name
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not MENAGERIE.is_dir(), reason=f"no MuJoCo Menagerie copies at {MENAGERIE}")
+def test_commands_notebook(run_notebook):
+    notebook, out = run_notebook("commands.ipynb")
+    result = json.loads((out / "evaluation_schedule.json").read_text())
+    assert result["num_episodes"] == 4 and result["setup"]["commands"] == "0.5,0@1;0.6,0.4@1"
+    assert result["setup"]["policy_env_steps"] > 0  # a policy from training, not its gait
+    assert 0 <= result["speed_tracking_rms"] < 0.5 and 0 <= result["yaw_rate_tracking_rms"] < 0.5
+    assert (out / "command_tracking.png").stat().st_size > 1000
+    text = _text(notebook)
+    assert "gait" in text and "C MuJoCo" in text and "'command': ['batch', 2]" in text
+    assert (out / "unitree_go1_command.onnx").stat().st_size > 1000
