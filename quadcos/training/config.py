@@ -151,10 +151,10 @@ def _sac(config: ml_collections.ConfigDict) -> None:
 
 def _gait_search(config: ml_collections.ConfigDict) -> None:
     """The gait search of a from-scratch run."""
-    # A from-scratch run's first phase (quadcos.gait_search, timed with the run): a population
-    # search over constant rhythm parameters (A_k, A_h, T, φ1, φ3), round 1 uniform over §3.3's
-    # ranges, later rounds around the `elite` best; a candidate scores its robots' mean Eq. 13
-    # episode reward when none fell. The best becomes the action centre SAC starts from.
+    # A from-scratch run's first phase (quadcos.evaluation.gait_search, timed with the run): a
+    # population search over constant rhythm parameters (A_k, A_h, T, φ1, φ3), round 1 uniform
+    # over §3.3's ranges, later rounds around the `elite` best; a candidate scores its robots' mean
+    # Eq. 13 episode reward when none fell. The best becomes the action centre SAC starts from.
     # symmetric: candidates keep φ3 = φ1 − π (mirror-symmetric gaits; SAC may leave it later).
     # min_speed: m/s a candidate's robots must reach to be ranked (0: any speed): on average, or
     # with min_speed_of="slowest" each of them (under randomisation: on every robot drawn).

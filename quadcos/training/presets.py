@@ -57,7 +57,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         "sac.episode_length": 500,
         "sac.batch_size": 256,
         # 4 updates per env step lose the trot at the actor's first updates and end no faster
-        # than it; 12 learn past it (experiments/make_train/sweep).
+        # than it; 12 learn past it (docs/decisions.md, "Experiments").
         "sac.updates_per_step": 12,
         "sac.replay_size": 200_000,
         "sac.min_replay_size": 4_096,
@@ -100,13 +100,13 @@ PRESETS: dict[str, dict[str, Any]] = {
     },
 }
 # From scratch on one GPU (experiments/from_scratch): no gait is given. The run first searches
-# constant rhythm parameters (quadcos.gait_search, a few seconds on a GPU), then SAC starts from
-# the gait found, exploring around it as the trot start does around the trot. Eq. 9's r_s is paid
-# only while the robot moves (≥ 0.1 m/s, low-passed over 1 s): paid for standing too, SAC
-# unlearns the found gait and stands (experiments/from_scratch, run scratch_alive_s0). 20 M env
+# constant rhythm parameters (quadcos.evaluation.gait_search, a few seconds on a GPU), then SAC
+# starts from the gait found, exploring around it as the trot start does around the trot. Eq. 9's
+# r_s is paid only while the robot moves (≥ 0.1 m/s, low-passed over 1 s): paid for standing too,
+# SAC unlearns the found gait and stands (experiments/from_scratch, run scratch_alive_s0). 20 M env
 # steps (about 3 minutes on an H100 with Warp): speed and pitch error still improve after 10 M;
 # the policy of the best evaluation is kept beside the last, which one seed lost in its last
-# million steps (experiments/from_scratch, "20 M env steps").
+# million steps (experiments/from_scratch).
 PRESETS["scratch"] = {
     **PRESETS["gpu"],
     "env.action_centre": "search",
@@ -115,8 +115,8 @@ PRESETS["scratch"] = {
     "sac.eval_interval": 1_000_000,
     "sac.keep_best_policy": True,
     # The kept policy is the best-rewarded evaluation among those with at most 1 % falls: ranked
-    # by reward alone, ANYmal C's run kept a 0.96-m/s policy that fell in 2 % of its episodes over
-    # a 0.81-m/s one that never fell (experiments/robots).
+    # by reward alone a faster policy that falls beats a slower one that never does (Eq. 13's fall
+    # penalty r_p is paid once, Eq. 10's r_y every metre).
     "sac.best_policy_max_fall_rate": 0.01,
 }
 # One policy for any slope (experiments/any_slope): from scratch on a family of random courses of
@@ -154,7 +154,7 @@ PRESETS["any_slope"] = {
 # gaits that are slow on it), pushes as often as they are measured, observation noise; the
 # rhythm's period down to 0.15 s (the paper's range is (0, 2] s; at the default 0.2 s the fastest
 # gaits stood at the floor, under 0.8 m/s); a 20-s randomised gait search floored at 0.85 m/s whose
-# best are confirmed on 64 robots each. The kept policy is, so far on every seed, the searched
+# best are confirmed on 64 robots each. The kept policy is, on each seed measured, the searched
 # gait (SAC's later policies walk faster and fall more); SAC reaches 0.3 of each range around it.
 PRESETS["robust"] = {
     **PRESETS["scratch"],
@@ -174,7 +174,7 @@ PRESETS["robust"] = {
     "sac.max_seconds": 300.0,
 }
 
-# A commanded, randomised policy on any robot (issue 58: `--preset=command
+# A commanded, randomised policy on any robot (`--preset=command
 # --robot=menagerie:unitree_go1`): from scratch on flat ground as `scratch` (the gait search, then
 # SAC around the gait found), with velocity commands — v* and ω* drawn from the robot's ranges
 # (quadcos.robot.presets; derived from its size where it has no preset) at every reset and every
