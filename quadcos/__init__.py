@@ -23,10 +23,14 @@ def load_policy(path):
     return _load_policy(path)
 
 
-def evaluate_policy(policy, terrain=None, *, episodes=64, seconds=20.0, seed=0, **env_overrides):
+def evaluate_policy(
+    policy, terrain=None, *, episodes=64, seconds=20.0, seed=0, commands=None, **env_overrides
+):
     """Deterministic episodes of `policy` (a run or policy directory, "fixed:trot",
     "fixed:A_k,A_h,T,phi1,phi3" or an `evaluation.ActionSource`) on `terrain` (a spec or Terrain;
-    default: the policy's training terrain), all at once. Env overrides as in `make_env`.
+    default: the policy's training terrain), all at once. `commands`: the velocity commands a
+    policy trained with them follows ("random" or a schedule "v,ω@s;...", as `--commands`; None:
+    its own). Env overrides as in `make_env`.
 
     Returns a `quadcos.evaluation.Evaluation`: `.success`, `.falls`, `.speed`, `.summary`,
     `.episodes`, `.trace`, `.to_json()`, `.save_video(path)`.
@@ -40,6 +44,7 @@ def evaluate_policy(policy, terrain=None, *, episodes=64, seconds=20.0, seed=0, 
         seconds=seconds,
         seed=seed,
         env_overrides=env_overrides,
+        commands=commands,
     )
 
 

@@ -440,6 +440,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = _parser().parse_args(sys.argv[1:] if argv is None else list(argv))
         root = args.root
+        if args.command in (None, "rebuild") and not (root / RESULTS_DIR).is_dir():
+            where = root.absolute()
+            raise ValueError(f"no {RESULTS_DIR}/ under {where}: run it in the repository or pass"
+                             " --root")
         if args.command == "record":
             commit = args.commit or last_commit(args.sources[0], root)
             record = make_record(
@@ -465,6 +469,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             problems = check(root)
             for problem in problems:
                 print(problem)
+            if not problems:
+                print(f"{RESULTS_DIR}/: every page agrees with its records")
             return cli.EXIT_FAILURE if problems else cli.EXIT_OK
         for page in write_pages(root):
             print(f"rendered {page.relative_to(root)}")

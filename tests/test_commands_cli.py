@@ -13,6 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import quadcos
 from quadcos import env as env_lib
 from quadcos import evaluate, evaluation, play, sim2sim
 from quadcos.deploy import engines, host_commands, host_robot, twins
@@ -429,6 +430,9 @@ def test_mjx_evaluation_records_policy_env_steps(commanded):
     assert gait.summary["setup"]["policy_env_steps"] == 0
     # the same env, another actor: the policy's random weights move the rhythm off its centre
     assert gait.summary["mean_forward_speed"] != result.summary["mean_forward_speed"]
+    # the top-level API follows the same commands (the same compiled program)
+    same = quadcos.evaluate_policy(str(commanded), episodes=2, seconds=0.5, commands="0.5,0@5")
+    assert same.summary["speed_tracking_rms"] == result.summary["speed_tracking_rms"]
 
 
 # --- the feed-forward measured on a gait ----------------------------------------------------------

@@ -300,3 +300,20 @@ def test_warp_steps_randomised_robots_as_jax_does():
     assert (
         np.abs(positions["jax"][:, :2] - np.asarray(state.pipeline_state.qpos[:, :2])).max() > 0.05
     )
+
+
+def test_nominal_pins_every_range_at_the_nominal_robot():
+    """NOMINAL (a single perturbation's base) leaves no range drawn: each fixed at one value, the
+    scales at 1, no latency, pushes, noise or centre-of-mass offset; what it leaves unset is no
+    range (a push's size, the training ramp, the share of draws at the ends)."""
+    pinned = {key.removeprefix("randomization."): v for key, v in randomization.NOMINAL.items()}
+    for name in randomization.RANGES:
+        low, high = pinned[name]
+        assert low == high, name
+        assert name == "friction" or low == (0.0 if name == "latency_s" else 1.0), name
+    assert pinned["enabled"] and pinned["com_offset_m"] == 0
+    assert pinned["push_interval_s"] == 0 and pinned["obs_noise"] == 0
+    unset = set(randomization.default_config()) - set(pinned)
+    assert unset == {"push_force_n", "push_duration_s", "ramp_s", "range_ends"}
+    config = apply_overrides(quadcos.env.default_config(), randomization.NOMINAL)
+    randomization.validate(config.randomization)  # a config the env accepts

@@ -252,3 +252,10 @@ def test_compact_rounds_to_six_digits_keeps_units_and_drops_episodes(tmp_path, c
     assert results.main(["compact", str(fresh), str(broken)]) == 2
     assert "broken.json: not a readable JSON file" in capsys.readouterr().err
     assert json.loads(fresh.read_text()) == value  # nothing written where one input is bad
+
+
+def test_check_outside_a_repository_names_the_root_and_says_how(tmp_path, capsys):
+    assert results.main(["--root", str(tmp_path), "--check"]) == 2
+    assert f"no results/ under {tmp_path}" in capsys.readouterr().err
+    assert results.main(["--root", str(ROOT), "--check"]) == 0
+    assert "every page agrees" in capsys.readouterr().out

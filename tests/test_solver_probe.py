@@ -2,6 +2,7 @@
 on the CPU, 4 robots for 1 s; one reference rollout (C MuJoCo) and one compiled candidate rollout
 (MJX-JAX) shared by every test (the probe keeps them per robot and config in the process)."""
 
+import dataclasses
 import json
 import pathlib
 
@@ -118,6 +119,8 @@ def test_no_passing_candidate_keeps_the_mjcf_options(go1_probe):
     result = solver_probe.probe(_go1_config(), [UNSTABLE], num_robots=ROBOTS, seconds=SECONDS)
     assert not result.passed and result.chosen == result.reference == go1_probe.reference
     assert "no candidate passed" in result.message and "2 ms" in result.message
+    untried = dataclasses.replace(result, trials=())  # no candidate cheaper than the MJCF's
+    assert untried.message.startswith("solver probe: no cheaper candidate than")
     config = _go1_config()
     solver_probe.apply(config, result)
     assert (config.physics_dt, config.solver_iterations, config.cone) == (0.002, 100, "elliptic")

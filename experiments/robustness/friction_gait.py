@@ -18,10 +18,10 @@ import json
 from pathlib import Path
 
 import numpy as np
-from measure import NOMINAL
 
 from quadcos import evaluation
 from quadcos._util import caches
+from quadcos.env.randomization import NOMINAL
 
 
 def gait_at(policy: str, friction: float, num_envs: int, seconds: float) -> dict:

@@ -1,4 +1,4 @@
-"""A policy under the perturbations of issue 16's robustness table, one at a time.
+"""A policy under the robustness table's perturbations, one at a time.
 
     python experiments/robustness/measure.py --policy=experiments/policies/flat --num_envs=256 \
         --out=experiments/robustness/flat_trained_without.json
@@ -7,8 +7,9 @@
 
 Each condition is `quadcos.evaluate`'s deterministic evaluation (flat, 20-s episodes, the same
 seeds) with `env.randomization` enabled and every range fixed to one value: the nominal robot
-(friction 1.5 as in the paper's robot's MJCF and at the top of the training range; Go1, Go2 and
-ANYmal C's feet have 0.8 in theirs; scales 1, no latency, no pushes) except for the one
+(`quadcos.env.randomization.NOMINAL`: friction 1.5 as in the paper's robot's MJCF and at the top
+of the training range; Go1, Go2 and ANYmal C's feet have 0.8 in theirs; scales 1, no latency, no
+pushes) except for the one
 perturbation. `--env randomization.friction='(0.8, 0.8)'` moves the nominal friction.
 """
 
@@ -17,18 +18,6 @@ import json
 import time
 from pathlib import Path
 
-NOMINAL = {
-    "randomization.enabled": True,
-    "randomization.friction": (1.5, 1.5),
-    "randomization.torso_mass_scale": (1.0, 1.0),
-    "randomization.com_offset_m": 0.0,
-    "randomization.kp_scale": (1.0, 1.0),
-    "randomization.damping_scale": (1.0, 1.0),
-    "randomization.strength_scale": (1.0, 1.0),
-    "randomization.latency_s": (0.0, 0.0),
-    "randomization.push_interval_s": 0.0,
-    "randomization.obs_noise": 0.0,
-}
 # Gait quality beside survival (quadcos.evaluation's keys; null where a policy has no commands).
 GAIT_KEYS = (
     "speed_tracking_rms",
@@ -87,6 +76,7 @@ def main() -> None:
 
     from quadcos import evaluation
     from quadcos._util import caches
+    from quadcos.env.randomization import NOMINAL
 
     caches.enable()
     extra = env_overrides(args.env)

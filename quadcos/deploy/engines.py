@@ -333,7 +333,8 @@ def policy_parser(prog: str, description: str, policy_help: str) -> argparse.Arg
         "--commands",
         help="velocity commands of a policy trained with them: 'random' (the training"
         " distribution) or a schedule 'v,w@s;...' (forward speed m/s, yaw rate rad/s, seconds),"
-        " e.g. 0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5 (default: the policy's own)",
+        " e.g. --commands='0.5,0@5;1.0,0@5;0.6,0.4@5;0,0@5' (quoted: ';' ends a shell command;"
+        " default: the policy's own)",
     )
     return cli.raising(parser)
 

@@ -76,6 +76,24 @@ def default_config() -> ml_collections.ConfigDict:
     return config
 
 
+# Env overrides (`make_env(**NOMINAL)`, `env_overrides=` of an evaluation) of randomised robots
+# all drawn as the nominal one: every range at its nominal value (friction 1.5, the paper's MJCF's
+# and the top of the default range), no pushes, no observation noise. With one range added, a
+# single perturbation: experiments/robustness/measure.py's conditions.
+NOMINAL = {
+    "randomization.enabled": True,
+    "randomization.friction": (1.5, 1.5),
+    "randomization.torso_mass_scale": (1.0, 1.0),
+    "randomization.com_offset_m": 0.0,
+    "randomization.kp_scale": (1.0, 1.0),
+    "randomization.damping_scale": (1.0, 1.0),
+    "randomization.strength_scale": (1.0, 1.0),
+    "randomization.latency_s": (0.0, 0.0),
+    "randomization.push_interval_s": 0.0,
+    "randomization.obs_noise": 0.0,
+}
+
+
 class Physics(NamedTuple):
     """One robot's draw (the nominal robot: friction of the MJCF, scales 1, no latency, no push)."""
 

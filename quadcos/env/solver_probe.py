@@ -122,6 +122,8 @@ class ProbeResult:
         """One line: what the probe chose."""
         if self.passed:
             return f"solver probe: {self.chosen.label} (without it: {self.reference.label})"
+        if not self.trials:
+            return f"solver probe: no cheaper candidate than {self.reference.label}; keeping it"
         return f"solver probe: no candidate passed; keeping {self.reference.label}"
 
     def record(self) -> dict:
