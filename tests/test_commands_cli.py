@@ -682,3 +682,17 @@ def test_gaits_given_as_data_walk_as_envs_built_with_them():
     with pytest.raises(ValueError, match="one row per robot"):
         rollout_lib.rollout(built, source, num_envs=2, num_steps=1, gaits={
             name: value[:1] for name, value in gaits.items()})
+
+
+def test_summary_line_counts_the_episodes_a_course_outlasted():
+    summary = {
+        "num_episodes": 8, "success_rate": 0.5, "fall_rate": 0.125, "mean_forward_speed": 0.4,
+        "setup": {"terrain": "s4", "course_end_x": 10.0},
+    }
+    line = engines.summary_line(summary, "mjx")
+    assert line.startswith("8 episodes on s4: success 0.500") and "3 out of time" in line
+    one = {**summary, "num_episodes": 1, "success_rate": 1.0, "fall_rate": 0.0}
+    assert engines.summary_line(one, "mujoco").startswith("1 episode on s4 in C MuJoCo:")
+    assert "out of time" not in engines.summary_line(one, "mujoco")
+    flat = {**summary, "setup": {"terrain": "flat"}}  # no course: the time limit is the episode
+    assert "out of time" not in engines.summary_line(flat, "mjx")

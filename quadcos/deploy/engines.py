@@ -378,14 +378,20 @@ def parse_command(
 
 
 def summary_line(summary: Mapping[str, Any], engine: str, out: Any = None) -> str:
-    """The evaluation in one line: episodes, survival, speed, the command tracking where the
-    robots followed commands, and where the JSON went."""
+    """The evaluation in one line: episodes, survival, speed (on a course, how many episodes the
+    time limit ended before its end), the command tracking where the robots followed commands,
+    and where the JSON went."""
     where = " in C MuJoCo" if engine == "mujoco" else ""
+    episodes = summary["num_episodes"]
     line = (
-        f"{summary['num_episodes']} episodes on {summary['setup']['terrain']}{where}: success"
-        f" {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
+        f"{episodes} episode{'' if episodes == 1 else 's'} on {summary['setup']['terrain']}{where}:"
+        f" success {summary['success_rate']:.3f}, falls {summary['fall_rate']:.3f}, speed"
         f" {summary['mean_forward_speed']:.3f} m/s"
     )
+    if summary["setup"].get("course_end_x") is not None:
+        short = round(episodes * (1.0 - summary["success_rate"] - summary["fall_rate"]))
+        if short > 0:
+            line += f", {short} out of time before the course's end"
     if summary.get("speed_tracking_rms") is not None:
         line += (
             f", tracking {summary['speed_tracking_rms']:.3f} m/s,"

@@ -318,7 +318,9 @@ def action_centre(spec: str, period_min: float) -> RhythmParameters | None:
     except ValueError:
         values = []
     if len(values) != 5:
-        raise ValueError(f"unknown action_centre {spec!r}; known: {names}")
+        raise ValueError(
+            f"unknown action_centre {spec!r}; known: {names} (quadcos.train: 'search' too)"
+        )
     lower, upper = parameter_bounds(period_min)
     for name, value, low, high in zip(RhythmParameters._fields, values, lower, upper):
         if not low < value < high:
