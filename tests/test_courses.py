@@ -248,3 +248,16 @@ def test_evaluation_runs_each_lane_and_reports_per_course():
     assert summary["worst_course_success_rate"] == min(rates)
     table = evaluation.course_table(summary)
     assert table.splitlines()[2].startswith("| up | 2 |") and "worst" in table.splitlines()[-1]
+
+
+def test_the_course_table_says_when_episodes_missed_lanes():
+    course = {key: 0.5 for key in ("success_rate", "fall_rate", "mean_forward_speed",
+                                   "mean_max_abs_pitch_error", "mean_max_abs_yaw",
+                                   "mean_max_abs_roll", "slope_error_rms")}
+    summary = {"courses": {"a": {**course, "num_episodes": 1}, "b": {**course, "num_episodes": 1}},
+               "mean_course_success_rate": 0.5, "worst_course": "a",
+               "worst_course_success_rate": 0.5}
+    assert evaluation.course_table({**summary, "lanes": 2}).splitlines()[-1].startswith(
+        "courses: 2, mean success 0.500")
+    partial = evaluation.course_table({**summary, "lanes": 67}).splitlines()[-1]
+    assert partial.startswith("courses: 2 of 67 (--num_envs=67 or more walks each)")

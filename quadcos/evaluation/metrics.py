@@ -172,7 +172,8 @@ def per_course(
     episodes: Sequence[Mapping[str, Any]], stats: EpisodeStats, lane_names: Sequence[str]
 ) -> dict[str, Any]:
     """Aggregates per lane of a lane terrain ({name: aggregate}) and over the courses: the mean and
-    the worst course's success rate."""
+    the worst course's success rate, and how many lanes the terrain has (`lanes`: more than
+    `courses` holds where fewer episodes than lanes ran)."""
     courses = {}
     for lane, name in enumerate(lane_names):
         picked = [e for e in episodes if e["lane"] == lane]
@@ -184,6 +185,7 @@ def per_course(
     worst = min(rates, key=rates.get)
     return {
         "courses": courses,
+        "lanes": len(lane_names),
         "mean_course_success_rate": float(np.mean(list(rates.values()))),
         "worst_course": worst,
         "worst_course_success_rate": rates[worst],

@@ -219,8 +219,10 @@ def course_table(summary: Mapping[str, Any]) -> str:
             "—" if course[key] is None else format(course[key], spec) for _, key, spec in columns
         )
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    walked, lanes = len(summary["courses"]), summary.get("lanes", len(summary["courses"]))
+    of = f" of {lanes} (--num_envs={lanes} or more walks each)" if walked < lanes else ""
     lines.append(
-        f"courses: {len(summary['courses'])}, mean success"
+        f"courses: {walked}{of}, mean success"
         f" {summary['mean_course_success_rate']:.3f}, worst {summary['worst_course']}"
         f" {summary['worst_course_success_rate']:.3f}"
     )
