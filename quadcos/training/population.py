@@ -70,11 +70,13 @@ def gpus() -> list[str]:
 def score(evaluation: dict) -> tuple[float, float]:
     """A member's rank: worst-course then mean course success (a test set's evaluation), or
     success then mean episode reward; a value that is not a finite number ranks lowest."""
+    return tuple(_finite(evaluation.get(key)) for key in _score_keys(evaluation))
+
+
+def _score_keys(evaluation: dict) -> tuple[str, str]:
     if "worst_course_success_rate" in evaluation:
-        keys = ("worst_course_success_rate", "mean_course_success_rate")
-    else:
-        keys = ("success_rate", "mean_episode_reward")
-    return tuple(_finite(evaluation.get(key)) for key in keys)
+        return ("worst_course_success_rate", "mean_course_success_rate")
+    return ("success_rate", "mean_episode_reward")
 
 
 def _finite(value) -> float:
@@ -166,7 +168,10 @@ def run(
         logger.info(
             "population: member %d (seed %d): train exit %d, %s", member["index"],
             member["seed"], member["train_exit"],
-            "selection %s" % ", ".join(f"{value:.3f}" for value in score(member["selection"]))
+            "selection: %s" % ", ".join(
+                f"{key} {value:.3f}"
+                for key, value in zip(_score_keys(member["selection"]), score(member["selection"]))
+            )
             if "selection" in member else "not compared",
         )
     if chosen is None:
