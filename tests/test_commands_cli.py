@@ -346,7 +346,7 @@ def test_an_evaluation_without_out_prints_its_tracking_and_writes_nothing(
     argv = [f"--policy={commanded}", "--engine=mujoco", "--commands=0.5,0@5", "--num_envs=1"]
     assert evaluate.main([*argv, "--seconds=1.0", "--no_progress"]) == 0  # two 0.5-s windows
     line = capsys.readouterr().out.strip().splitlines()[-1]
-    assert line.startswith("1 episodes on flat in C MuJoCo: success")
+    assert line.startswith("1 episode on flat in C MuJoCo: success")
     assert re.search(r"tracking \d+\.\d{3} m/s, \d+\.\d{3} rad/s RMS$", line), line
     assert list(tmp_path.iterdir()) == []
 
