@@ -224,6 +224,12 @@ def main() -> None:
         help="the drive's speed-gain rate (1/s, env.commands.speed_gain_rate); default: the policy's",
     )
     parser.add_argument(
+        "--heading_gain",
+        type=float,
+        help="the drive's heading loop (1/s, env.commands.heading_gain; 0: open); default: the"
+        " policy's",
+    )
+    parser.add_argument(
         "--ablate",
         action="store_true",
         help="also each action value held at the zero action's, and alone (`ablation`)",
@@ -232,9 +238,10 @@ def main() -> None:
     args = parser.parse_args()
     pilot = host_robot.Pilot.load(args.policy)
     config = pilot.config
-    if args.speed_gain_rate is not None:
+    loops = {"speed_gain_rate": args.speed_gain_rate, "heading_gain": args.heading_gain}
+    if any(value is not None for value in loops.values()):
         config = ml_collections.ConfigDict(config.to_dict())
-        config.commands.speed_gain_rate = args.speed_gain_rate
+        config.commands.update({k: value for k, value in loops.items() if value is not None})
     robot = host_robot.HostRobot("flat", config, physics="training", commands="random")
     act, recorder = pilot.actor(), Recorder(pilot.actor())
     windows = []
@@ -251,6 +258,7 @@ def main() -> None:
     record = {
         "policy": args.policy,
         "speed_gain_rate": config.commands.speed_gain_rate,
+        "heading_gain": config.commands.heading_gain,
         "episodes": args.episodes,
         "seconds": args.seconds,
         "speed_tracking_rms": rms(windows, SPEED),
