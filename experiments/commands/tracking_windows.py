@@ -20,6 +20,7 @@ change's first window, `by_speed` splits the speed errors by the commanded v* (0
 `by_yaw_rate` the yaw-rate errors by the commanded ω* (0.2-rad/s bins): the mean error is the
 policy's steady bias there, the RMS about it what varies.
 
+`--speed_gain_rate` and `--heading_gain` set the drive's loops (0: open) instead of the policy's.
 `--ablate` adds what each of the policy's action values does to its tracking (`ablation`): the
 policy with that value held at the zero action's (the gait's, each value in turn), and the zero
 action with only that value the policy's, on the same episodes. `action_stats`: each action
