@@ -339,7 +339,7 @@ def _train_loop(
         )
         finished = step >= config.num_timesteps or out_of_time
         if out_of_time:
-            logger.info("time budget of %g s spent at env step %d", config.max_seconds, step)
+            logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
         if finished or evaluating:
             record_evaluation(_training_row(trainer, state, step, clock(), window), state)
             window = host.Window()
@@ -348,7 +348,9 @@ def _train_loop(
         progress.update(step, (step - previous_step) / chunk.seconds, history)
         if stopping:
             logger.warning(
-                "stopped by %s at env step %d after writing a checkpoint", stop.signal_name, step
+                "stopped by %s at env step %s after writing a checkpoint",
+                stop.signal_name,
+                f"{step:,}",
             )
         return stopping or out_of_time
 
