@@ -19,7 +19,7 @@
 # summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
 # NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json (the kept policy's
 # four conditions), NAME/gait_robustness.json (its step-0 gait's), NAME/last_robustness.json
-# and the policies;
+# and the policies (LAST=0: not the last policy's two);
 # pack tars NAME/ with the run's logs as NAME.tgz. MEM (default 0.9): the share of each GPU's memory
 # the call's processes take together, less where another call's runs share the GPUs.
 set -uo pipefail
@@ -109,11 +109,14 @@ evaluate)
       export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem * 0.18 / $share, 2))")
       python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=$envs \
         --seconds=20 --commands=random --out="$OUT/$NAME/eval.json" > "$runs/${NAME}_eval.log" 2>&1 &
-      python3 -m quadcos.evaluate --no_progress --policy="$runs/$NAME/policy" --terrain=flat \
-        --num_envs=$envs --seconds=20 --commands=random --out="$OUT/$NAME/last_eval.json" \
-        > "$runs/${NAME}_last_eval.log" 2>&1 &
-      for which in "$kept=robustness" "gait:$kept=gait_robustness" \
-          "$runs/$NAME/policy=last_robustness"; do
+      which_ones=("$kept=robustness" "gait:$kept=gait_robustness")
+      if [ "${LAST:-1}" = 1 ]; then
+        python3 -m quadcos.evaluate --no_progress --policy="$runs/$NAME/policy" --terrain=flat \
+          --num_envs=$envs --seconds=20 --commands=random --out="$OUT/$NAME/last_eval.json" \
+          > "$runs/${NAME}_last_eval.log" 2>&1 &
+        which_ones+=("$runs/$NAME/policy=last_robustness")
+      fi
+      for which in "${which_ones[@]}"; do
         python3 experiments/robustness/measure.py --policy="${which%=*}" --num_envs=$envs \
           --commands=random --conditions nominal "latency 40 ms" "pushes 50 N, 0.1 s" \
           "friction 0.4" --out="$OUT/$NAME/${which##*=}.json" > "$runs/${NAME}_${which##*=}.log" 2>&1 &
