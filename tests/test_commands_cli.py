@@ -640,6 +640,14 @@ def test_track_gaits_keeps_the_best_tracking_gait_that_never_fell(monkeypatch, c
         {"sac.gait_search.track_gaits": 3, "sac.gait_search.max_attitude": 0.1},
     )
     assert calibration.find_gait(bounded)["action_centre"] == second  # third rolls 0.12
+    # scored against an attitude target instead: third's roll 0.12 / 0.10 is worse than second's
+    # worst ratio (0.09 m/s / 0.10); with a looser target third's tracking wins again
+    for target, kept in ((0.1, second), (0.2, third)):
+        scored = presets.build_config(
+            presets.PRESETS["command"],
+            {"sac.gait_search.track_gaits": 3, "sac.gait_search.track_attitude": target},
+        )
+        assert calibration.find_gait(scored)["action_centre"] == kept
     with pytest.raises(presets.UsageError, match="track_gaits must be a whole number >= 0"):
         presets.build_config(presets.PRESETS["command"], {"sac.gait_search.track_gaits": -1})
 
@@ -679,6 +687,9 @@ def test_gaits_given_as_data_walk_as_envs_built_with_them():
     for line in lines:
         worse = max(line["speed_tracking_rms"] / 0.10, line["yaw_rate_tracking_rms"] / 0.15)
         assert line["score"] == pytest.approx(-worse)
+    rolls = gait_tracking.score(0.05, 0.06, attitude=0.15, attitude_target=0.1)
+    assert rolls == pytest.approx(-1.5)
+    assert gait_tracking.score(0.05, 0.06, attitude=0.15) == pytest.approx(-0.5)  # target off
     with pytest.raises(ValueError, match="one row per robot"):
         rollout_lib.rollout(built, source, num_envs=2, num_steps=1, gaits={
             name: value[:1] for name, value in gaits.items()})

@@ -83,6 +83,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert config["sac"]["gait_search"].pop("max_fraction") == 0.5
     assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search's bound: off
     assert config["sac"]["gait_search"].pop("track_gaits") == 0  # the best gait only, as run
+    assert config["sac"]["gait_search"].pop("track_attitude") == 0.0  # (scores finalists: none)
     # ... and the kept policy ranked by tracking, an option: by reward, as the runs ranked it.
     assert config["sac"].pop("best_policy_by") == "reward"
     assert config["sac"].pop("best_policy_tracking_targets") == [0.1, 0.15]
@@ -133,6 +134,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     assert config["sac"].pop("critic_value_range") == [-250.0, 250.0]
     assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search as it ran
     assert config["sac"]["gait_search"].pop("track_gaits") == 0  # its best gait, as it ran
+    assert config["sac"]["gait_search"].pop("track_attitude") == 0.0  # (scores finalists: none)
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
     assert env["commands"].pop("zero_command_probability") == 0.0
@@ -169,11 +171,12 @@ def test_an_attitude_bound_that_is_no_angle_is_named(bound):
     from quadcos.training import checks
     from quadcos.training import config as training_config
 
-    config = training_config.default_config()
-    assert config.gait_search.max_attitude == 0.0  # off
-    config.gait_search.max_attitude = bound
-    with pytest.raises(checks.ConfigError, match=f"max_attitude must be a finite angle .*{bound}"):
-        checks.check_config(config)
+    for name in ("max_attitude", "track_attitude"):
+        config = training_config.default_config()
+        assert config.gait_search[name] == 0.0  # off
+        config.gait_search[name] = bound
+        with pytest.raises(checks.ConfigError, match=f"{name} must be a finite angle .*{bound}"):
+            checks.check_config(config)
 
 
 def test_a_confirmation_that_does_not_fill_the_search_batch_is_named():

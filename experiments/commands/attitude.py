@@ -10,7 +10,7 @@ pushes condition's (50 N, 0.1 s), and how many runs exceed the 0.10-rad target u
 randomisation and how many without it (nominal). Runs that did not record their robot: "?".
 Then, per robot, what SAC changes: over the runs whose training evaluations recorded the roll,
 the step-0 evaluation's roll (the searched gait under the untrained actor) and the largest
-change any later evaluation of the run made to it.
+change any later evaluation of any run made to it (with that run), and the next largest.
 """
 
 import json
@@ -60,16 +60,16 @@ def describe(runs: list[dict], label: str, key: str) -> str:
     )
 
 
-def sac_change(runs: dict) -> dict[str, list[tuple[float, float]]]:
-    """(step 0's roll, the largest |change| from it over the later evaluations) of each run
-    whose training evaluations recorded the roll, by robot."""
-    by_robot: dict[str, list[tuple[float, float]]] = {}
-    for run in runs.values():
+def sac_change(runs: dict) -> dict[str, list[tuple[float, float, str]]]:
+    """(step 0's roll, the largest |change| from it over the later evaluations, the run's name)
+    of each run whose training evaluations recorded the roll, by robot."""
+    by_robot: dict[str, list[tuple[float, float, str]]] = {}
+    for name, run in runs.items():
         rolls = [row["roll"] for row in run.get("evaluations", ()) if row.get("roll") is not None]
         first = (run.get("evaluations") or [{}])[0]
         if len(rolls) > 1 and first.get("env_steps") == 0 and first.get("roll") is not None:
             change = max(abs(roll - rolls[0]) for roll in rolls[1:])
-            by_robot.setdefault(robot(run), []).append((rolls[0], change))
+            by_robot.setdefault(robot(run), []).append((rolls[0], change, name))
     return by_robot
 
 
@@ -79,11 +79,13 @@ def main(argv: list[str]) -> int:
     for name, measured_runs in sorted(measured(runs).items()):
         angles = "; ".join(describe(measured_runs, label, key) for label, key in ANGLES)
         print(f"{name}: {len(measured_runs)} runs; {angles}")
-    for name, pairs in sorted(sac_change(runs).items()):
-        starts = ", ".join(f"{start:.3f}" for start, _ in pairs)
+    for name, rows in sorted(sac_change(runs).items()):
+        starts = ", ".join(f"{start:.3f}" for start, _, _ in rows)
+        (_, most, run), *rest = sorted(rows, key=lambda row: -row[1])
+        after = f", the next {rest[0][1]:.3f} rad" if rest else ""
         print(
-            f"{name}, training evaluations: {len(pairs)} runs; step-0 roll {starts} rad;"
-            f" SAC changed it by at most {max(change for _, change in pairs):.3f} rad"
+            f"{name}, training evaluations: {len(rows)} runs; step-0 roll {starts} rad;"
+            f" SAC changed it by at most {most:.3f} rad ({run}){after}"
         )
     return 0
 

@@ -123,6 +123,10 @@ ATTITUDE = ("go1cmd_att_s0", "go1cmd_att_s1", "go1cmd_att_s2", "go2cmd_att_s0")
 SEARCH_ATTITUDE = ("go1cmd_searchatt_s0", "go1cmd_searchatt_s1", "go1cmd_searchatt_s2",
                    "go2cmd_searchatt_s0", "go1cmd_searchattc_s0", "go1cmd_searchattc_s1",
                    "go1cmd_searchattc_s2")
+# the preset with the gait chosen among the search's 4 best by its tracking of random commands
+# (`sac.gait_search.track_gaits` 4, lever `tracked`): Go1's three seeds sharing one GPU with
+# `anymalfix_turn10caps10_s0`
+TRACKED = ("go1cmd_tracked_s0", "go1cmd_tracked_s1", "go1cmd_tracked_s2")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
@@ -140,6 +144,8 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " same gait given; 400 s, five runs sharing one GPU",
     "anymalfix_spdtau_s0": "the forward term on the speed low-passed over 0.25 s"
     " (`commands.speed_tau`), the same gait given; 400 s, five sharing",
+    "anymalfix_turn10caps10_s0": "`anymalfix_turn10_s0`'s with CAPS's smoothness terms, 10 and 10"
+    " (`sac.smoothness.temporal`, `spatial`); 480 s, four runs sharing one GPU",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",

@@ -27,6 +27,7 @@ from run_labels import (
     PRESET,
     SAC_LEVERS,
     SEARCH_ATTITUDE,
+    TRACKED,
 )
 
 HERE = Path(__file__).parent
@@ -454,8 +455,8 @@ def figure() -> None:
 def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
-        table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), anymal_sac(),
-        no_preset(), gain(), campaign(), anymal(), sac_levers(),
+        table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
+        anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
 

@@ -8,7 +8,8 @@ replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_d
 --no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
 rate, the env-steps/s of the window it ends, its tracking RMS where logged), the training rate
-at the last evaluation, the solver probe's physics (a robot without a preset), and the key
+at the last evaluation, the solver probe's physics (a robot without a preset), the gait tracking
+measure's finalists (`sac.gait_search.track_gaits`), and the key
 numbers of the kept policy's random-command evaluation and robustness conditions, of its step-0
 gait's conditions and of the last policy's evaluation and conditions (where measured), with the
 physics they ran on where recorded (per-episode data left out).
@@ -34,6 +35,11 @@ SEARCH_ROUND = re.compile(r"gait search round \d+/\d+ \((\d+) s\): (\d+) of (\d+
 SEARCH_END = re.compile(  # (runs that logged it: the gait's attitude in the search)
     r"gait search: action centre \S+ \(([\d.]+) m/s, ([\d.]+) % falls"
     r"(?:, roll ([\d.]+) rad, pitch error ([\d.]+) rad)?\) after (\d+) s"
+)
+# the gait tracking measure's line of each finalist (`sac.gait_search.track_gaits`)
+TRACKED = re.compile(
+    r"gait tracking #\d+ \S+: ([\d.]+) % falls, ([\d.]+) m/s, ([\d.]+) rad/s, roll ([\d.]+),"
+    r" pitch error ([\d.]+) rad(: kept)?"
 )
 PROBE = re.compile(r"solver probe: ([^(\n]*?) \(")  # a robot without a preset: the physics chosen
 KEYS = (
@@ -128,6 +134,13 @@ def summary(path: Path) -> dict:
             **({"roll": float(found[3]), "pitch_error": float(found[4])} if found[3] else {}),
             "seconds": int(found[5]),
         }} if rounds and found else {}),
+        # the finalists the gait tracking measure walked, in the search's order (runs with
+        # `sac.gait_search.track_gaits`): falls %, speed and yaw-rate RMS, roll, pitch error
+        **({"tracked_gaits": [
+            {"fall_percent": float(falls), "speed_rms": float(speed), "yaw_rate_rms": float(yaw),
+             "roll": float(roll), "pitch_error": float(pitch), "kept": bool(kept)}
+            for falls, speed, yaw, roll, pitch, kept in TRACKED.findall(log)
+        ]} if TRACKED.search(log) else {}),
         "stopped": stopped[1] if stopped else None,
         "kept": _evaluation(files.get("eval.json")),
         "last": _evaluation(files.get("last_eval.json")),

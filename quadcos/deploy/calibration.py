@@ -76,8 +76,10 @@ def tracked_gait(
     that turn both ways (`turning_centres`), each with its feed-forward measured, the one that
     tracks random commands best (`gait_tracking.track`) without a fall and within the search's
     `max_attitude` where set (where none is, the best-tracking without a fall; where every one
-    fell, the best-tracking)."""
-    seed, bound = config.sac.seed, config.sac.gait_search.max_attitude
+    fell, the best-tracking); with `track_attitude` set, "best" counts its attitude against that
+    target as `gait_tracking.score` does."""
+    search_config = config.sac.gait_search
+    seed, bound, target = config.sac.seed, search_config.max_attitude, search_config.track_attitude
     configs, feeds = [], []
     for centre, yaw_rate in turning_centres(env_config, search, seed=seed, count=count):
         gait = ml_collections.ConfigDict(env_config.to_dict())
@@ -91,7 +93,10 @@ def tracked_gait(
     def rank(i: int) -> tuple:
         line = lines[i]
         attitude = max(line["mean_max_abs_roll"], line["mean_max_abs_pitch_error"])
-        return line["fall_rate"] == 0, bound <= 0 or attitude <= bound, line["score"]
+        tracking = gait_tracking.score(
+            line["speed_tracking_rms"], line["yaw_rate_tracking_rms"], attitude, target
+        )
+        return line["fall_rate"] == 0, bound <= 0 or attitude <= bound, tracking
 
     best = max(range(len(lines)), key=rank)
     for i, line in enumerate(lines):

@@ -28,10 +28,14 @@ SECONDS = 20.0  # each robot's episode: four commands at the preset's 5-s resamp
 TARGETS = (0.10, 0.15)  # m/s, rad/s: the tracking RMS a gait is scored against (issue 58's)
 
 
-def score(speed_rms: float, yaw_rate_rms: float) -> float:
+def score(
+    speed_rms: float, yaw_rate_rms: float, attitude: float = 0.0, attitude_target: float = 0.0
+) -> float:
     """A gait's tracking score: −max(speed RMS / 0.10 m/s, yaw-rate RMS / 0.15 rad/s) (`TARGETS`),
-    > −1 where both are within."""
-    return -max(speed_rms / TARGETS[0], yaw_rate_rms / TARGETS[1])
+    > −1 where both are within; with an `attitude_target` > 0 (rad) also −`attitude` (its larger
+    of the mean peak roll and pitch error) / `attitude_target`."""
+    worst = max(speed_rms / TARGETS[0], yaw_rate_rms / TARGETS[1])
+    return -max(worst, attitude / attitude_target) if attitude_target > 0 else -worst
 
 
 def gait_maps(env_config: ml_collections.ConfigDict) -> dict[str, np.ndarray]:

@@ -60,11 +60,12 @@ def check_config(config: ml_collections.ConfigDict) -> None:
                 "config.gait_search.min_speed_of must be 'mean' or 'slowest', got"
                 f" {search.min_speed_of!r}"
             )
-        if not 0 <= search.max_attitude < math.inf:
-            raise ValueError(
-                "config.gait_search.max_attitude must be a finite angle >= 0 (rad; 0: off), got"
-                f" {search.max_attitude}"
-            )
+        for name in ("max_attitude", "track_attitude"):
+            if not 0 <= search[name] < math.inf:
+                raise ValueError(
+                    f"config.gait_search.{name} must be a finite angle >= 0 (rad; 0: off), got"
+                    f" {search[name]}"
+                )
         envs = search.num_candidates * search.robots_per_candidate
         if not (
             isinstance(search.confirm_robots, int)

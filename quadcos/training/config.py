@@ -167,6 +167,9 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
     # gaits that turn both ways (not only the best), each then walked under random commands and
     # the run's randomisation (quadcos.evaluation.gait_tracking), and the gait kept is the one
     # that tracks best without a fall (within max_attitude, where set); 0: the best only.
+    # track_attitude: rad; > 0: "tracks best" also scores each of them by its mean peak roll and
+    # pitch error against this target (gait_tracking.score: the worst of its ratios to 0.10 m/s,
+    # 0.15 rad/s and this), so a gait that tracks but rolls ranks below a level one; 0: off.
     # compile_trainer: while the search runs, a thread compiles the trainer's programs on a
     # placeholder gait into the compilation caches (quadcos.training.ahead; MJX-JAX, one GPU or
     # TPU of one process).
@@ -186,6 +189,7 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
             max_attitude=0.0,
             confirm_robots=0,
             track_gaits=0,
+            track_attitude=0.0,
             compile_trainer=True,
             max_fraction=0.5,
         )
