@@ -259,3 +259,25 @@ def test_check_outside_a_repository_names_the_root_and_says_how(tmp_path, capsys
     assert f"no results/ under {tmp_path}" in capsys.readouterr().err
     assert results.main(["--root", str(ROOT), "--check"]) == 0
     assert "every page agrees" in capsys.readouterr().out
+
+
+def test_the_attitude_scored_finalists_are_the_ones_the_commands_page_names(monkeypatch):
+    """experiments/commands/README.md ("Gaits chosen by their tracking"): with
+    `sac.gait_search.track_attitude` 0.10 the logged finalists of Go1's three `tracked` runs
+    give way to seed 0's first, seed 1's second and seed 2's fourth."""
+    import importlib.util
+    import json
+
+    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
+    path = ROOT / "experiments/commands/track_gaits.py"
+    spec = importlib.util.spec_from_file_location("track_gaits", path)
+    track_gaits = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(track_gaits)
+    runs = json.loads((ROOT / "experiments/commands/campaign.json").read_text())["runs"]
+    names = [f"go1cmd_tracked_s{seed}" for seed in range(3)]
+    chosen = track_gaits.rescore(runs, names, 0.1)
+    assert [(row["finalist"], row["ran_with"]) for row in chosen] == [(1, 2), (2, 4), (4, 1)]
+    assert [row["speed_rms"] for row in chosen] == [0.12, 0.103, 0.094]
+    assert chosen[2]["score"] > -1 > chosen[1]["score"] > chosen[0]["score"]  # only seed 2 within
+    # without the attitude target the same lines give the finalists the runs kept
+    assert [row["finalist"] for row in track_gaits.rescore(runs, names, 0.0)] == [2, 4, 1]

@@ -8,6 +8,11 @@ trained on):
     MENAGERIE_ROOT=DIR python experiments/commands/track_gaits.py --robot=unitree_go1 \\
         --runs go1cmd_tauyaw3gait_s0 ... --out=experiments/commands/track_gaits.json
 
+With `--rescore A` it walks nothing: for runs that logged their finalists (`tracked_gaits`) it
+prints the one `sac.gait_search.track_attitude=A` keeps and the one the run kept (`ran_with`):
+
+    python experiments/commands/track_gaits.py --rescore 0.1 --runs go1cmd_tracked_s0 ...
+
 A row per run: the measure's fall rate, speed and yaw-rate tracking RMS and score (−max(speed
 RMS / 0.10, yaw-rate RMS / 0.15)), and the step-0 evaluation's; then how well the measure orders
 the gaits as the step-0 evaluations do (Spearman's rank correlation of the scores) and, for each
@@ -55,6 +60,27 @@ def spearman(a: list[float], b: list[float]) -> float:
     return float(np.corrcoef(ranks(a), ranks(b))[0, 1])
 
 
+def rescore(runs: dict, names: list[str], target: float) -> list[dict]:
+    """Per run, the finalist its gait tracking would keep with `sac.gait_search.track_attitude`
+    at `target` (rad), from the finalists' lines the run logged (`tracked_gaits` in
+    campaign.json): the clean ones first, then `gait_tracking.score` with the attitude."""
+    chosen = []
+    for name in names:
+        lines = runs[name]["tracked_gaits"]
+
+        def rank(i: int, lines: list[dict] = lines) -> tuple:
+            line = lines[i]
+            attitude = max(line["roll"], line["pitch_error"])
+            speed, yaw_rate = line["speed_rms"], line["yaw_rate_rms"]
+            return line["fall_percent"] == 0, gait_tracking.score(speed, yaw_rate, attitude, target)
+
+        best = max(range(len(lines)), key=rank)
+        kept = next(i for i, line in enumerate(lines) if line["kept"])
+        chosen.append({"run": name, "finalist": best + 1, "ran_with": kept + 1,
+                       "score": round(rank(best)[1], 3), **lines[best]})  # fmt: skip
+    return chosen
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--robot", default="unitree_go1", help="a Menagerie name")
@@ -63,8 +89,18 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--batch", type=int, default=128, help="robots a rollout at most")
     parser.add_argument("--out")
+    parser.add_argument("--rescore", type=float, metavar="A",
+                        help="walk nothing: print the finalist each run's logged gait tracking"
+                        " (`tracked_gaits`) keeps with `sac.gait_search.track_attitude` A rad")
     args = parser.parse_args()
     runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    if args.rescore is not None:
+        untracked = [name for name in args.runs if not (runs.get(name) or {}).get("tracked_gaits")]
+        if untracked:
+            parser.error(f"no run with tracked_gaits: {', '.join(untracked)}")
+        for row in rescore(runs, args.runs, args.rescore):
+            print(json.dumps(row))
+        return
     missing = [
         name for name in args.runs
         if not all((runs.get(name) or {}).get(key) for key in ("action_centre", "feed_forward"))
