@@ -369,6 +369,7 @@ def test_estimator_on_ramps_within_one_degree():
         ({"posture_bound": 0.3, "controller": "joint"}, "posture_bound > 0 needs controller"),
         ({"forward_speed_cap": -1.0}, "forward_speed_cap must be finite and >= 0"),
         ({"action_scale": 0.0}, r"action_scale must be in \(0, 1\]"),
+        ({"held_rhythm": "period,gait"}, "held_rhythm names 'gait'; known: amplitude_knee"),
         ({"not_a_key": 1}, "unknown config key 'not_a_key'"),
     ],
 )
@@ -461,6 +462,19 @@ def test_action_scale_reaches_its_share_of_each_range_and_fixed_gaits_stay_where
     np.testing.assert_allclose(
         scaled.rhythm_parameters(scaled.action_for(within)), within, rtol=1e-5, atol=1e-6
     )
+
+
+def test_held_rhythm_parameters_stay_at_the_centre_and_the_others_move_as_before(flat_env):
+    held = quadcos.make_env("flat", held_rhythm="period, phi1,phi3", action_scale=0.5)
+    action = jnp.array([0.8, -0.6, 1.0, -1.0, 0.7])
+    centre = flat_env.rhythm_parameters(jnp.zeros(5))
+    free = flat_env.rhythm_parameters(0.5 * action)
+    got = held.rhythm_parameters(action)
+    np.testing.assert_allclose(got[:2], free[:2], rtol=1e-5)
+    np.testing.assert_allclose(got[2:], centre[2:], rtol=1e-6)
+    # The action that commands them sets nothing where the rhythm is held.
+    np.testing.assert_allclose(held.action_for(got)[2:], 0.0)
+    np.testing.assert_allclose(held.action_for(got)[:2], action[:2], rtol=1e-5)
 
 
 def test_the_speed_cap_limits_what_a_step_of_progress_pays():

@@ -28,7 +28,10 @@ def _mujoco(policy, terrain=None, **options):
 # --- the twins -----------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("centre, scale", [(oscillator.FIXED_TROT, 1.0), (None, 1.0), (None, 0.4)])
+@pytest.mark.parametrize(
+    "centre, scale",
+    [(oscillator.FIXED_TROT, 1.0), (None, 1.0), (None, 0.4), (None, np.array([0.3, 0.3, 0, 0, 1]))],
+)
 def test_oscillator_twins(centre, scale):
     for _ in range(20):
         action = RNG.uniform(-1.3, 1.3, 5)

@@ -99,7 +99,7 @@ class Pilot:
                 self.spec.fixed_parameters,
                 self.config.period_min,
                 centre,
-                self.config.action_scale,
+                env_lib.rhythm_scales(self.config),
             ),
             np.float64,
         )
@@ -184,6 +184,7 @@ class HostRobot:
         self._speed_blend = 1.0 - math.exp(-self.dt / speed_tau) if speed_tau > 0 else 1.0
         self.action_size = env_lib.action_size(config)
         self.action_centre = oscillator.action_centre(config.action_centre, config.period_min)
+        self._rhythm_scales = env_lib.rhythm_scales(config)
         self.weights = reward.RewardWeights(**config.reward.to_dict())
         self._torso = self.model.body(self.robot.description.root_body).id
         self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
@@ -220,7 +221,7 @@ class HostRobot:
             self.command[: oscillator.RHYTHM_SIZE],
             self.config.period_min,
             self.action_centre,
-            self.config.action_scale,
+            self._rhythm_scales,
         )
 
     def step(self, action: np.ndarray) -> StepResult:

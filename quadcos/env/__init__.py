@@ -19,6 +19,7 @@ from quadcos.env.config import (
     default_config,
     max_progress,
     resolve,
+    rhythm_scales,
     servo_gains,
     validate_config,
 )
@@ -37,6 +38,7 @@ __all__ = [
     "make_env",
     "max_progress",
     "resolve",
+    "rhythm_scales",
     "servo_gains",
     "validate_config",
 ]

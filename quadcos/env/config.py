@@ -6,6 +6,7 @@
 import math
 
 import ml_collections
+import numpy as np
 
 from quadcos import robot as robot_lib
 from quadcos.env import backends, commands, randomization
@@ -65,6 +66,10 @@ def default_config() -> ml_collections.ConfigDict:
     # rhythm values are multiplied by this before the map (1: every bound of §3.3, the paper;
     # 0.3: 30 % of the way from the centre to each bound, a residual on a searched gait).
     config.action_scale = 1.0
+    # Rhythm parameters held at the action centre: comma-separated names of §3.3's five
+    # (amplitude_knee, amplitude_hip, period, phi1, phi3) whose action values the map ignores, so
+    # the policy acts on the others only ("" = none, the paper). `rhythm_scales`.
+    config.held_rhythm = ""
     # rad: > 0 adds two action values, front and hind hip offsets of up to ± this (a posture
     # beyond §3.3's rhythm, for leaning back on steep descents: oscillator.posture_offsets);
     # 0 = the paper's five-value action.
@@ -177,6 +182,21 @@ def action_size(config: ml_collections.ConfigDict) -> int:
     return oscillator.RHYTHM_SIZE + posture + turn
 
 
+def rhythm_scales(config: ml_collections.ConfigDict) -> np.ndarray:
+    """(5,) the share of each rhythm parameter's range the policy reaches around the centre:
+    `action_scale`, 0 for the parameters `held_rhythm` names.
+
+    Raises:
+      ValueError: naming a held parameter that §3.3's action does not set.
+    """
+    held = [name.strip() for name in str(config.held_rhythm).split(",") if name.strip()]
+    names = oscillator.RhythmParameters._fields
+    for name in held:
+        if name not in names:
+            raise ValueError(f"held_rhythm names {name!r}; known: {', '.join(names)}")
+    return np.array([0.0 if name in held else config.action_scale for name in names])
+
+
 def validate_config(config: ml_collections.ConfigDict) -> None:
     """Raises ValueError naming the first env config value the env cannot run with (and
     FileNotFoundError for a robot MJCF that does not exist)."""
@@ -227,6 +247,7 @@ def validate_config(config: ml_collections.ConfigDict) -> None:
         )
     if not 0.0 < config.action_scale <= 1.0:
         raise ValueError(f"action_scale must be in (0, 1]; got {config.action_scale}")
+    rhythm_scales(config)
     _validate_servo(config)
     if not config.action_filter_tau >= 0:
         raise ValueError(f"action_filter_tau must be >= 0 s; got {config.action_filter_tau}")

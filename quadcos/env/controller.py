@@ -15,7 +15,7 @@ import ml_collections
 import numpy as np
 
 from quadcos.env import commands
-from quadcos.env.config import action_size
+from quadcos.env.config import action_size, rhythm_scales
 from quadcos.env.layout import Layout
 from quadcos.equations import oscillator
 
@@ -27,7 +27,7 @@ def rhythm_parameters(
 ) -> oscillator.RhythmParameters:
     """The rhythm parameters (§3.3) that the oscillator controller's `action` sets."""
     return oscillator.mapped_parameters(
-        action[..., : oscillator.RHYTHM_SIZE], action_map, config.action_scale
+        action[..., : oscillator.RHYTHM_SIZE], action_map, rhythm_scales(config)
     )
 
 
@@ -37,8 +37,8 @@ def action_for(
     params: oscillator.RhythmParameters,
 ) -> jax.Array:
     """The (..., action_size) action that commands rhythm parameters `params` (no posture
-    offset)."""
-    action = oscillator.mapped_action(params, action_map, config.action_scale)
+    offset; 0 for the parameters `held_rhythm` holds)."""
+    action = oscillator.mapped_action(params, action_map, rhythm_scales(config))
     padding = [(0, 0)] * (action.ndim - 1) + [(0, action_size(config) - oscillator.RHYTHM_SIZE)]
     return jnp.pad(action, padding)
 

@@ -186,7 +186,7 @@ def mapped_parameters(
     action: jnp.ndarray, mapping: jnp.ndarray, scale: float = 1.0
 ) -> RhythmParameters:
     """`action_to_parameters` through the map `mapping` (`action_map`: centre, span above, span
-    below; (..., 3, 5) with the action's batch axes)."""
+    below; (..., 3, 5) with the action's batch axes); `scale` a float or (5,) per parameter."""
     mid, above, below = mapping[..., 0, :], mapping[..., 1, :], mapping[..., 2, :]
     action = scale * jnp.clip(action, -1.0, 1.0)
     values = mid + jnp.where(action >= 0, action * above, action * below)
@@ -207,13 +207,16 @@ def parameters_to_action(
 def mapped_action(
     params: RhythmParameters, mapping: jnp.ndarray, scale: float = 1.0
 ) -> jnp.ndarray:
-    """`parameters_to_action` through the map `mapping` (`action_map`)."""
+    """`parameters_to_action` through the map `mapping` (`action_map`); 0 where `scale` (a
+    float or (5,) per parameter) is 0: a parameter the action does not set."""
     mid, above, below = mapping[..., 0, :], mapping[..., 1, :], mapping[..., 2, :]
     values = jnp.stack(
         jnp.broadcast_arrays(*(jnp.asarray(p, jnp.float32) for p in params)), axis=-1
     )
     offset = values - mid
-    return jnp.where(offset >= 0, offset / above, offset / below) / scale
+    scale = jnp.asarray(scale, jnp.float32)
+    unscaled = jnp.where(offset >= 0, offset / above, offset / below)
+    return jnp.where(scale > 0, unscaled / jnp.where(scale > 0, scale, 1.0), 0.0)
 
 
 # Posture: an extension beyond §3.3, off by default (`env.posture_bound` = 0). The paper's rhythm
