@@ -137,7 +137,8 @@ def find_gait(config: ml_collections.ConfigDict) -> dict[str, Any]:
 def candidate_overrides(config: ml_collections.ConfigDict) -> dict[str, Any]:
     """The env overrides the search of a run config ({"env", "sac"}) runs its candidates under:
     the run's env but for its terrain, spawns and centre, acting from the first step as the
-    centre will (no command filter), every candidate of §3.3's ranges in reach (action scale 1, no parameter held)."""
+    centre will (no command filter), every candidate of §3.3's ranges in reach (action scale 1,
+    no parameter held)."""
     overrides = flatten(config.env.to_dict())
     for key in ("terrain", "spawn_x_max", "action_centre"):
         overrides.pop(key)
