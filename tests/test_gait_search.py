@@ -112,6 +112,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert env.pop("observe_angular_velocity") is False  # the gyro, added since: not observed
     assert env["reward"].pop("action_rate") == 0.0  # the action-rate term, added since: off
     assert env["randomization"].pop("range_ends") == 0.0  # draws at the ranges' ends: off
+    assert env.pop("held_rhythm") == ""  # every rhythm parameter the policy's, as run
     assert env == recorded["run_info"]["env"]
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 
@@ -140,6 +141,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     assert env["commands"].pop("zero_command_probability") == 0.0
     assert env["commands"].pop("speed_tau") == 0.0  # the forward term on each step's progress
     assert env["commands"].pop("observe_drive") is False  # the observation as trained
+    assert env.pop("held_rhythm") == ""  # every rhythm parameter the policy's, as trained
     assert (env.pop("robot"), trained.pop("robot")) == ("quadcos", "menagerie:unitree_go1")
     assert env.pop("action_centre") == "search" and trained.pop("action_centre") != "search"
     for resolved in ("reference_speed", "half_track", "speed_map"):  # the calibration's
