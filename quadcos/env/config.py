@@ -35,8 +35,7 @@ def default_config() -> ml_collections.ConfigDict:
     # simulator). The paper's r_s = 10, r_y = w1 Δy favour walking over standing only when Δy
     # matters in a step: at 50 Hz a trot scores less per step than standing (experiments/README.md).
     config.control_dt = 0.05
-    # s: MJX step; control_dt must be a multiple. 0 = the robot's (quadcos.robot.presets: the
-    # paper's robot 0.005 s, 200 Hz).
+    # s: MJX step, control_dt a multiple; 0 = the robot's (quadcos.robot.presets; ours 0.005 s).
     config.physics_dt = 0.0
     # jax.lax.scan's unroll factor of the physics steps in a control step: 1 runs them as a loop
     # (XLA's while loop on a GPU), control_dt / physics_dt as straight-line code.
@@ -62,13 +61,10 @@ def default_config() -> ml_collections.ConfigDict:
     # walking gait; all of §3.3's ranges stay reachable), "midpoint" = the middle of each range
     # (a plain linear map: the zero action stands still). See oscillator.action_to_parameters.
     config.action_centre = "trot"
-    # The rhythm's share of each range the policy reaches around the centre: the action's five
-    # rhythm values are multiplied by this before the map (1: every bound of §3.3, the paper;
-    # 0.3: 30 % of the way from the centre to each bound, a residual on a searched gait).
+    # The share of each rhythm range the policy reaches around the centre (1: every bound of
+    # §3.3, the paper; 0.3: 30 % of the way to each bound, a residual on a searched gait).
     config.action_scale = 1.0
-    # Rhythm parameters held at the action centre: comma-separated names of §3.3's five
-    # (amplitude_knee, amplitude_hip, period, phi1, phi3) whose action values the map ignores, so
-    # the policy acts on the others only ("" = none, the paper). `rhythm_scales`.
+    # §3.3's parameters held at the centre, e.g. "period,phi1,phi3" ("": none): rhythm_scales.
     config.held_rhythm = ""
     # rad: > 0 adds two action values, front and hind hip offsets of up to ± this (a posture
     # beyond §3.3's rhythm, for leaning back on steep descents: oscillator.posture_offsets);
