@@ -127,6 +127,10 @@ SEARCH_ATTITUDE = ("go1cmd_searchatt_s0", "go1cmd_searchatt_s1", "go1cmd_searcha
 # (`sac.gait_search.track_gaits` 4, lever `tracked`): Go1's three seeds sharing one GPU with
 # `anymalfix_turn10caps10_s0`
 TRACKED = ("go1cmd_tracked_s0", "go1cmd_tracked_s1", "go1cmd_tracked_s2")
+# the same with each finalist's attitude scored too (`sac.gait_search.track_attitude` 0.1, lever
+# `trackatt`): Go1's three seeds and Go2's sharing one GPU with `anymalfix_turn10heldcaps10_s0`
+TRACK_ATTITUDE = ("go1cmd_trackatt_s0", "go1cmd_trackatt_s1", "go1cmd_trackatt_s2",
+                  "go2cmd_trackatt_s0")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
@@ -146,6 +150,8 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " (`commands.speed_tau`), the same gait given; 400 s, five sharing",
     "anymalfix_turn10caps10_s0": "`anymalfix_turn10_s0`'s with CAPS's smoothness terms, 10 and 10"
     " (`sac.smoothness.temporal`, `spatial`); 480 s, four runs sharing one GPU",
+    "anymalfix_turn10heldcaps10_s0": "`anymalfix_turn10caps10_s0`'s with the period and phases"
+    " held at the gait's (`env.held_rhythm` period,phi1,phi3); 480 s, five runs sharing one GPU",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",

@@ -27,6 +27,7 @@ from run_labels import (
     PRESET,
     SAC_LEVERS,
     SEARCH_ATTITUDE,
+    TRACK_ATTITUDE,
     TRACKED,
 )
 
@@ -456,6 +457,7 @@ def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
         table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
+        seeds(TRACK_ATTITUDE),
         anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
