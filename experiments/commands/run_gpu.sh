@@ -268,6 +268,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # the same with each finalist's attitude scored against 0.10 rad (README, "Gaits chosen by
     # their tracking": tracked's seeds kept gaits that roll 0.114-0.168 rad)
     [trackatt]="--config.sac.gait_search.track_gaits=4 --config.sac.gait_search.track_attitude=0.1"
+    # ... among the search's 8 best (trackatt's seeds 0 and 2: none of the 4 within every target)
+    [trackatt8]="--config.sac.gait_search.track_gaits=8 --config.sac.gait_search.track_attitude=0.1"
     # the turn action's reach cut to the rhythm's (turn_bound 0.5 × action_scale 0.2): the drive
     # turns; SAC's turn value moves each side's hip swing by up to ±50 % at the default
     [turn10]="--config.env.turn_bound=0.1"
