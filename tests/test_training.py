@@ -172,6 +172,7 @@ def test_best_policy_beats_earlier_rows_only(tmp_path):
     assert not best.offer(state, {"step": 10})  # a row without an evaluation
     assert not (tmp_path / "policy_best").exists()
     assert best.offer(state, {"step": 20, "eval/episode_reward": 7.5})
+    assert best.describe() == "episode reward 8"  # the progress line's words
     saved = json.loads((tmp_path / "policy_best" / "policy.json").read_text())
     assert saved["config"]["best_of_run"] == {
         "step": 20,
@@ -226,6 +227,7 @@ def test_best_policy_by_tracking_keeps_the_evaluation_nearest_its_targets(tmp_pa
         "eval/fall_rate": 0.0,
     }
     assert best.score == pytest.approx(-0.16 / 0.15)
+    assert best.describe() == "tracking 1.067 of the targets in the worse of speed and yaw rate"
 
 
 def test_best_policy_by_gait_keeps_the_evaluation_that_improves_most_on_step_0(tmp_path):
@@ -234,6 +236,7 @@ def test_best_policy_by_gait_keeps_the_evaluation_that_improves_most_on_step_0(t
     speed, yaw_rate = best_policy.TRACKING
     gait = {"step": 0, speed: 0.10, yaw_rate: 0.08}
     best = best_policy.BestPolicy(tmp_path / "policy_best", _SPEC, {}, [], 0.01, "gait")
+    assert best.describe() == "none yet"
     assert best.offer(_STATE, gait) and best.score == pytest.approx(-1.0)
     assert not best.offer(_STATE, {"step": 10, speed: 0.09, yaw_rate: 0.085})  # yaw rate worse
     assert best.offer(_STATE, {"step": 20, speed: 0.095, yaw_rate: 0.078})  # both better
@@ -245,6 +248,7 @@ def test_best_policy_by_gait_keeps_the_evaluation_that_improves_most_on_step_0(t
     )
     saved = json.loads((tmp_path / "policy_best" / "policy.json").read_text())
     assert saved["config"]["best_of_run"]["step"] == 20
+    assert best.describe() == "tracking 0.975 of its step-0 gait's in the worse of speed and yaw rate"
     # A resumed run ranks its history against its own step 0.
     resumed = best_policy.BestPolicy(tmp_path / "again", _SPEC, {}, [gait, faster], 0.01, "gait")
     assert resumed.score == pytest.approx(-0.079 / 0.08)

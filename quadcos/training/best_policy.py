@@ -92,6 +92,15 @@ class BestPolicy:
         """The best evaluation's reward, or its tracking score (`rank`)."""
         return -math.inf if self.rank is None else self.rank[1]
 
+    def describe(self) -> str:
+        """The best evaluation's rank in words, for a progress line."""
+        if self.rank is None:
+            return "none yet"
+        if self._by == "reward":
+            return f"episode reward {self.score:,.0f}"
+        of = "its step-0 gait's" if self._by == "gait" else "the targets"
+        return f"tracking {-self.score:.3f} of {of} in the worse of speed and yaw rate"
+
     def offer(
         self,
         state: sac.TrainingState | policy_lib.PolicyPart,

@@ -295,7 +295,7 @@ def _train_loop(
             log.append(row)
         progress.log_row(row)
         if best is not None and best.offer(state, row, written_at_s=clock()):
-            logger.info("best evaluation so far (%.4g): saved to %s", best.score, best.directory)
+            logger.info("best evaluation so far (%s): saved to %s", best.describe(), best.directory)
 
     def record_evaluation(
         row: dict[str, Any], state: sac.TrainingState | policy_lib.PolicyPart
