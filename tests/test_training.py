@@ -248,7 +248,8 @@ def test_best_policy_by_gait_keeps_the_evaluation_that_improves_most_on_step_0(t
     )
     saved = json.loads((tmp_path / "policy_best" / "policy.json").read_text())
     assert saved["config"]["best_of_run"]["step"] == 20
-    assert best.describe() == "tracking 0.975 of its step-0 gait's in the worse of speed and yaw rate"
+    words = "tracking 0.975 of its step-0 gait's in the worse of speed and yaw rate"
+    assert best.describe() == words
     # A resumed run ranks its history against its own step 0.
     resumed = best_policy.BestPolicy(tmp_path / "again", _SPEC, {}, [gait, faster], 0.01, "gait")
     assert resumed.score == pytest.approx(-0.079 / 0.08)
