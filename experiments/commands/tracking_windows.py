@@ -37,6 +37,7 @@ from typing import NamedTuple
 import ml_collections
 import numpy as np
 
+from quadcos import env as env_lib
 from quadcos.deploy import host_robot, twins
 from quadcos.env import tracking
 from quadcos.equations import oscillator
@@ -181,8 +182,9 @@ class Recorder:
 
 
 def ablation(robot: host_robot.HostRobot, act, args) -> list[dict]:
-    """Per action value: the tracking RMS of the policy without it (held at the zero action's)
-    and of the zero action with it alone (`--ablate`)."""
+    """Per action value the env acts on (not those `held_rhythm` holds): the tracking RMS of the
+    policy without it (held at the zero action's) and of the zero action with it alone
+    (`--ablate`)."""
 
     def mixed(index: int, alone: bool):
         def choose(obs):
@@ -194,7 +196,10 @@ def ablation(robot: host_robot.HostRobot, act, args) -> list[dict]:
         return choose
 
     rows = []
+    held = env_lib.rhythm_scales(robot.config) == 0  # values the env ignores (`held_rhythm`)
     for index, name in enumerate(action_names(robot.config)):
+        if index < held.size and held[index]:
+            continue
         row = {"value": name}
         for key, alone in (("without", False), ("alone", True)):
             policy = mixed(index, alone)
