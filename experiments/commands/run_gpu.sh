@@ -228,6 +228,7 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   rate300="--config.env.reward.action_rate=300" rate1000="--config.env.reward.action_rate=1000"
   as10="--config.env.action_scale=0.1" eval2="--config.sac.eval_interval=2000000"
   gyro="--config.env.observe_angular_velocity=True" track="--config.sac.best_policy_by=tracking"
+  trackatt8="--config.sac.gait_search.track_gaits=8 --config.sac.gait_search.track_attitude=0.1"
   declare -A lever=(
     [base]=""  # the same start on the same machine, no lever
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
@@ -269,7 +270,9 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # their tracking": tracked's seeds kept gaits that roll 0.114-0.168 rad)
     [trackatt]="--config.sac.gait_search.track_gaits=4 --config.sac.gait_search.track_attitude=0.1"
     # ... among the search's 8 best (trackatt's seeds 0 and 2: none of the 4 within every target)
-    [trackatt8]="--config.sac.gait_search.track_gaits=8 --config.sac.gait_search.track_attitude=0.1"
+    [trackatt8]="$trackatt8"
+    # ... among the 8 best of a search that ranks only level gaits (searchatt's bound)
+    [searchtrackatt8]="--config.sac.gait_search.max_attitude=0.085 $trackatt8"
     # the turn action's reach cut to the rhythm's (turn_bound 0.5 × action_scale 0.2): the drive
     # turns; SAC's turn value moves each side's hip swing by up to ±50 % at the default
     [turn10]="--config.env.turn_bound=0.1"
