@@ -20,8 +20,9 @@
 # NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json (the kept policy's
 # four conditions), NAME/gait_robustness.json (its step-0 gait's), NAME/last_robustness.json
 # and the policies (LAST=0: not the last policy's two);
-# pack tars NAME/ with the run's logs as NAME.tgz. MEM (default 0.9): the share of each GPU's memory
-# the call's processes take together, less where another call's runs share the GPUs.
+# pack tars NAME/ with the run's logs and its gait search's gait_search.json as NAME.tgz. MEM
+# (default 0.9): the share of each GPU's memory the call's processes take together, less where
+# another call's runs share the GPUs.
 set -uo pipefail
 verb=${1:?usage: run_gpu.sh train|wait|evaluate RUN...}; shift
 export MENAGERIE_ROOT=${MENAGERIE_ROOT:-$PWD/.menagerie}
@@ -132,7 +133,7 @@ pack)  # each run's outputs, logs and policies as $OUT/NAME.tgz (a call brings b
     split_run "$spec"
     mkdir -p "$OUT/$NAME"
     cp "$runs/$NAME"*.log "$OUT/$NAME/" 2>/dev/null
-    cp "$runs/$NAME/config.json" "$runs/$NAME/"*.jsonl "$OUT/$NAME/" 2>/dev/null
+    cp "$runs/$NAME/config.json" "$runs/$NAME/gait_search.json" "$runs/$NAME/"*.jsonl "$OUT/$NAME/" 2>/dev/null
     tar -C "$OUT" -czf "$OUT/$NAME.tgz" "$NAME" && rm -rf "$OUT/$NAME"
   done ;;
 levers)  # SAC's levers (issue 58, item 4) on one fixed start: Go2 seed 0 from the searched gait
