@@ -25,7 +25,7 @@ def action_to_parameters(
     action: np.ndarray,
     period_min: float,
     centre: oscillator.RhythmParameters | None,
-    scale: float = 1.0,
+    scale: float | np.ndarray = 1.0,
 ) -> oscillator.RhythmParameters:
     """`oscillator.action_to_parameters` (§3.3): (5,) action in [−1, 1] → rhythm parameters."""
     mid, above, below = _centre_and_spans(period_min, centre)

@@ -152,7 +152,7 @@ def action_to_parameters(
     action: jnp.ndarray,
     period_min: float = PERIOD_MIN,
     centre: RhythmParameters | None = None,
-    scale: float = 1.0,
+    scale: float | np.ndarray = 1.0,
 ) -> RhythmParameters:
     """Map a policy action in [−1, 1]^5 onto the controller parameters' ranges (§3.3).
 
@@ -161,7 +161,8 @@ def action_to_parameters(
     map is the plain linear one. A centre such as `FIXED_TROT` keeps every bound reachable but
     makes the zero action (where a fresh SAC policy starts) a walking trot. Actions outside
     [−1, 1] are clipped. `scale` < 1 (beyond the paper) reaches only that share of the way from
-    the centre to each bound: ±1 ↦ centre + scale · span.
+    the centre to each bound: ±1 ↦ centre + scale · span; a (5,) `scale` sets it per parameter
+    (0: held at the centre, `env.held_rhythm`).
 
     Args:
       action: (..., 5).
@@ -183,7 +184,7 @@ def action_map(
 
 
 def mapped_parameters(
-    action: jnp.ndarray, mapping: jnp.ndarray, scale: float = 1.0
+    action: jnp.ndarray, mapping: jnp.ndarray, scale: float | np.ndarray = 1.0
 ) -> RhythmParameters:
     """`action_to_parameters` through the map `mapping` (`action_map`: centre, span above, span
     below; (..., 3, 5) with the action's batch axes); `scale` a float or (5,) per parameter."""
@@ -197,7 +198,7 @@ def parameters_to_action(
     params: RhythmParameters,
     period_min: float = PERIOD_MIN,
     centre: RhythmParameters | None = None,
-    scale: float = 1.0,
+    scale: float | np.ndarray = 1.0,
 ) -> jnp.ndarray:
     """Inverse of `action_to_parameters` (for fixed-parameter baselines and tests). Returns
     (..., 5), beyond ±1 for parameters that `scale` puts out of reach."""
@@ -205,7 +206,7 @@ def parameters_to_action(
 
 
 def mapped_action(
-    params: RhythmParameters, mapping: jnp.ndarray, scale: float = 1.0
+    params: RhythmParameters, mapping: jnp.ndarray, scale: float | np.ndarray = 1.0
 ) -> jnp.ndarray:
     """`parameters_to_action` through the map `mapping` (`action_map`); 0 where `scale` (a
     float or (5,) per parameter) is 0: a parameter the action does not set."""
