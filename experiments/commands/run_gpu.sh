@@ -274,6 +274,9 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [trackatt8]="$trackatt8"
     # ... among the 8 best of a search that ranks only level gaits (searchatt's bound)
     [searchtrackatt8]="--config.sac.gait_search.max_attitude=0.085 $trackatt8"
+    # Eq. 12's roll weight w5 ×3 with trackatt8 (SAC has moved a gait's roll by <= 0.023 rad at
+    # w5 30; trackatt's misses are rolls of 0.104-0.111)
+    [trackatt8roll90]="$trackatt8 --config.env.reward.roll=90"
     # the turn action's reach cut to the rhythm's (turn_bound 0.5 × action_scale 0.2): the drive
     # turns; SAC's turn value moves each side's hip swing by up to ±50 % at the default
     [turn10]="--config.env.turn_bound=0.1"
