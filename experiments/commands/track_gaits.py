@@ -63,7 +63,7 @@ def spearman(a: list[float], b: list[float]) -> float:
 def rescore(runs: dict, names: list[str], target: float) -> list[dict]:
     """Per run, the finalist its gait tracking would keep with `sac.gait_search.track_attitude`
     at `target` (rad), from the finalists' lines the run logged (`tracked_gaits` in
-    campaign.json): the clean ones first, then `gait_tracking.score` with the attitude."""
+    campaign.json), as `gait_tracking.rank` orders them."""
     chosen = []
     for name in names:
         lines = runs[name]["tracked_gaits"]
@@ -72,12 +72,13 @@ def rescore(runs: dict, names: list[str], target: float) -> list[dict]:
             line = lines[i]
             attitude = max(line["roll"], line["pitch_error"])
             speed, yaw_rate = line["speed_rms"], line["yaw_rate_rms"]
-            return line["fall_percent"] == 0, gait_tracking.score(speed, yaw_rate, attitude, target)
+            fell = line["fall_percent"] > 0
+            return gait_tracking.rank(fell, speed, yaw_rate, attitude, attitude_target=target)
 
         best = max(range(len(lines)), key=rank)
         kept = next(i for i, line in enumerate(lines) if line["kept"])
         chosen.append({"run": name, "finalist": best + 1, "ran_with": kept + 1,
-                       "score": round(rank(best)[1], 3), **lines[best]})  # fmt: skip
+                       "score": round(rank(best)[2], 3), **lines[best]})  # fmt: skip
     return chosen
 
 

@@ -93,10 +93,8 @@ def tracked_gait(
     def rank(i: int) -> tuple:
         line = lines[i]
         attitude = max(line["mean_max_abs_roll"], line["mean_max_abs_pitch_error"])
-        tracking = gait_tracking.score(
-            line["speed_tracking_rms"], line["yaw_rate_tracking_rms"], attitude, target
-        )
-        return line["fall_rate"] == 0, bound <= 0 or attitude <= bound, tracking
+        speed, yaw_rate = line["speed_tracking_rms"], line["yaw_rate_tracking_rms"]
+        return gait_tracking.rank(line["fall_rate"] > 0, speed, yaw_rate, attitude, bound, target)
 
     best = max(range(len(lines)), key=rank)
     for i, line in enumerate(lines):

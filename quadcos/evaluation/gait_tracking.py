@@ -38,6 +38,21 @@ def score(
     return -max(worst, attitude / attitude_target) if attitude_target > 0 else -worst
 
 
+def rank(
+    fell: bool,
+    speed_rms: float,
+    yaw_rate_rms: float,
+    attitude: float,
+    max_attitude: float = 0.0,
+    attitude_target: float = 0.0,
+) -> tuple[bool, bool, float]:
+    """How a measured gait ranks among others (higher is better): one that never fell first, then
+    one within `max_attitude` (rad, where > 0), then by `score` (its attitude against
+    `attitude_target`, where > 0)."""
+    level = max_attitude <= 0 or attitude <= max_attitude
+    return not fell, level, score(speed_rms, yaw_rate_rms, attitude, attitude_target)
+
+
 def gait_maps(env_config: ml_collections.ConfigDict) -> dict[str, np.ndarray]:
     """The maps an env of `env_config` would hold for its action centre and feed-forward
     (`QuadrupedEnv.gait`), without building the env."""
