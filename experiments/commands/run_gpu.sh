@@ -19,7 +19,7 @@
 # summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
 # NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json (the kept policy's
 # four conditions), NAME/gait_robustness.json (its step-0 gait's), NAME/last_robustness.json
-# and the policies (LAST=0: not the last policy's two);
+# and the policies (LAST=0: not the last policy's two; GAIT=0: not gait_robustness.json);
 # pack tars NAME/ with the run's logs and its gait search's gait_search.json as NAME.tgz. MEM
 # (default 0.9): the share of each GPU's memory the call's processes take together, less where
 # another call's runs share the GPUs.
@@ -110,7 +110,8 @@ evaluate)
       export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem * 0.18 / $share, 2))")
       python3 -m quadcos.evaluate --no_progress --policy="$kept" --terrain=flat --num_envs=$envs \
         --seconds=20 --commands=random --out="$OUT/$NAME/eval.json" > "$runs/${NAME}_eval.log" 2>&1 &
-      which_ones=("$kept=robustness" "gait:$kept=gait_robustness")
+      which_ones=("$kept=robustness")
+      [ "${GAIT:-1}" = 1 ] && which_ones+=("gait:$kept=gait_robustness")
       if [ "${LAST:-1}" = 1 ]; then
         python3 -m quadcos.evaluate --no_progress --policy="$runs/$NAME/policy" --terrain=flat \
           --num_envs=$envs --seconds=20 --commands=random --out="$OUT/$NAME/last_eval.json" \
