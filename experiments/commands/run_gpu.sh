@@ -15,19 +15,22 @@
 # RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
 # go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
 # the GPU's memory. The runs work from a copy of the tree under
-# /tmp/qc (the tree a later call brings may differ), their folders under /tmp/qc_runs/NAME; the
+# /tmp/qc (the tree a later call brings may differ), their folders under RUNS/NAME (RUNS default
+# /tmp/qc_runs; packs unpacked into a folder given as RUNS evaluate in another call, or on a
+# machine where nothing trained: `train wait pack` in one call, `evaluate pack` in the next); the
 # summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
 # NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json (the kept policy's
 # four conditions), NAME/gait_robustness.json (its step-0 gait's), NAME/last_robustness.json
 # and the policies (LAST=0: not the last policy's two; GAIT=0: not gait_robustness.json);
-# pack tars NAME/ with the run's logs and its gait search's gait_search.json as NAME.tgz. MEM
+# pack tars NAME/ with the run's logs, its gait search's gait_search.json and its policies as
+# NAME.tgz. MEM
 # (default 0.9): the share of each GPU's memory the call's processes take together, less where
 # another call's runs share the GPUs.
 set -uo pipefail
 verb=${1:?usage: run_gpu.sh train|wait|evaluate RUN...}; shift
 export MENAGERIE_ROOT=${MENAGERIE_ROOT:-$PWD/.menagerie}
 OUT=${OUT:-/tmp/qc_out}; mkdir -p "$OUT"
-runs=/tmp/qc_runs; mkdir -p "$runs"
+runs=${RUNS:-/tmp/qc_runs}; mkdir -p "$runs"
 gpus=$(nvidia-smi -L 2>/dev/null | wc -l); [ "$gpus" -gt 0 ] || gpus=1
 envs=${EVAL_ENVS:-1024}  # episodes of each evaluation
 share=$(( ($# + gpus - 1) / gpus ))  # runs on one GPU
@@ -135,6 +138,9 @@ pack)  # each run's outputs, logs and policies as $OUT/NAME.tgz (a call brings b
     mkdir -p "$OUT/$NAME"
     cp "$runs/$NAME"*.log "$OUT/$NAME/" 2>/dev/null
     cp "$runs/$NAME/config.json" "$runs/$NAME/gait_search.json" "$runs/$NAME/"*.jsonl "$OUT/$NAME/" 2>/dev/null
+    for p in policy policy_best; do  # (evaluate has copied them where it ran)
+      [ -d "$runs/$NAME/$p" ] && [ ! -d "$OUT/$NAME/$p" ] && cp -r "$runs/$NAME/$p" "$OUT/$NAME/"
+    done
     tar -C "$OUT" -czf "$OUT/$NAME.tgz" "$NAME" && rm -rf "$OUT/$NAME"
   done ;;
 levers)  # SAC's levers (issue 58, item 4) on one fixed start: Go2 seed 0 from the searched gait
