@@ -244,8 +244,8 @@ PRESETS["command"] = {
         # counts "moving" along its heading: with each step's yaw rate and "moving" along x, SAC
         # made its searched gait track worse and the run kept SAC's (0.095 m/s, 0.173 rad/s
         # against the gait's 0.074, 0.115); with the low-passed yaw rate and the heading the run
-        # kept a gait tracking 0.063 m/s, 0.091 rad/s (experiments/commands, "Robustness that
-        # SAC learns").
+        # kept a gait tracking 0.063 m/s, 0.091 rad/s (experiments/commands, "ANYmal C
+        # levers").
         "anybotics_anymal_c": {
             "env.commands.turn_max": 0.4,
             "env.survival_speed_frame": "heading",
