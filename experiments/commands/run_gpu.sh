@@ -23,9 +23,8 @@
 # four conditions), NAME/gait_robustness.json (its step-0 gait's), NAME/last_robustness.json
 # and the policies (LAST=0: not the last policy's two; GAIT=0: not gait_robustness.json);
 # pack tars NAME/ with the run's logs, its gait search's gait_search.json and its policies as
-# NAME.tgz. MEM
-# (default 0.9): the share of each GPU's memory the call's processes take together, less where
-# another call's runs share the GPUs.
+# NAME.tgz. MEM (default 0.9): the share of each GPU's memory the call's processes take
+# together, less where another call's runs share the GPUs.
 set -uo pipefail
 verb=${1:?usage: run_gpu.sh train|wait|evaluate RUN...}; shift
 export MENAGERIE_ROOT=${MENAGERIE_ROOT:-$PWD/.menagerie}
