@@ -11,7 +11,8 @@
 #   bash experiments/commands/run_gpu.sh anymal LEVER...  # all four for ANYmal C's (below)
 #   [MAX_SECONDS=S] bash experiments/commands/run_gpu.sh go1 LEVER...  # all four for Go1's SAC levers
 #   [MAX_SECONDS=S] bash experiments/commands/run_gpu.sh go1seeds LEVER SEED...  # all four: a Go1
-#                                                         # lever from nothing (S: its budget)
+#                                                         # lever from nothing (S: its budget;
+#                                                         # VERBS="train wait pack": some of four)
 # RUN is NAME@ROBOT@SEED[@extra train flags, space-separated: quote such a RUN], e.g.
 # go1_s0@menagerie:unitree_go1@0. More runs than GPUs share them, each with an equal part of
 # the GPU's memory. The runs work from a copy of the tree under
@@ -323,7 +324,7 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
       specs+=("go1_${name}${MAX_SECONDS:+t$MAX_SECONDS}_s0@menagerie:unitree_go1@0@$gait ${lever[$name]}${MAX_SECONDS:+ --config.sac.max_seconds=$MAX_SECONDS}")
     done
   fi
-  for next in train wait evaluate pack; do bash "$0" $next "${specs[@]}"; done ;;
+  for next in ${VERBS:-train wait evaluate pack}; do bash "$0" $next "${specs[@]}"; done ;;
 stop)  # the bracketed first letters keep each pattern from matching a shell that names it
   pkill -f "[q]uadcos.train .*--output_dir=$runs/"
   pkill -f "[q]uadcos.evaluate --no_progress"
