@@ -131,6 +131,8 @@ TRACKED = ("go1cmd_tracked_s0", "go1cmd_tracked_s1", "go1cmd_tracked_s2")
 # `trackatt`): Go1's three seeds and Go2's sharing one GPU with `anymalfix_turn10heldcaps10_s0`
 TRACK_ATTITUDE = ("go1cmd_trackatt_s0", "go1cmd_trackatt_s1", "go1cmd_trackatt_s2",
                   "go2cmd_trackatt_s0")
+# the same among the search's 8 best (lever `trackatt8`): Go1's three seeds sharing one GPU
+TRACK_ATTITUDE8 = ("go1cmd_trackatt8_s0", "go1cmd_trackatt8_s1", "go1cmd_trackatt8_s2")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",
