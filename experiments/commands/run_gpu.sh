@@ -136,7 +136,8 @@ pack)  # each run's outputs, logs and policies as $OUT/NAME.tgz (a call brings b
   for spec in "$@"; do
     split_run "$spec"
     mkdir -p "$OUT/$NAME"
-    cp "$runs/$NAME"*.log "$OUT/$NAME/" 2>/dev/null
+    # (a run's logs beside its folder; in an unpacked pack (RUNS), inside it)
+    cp "$runs/$NAME"*.log "$runs/$NAME/"*.log "$OUT/$NAME/" 2>/dev/null
     cp "$runs/$NAME/config.json" "$runs/$NAME/gait_search.json" "$runs/$NAME/"*.jsonl "$OUT/$NAME/" 2>/dev/null
     for p in policy policy_best; do  # (evaluate has copied them where it ran)
       [ -d "$runs/$NAME/$p" ] && [ ! -d "$OUT/$NAME/$p" ] && cp -r "$runs/$NAME/$p" "$OUT/$NAME/"
