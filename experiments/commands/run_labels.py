@@ -133,6 +133,10 @@ TRACK_ATTITUDE = ("go1cmd_trackatt_s0", "go1cmd_trackatt_s1", "go1cmd_trackatt_s
                   "go2cmd_trackatt_s0")
 # the same among the search's 8 best (lever `trackatt8`): Go1's three seeds sharing one GPU
 TRACK_ATTITUDE8 = ("go1cmd_trackatt8_s0", "go1cmd_trackatt8_s1", "go1cmd_trackatt8_s2")
+# ... of a search that ranks only gaits within 0.085 rad (lever `searchtrackatt8`: searchatt's
+# bound): Go1's three seeds sharing one GPU
+SEARCH_TRACK_ATTITUDE8 = ("go1cmd_searchtrackatt8_s0", "go1cmd_searchtrackatt8_s1",
+                          "go1cmd_searchtrackatt8_s2")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",

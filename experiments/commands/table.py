@@ -27,6 +27,7 @@ from run_labels import (
     PRESET,
     SAC_LEVERS,
     SEARCH_ATTITUDE,
+    SEARCH_TRACK_ATTITUDE8,
     TRACK_ATTITUDE,
     TRACK_ATTITUDE8,
     TRACKED,
@@ -458,7 +459,7 @@ def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
         table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
-        seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8),
+        seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
         anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
