@@ -1,5 +1,6 @@
 """Choosing the MJX implementation: JAX on the CPU, Warp only where it can run."""
 
+import contextlib
 import sys
 import threading
 import time
@@ -12,7 +13,7 @@ from quadcos import bench
 from quadcos import env as env_lib
 from quadcos import train
 from quadcos._util import quiet
-from quadcos.env import backends, warp_arena
+from quadcos.env import backends, warp_arena, warp_preload
 from quadcos.robot import presets
 
 
@@ -231,32 +232,72 @@ def test_unrolled_substeps_step_the_robots_as_the_loop_does():
     assert loops[0] == loops[1] + 1
 
 
-def test_warp_step_modules_load_in_parallel_once_and_a_missing_one_is_skipped(fake_warp):
-    loaded, threads = [], set()
+def _module(name):
+    return types.SimpleNamespace(name=name)
+
+
+def _kernel(name):
+    return types.SimpleNamespace(module=_module(name))
+
+
+def test_a_recorded_step_records_each_launched_module_and_runs_no_kernel(fake_warp):
+    ran = []
+    fake_warp.launch = fake_warp.launch_tiled = lambda *args, **kwargs: ran.append(args)
+    fake_warp.capture_while = fake_warp.capture_if = lambda *args, **kwargs: ran.append(args)
+    originals = {name: getattr(fake_warp, name) for name in ("launch", "capture_while")}
+
+    def solver_iteration(**kwargs):  # a graph loop's body: once, with the loop's arguments
+        fake_warp.launch(_kernel("solver"), 4, inputs=[kwargs["m"]])
+
+    with warp_preload.launches_recorded(fake_warp) as launched:
+        fake_warp.launch(_kernel("smooth"), 4096, inputs=[])
+        fake_warp.launch(_kernel("smooth"), (2, 3), block_dim=0)  # the same module, Warp's 256
+        fake_warp.launch(kernel=_kernel("equality"), dim=0)  # no work: Warp loads nothing
+        fake_warp.launch_tiled(_kernel("cholesky"), [4096], inputs=[], block_dim=32)
+        fake_warp.capture_while("nsolving", while_body=solver_iteration, m="model")
+        fake_warp.capture_if("cond", on_true=lambda: fake_warp.launch(_kernel("narrow"), 1))
+    assert sorted(launched) == [("cholesky", 32), ("narrow", 256), ("smooth", 256), ("solver", 256)]
+    assert not ran  # neither a kernel nor a graph ran
+    assert {name: getattr(fake_warp, name) for name in originals} == originals  # restored
+
+
+def test_warp_preload_compiles_every_launched_module_in_threads(fake_warp, monkeypatch):
+    loaded, threads, options = [], set(), {}
+
+    class Module:
+        def __init__(self, name):
+            self.name = name
+
+        def load(self, device, block_dim):
+            loaded.append((self.name, device, block_dim))
+            threads.add(threading.get_ident())
+            time.sleep(0.05)  # a compile: the others start meanwhile
+
+    def step(model, data):
+        options.update(vars(model.opt))
+        for name in ("smooth", "passive", "solver"):
+            fake_warp.launch(types.SimpleNamespace(module=Module(name)), data.nworld)
 
     def load_module(name, device):
-        if name.endswith(".sensor"):
-            raise RuntimeError(f"Module '{name}' does not contain any Warp kernels")
-        loaded.append((name, device))
-        threads.add(threading.get_ident())
-        time.sleep(0.05)  # a compile: the others start meanwhile
+        raise RuntimeError(f"Module '{name}' does not contain any Warp kernels")
 
+    fake_mjw = types.SimpleNamespace(
+        put_model=lambda mj_model: types.SimpleNamespace(opt=types.SimpleNamespace()),
+        make_data=lambda mj_model, nworld, **sizes: types.SimpleNamespace(nworld=nworld, **sizes),
+        step=step,
+    )
+    monkeypatch.setitem(sys.modules, "mujoco.mjx.third_party.mujoco_warp", fake_mjw)
+    monkeypatch.setattr(
+        sys.modules["mujoco.mjx.third_party"], "mujoco_warp", fake_mjw, raising=False
+    )
+    fake_warp.is_cuda_available = lambda: False
+    assert warp_preload.preload(None, {}, {}) == 0 and not loaded  # no CUDA device: nothing
     fake_warp.is_cuda_available = lambda: True
     fake_warp.get_cuda_device = lambda ordinal: f"cuda:{ordinal}"
-    fake_warp.load_module = load_module
-    try:
-        backends.preload_warp_modules.cache_clear()
-        backends.preload_warp_modules()
-        backends.preload_warp_modules()  # once a process
-        names = [name for name, _ in loaded]
-        modules = backends._STEP_MODULES  # noqa: SLF001
-        expected = [name for name in modules if not name.endswith(".sensor")]
-        assert sorted(names) == sorted(expected)
-        assert {device for _, device in loaded} == {"cuda:0"} and len(threads) > 1
-        fake_warp.is_cuda_available = lambda: False
-        loaded.clear()
-        backends.preload_warp_modules.cache_clear()
-        backends.preload_warp_modules()
-        assert not loaded  # no CUDA device: Warp compiles nothing
-    finally:  # the real Warp (or none) for the tests after this one
-        backends.preload_warp_modules.cache_clear()
+    fake_warp.ScopedDevice = lambda device: contextlib.nullcontext()
+    fake_warp.load_module = load_module  # MJX's own module absent: skipped
+    for name in ("launch", "launch_tiled", "capture_while", "capture_if"):
+        setattr(fake_warp, name, None)
+    count = warp_preload.preload(None, {"graph_conditional": True}, {"njmax": 64})
+    assert sorted(loaded) == [(name, "cuda:0", 256) for name in ("passive", "smooth", "solver")]
+    assert len(threads) > 1 and options == {"graph_conditional": True} and count == 4

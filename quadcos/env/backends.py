@@ -10,7 +10,6 @@ together (`naconmax`), constraint rows per world (`njmax`). `warp_sizes` derives
 largest batch the env will be stepped in and a per-robot bound.
 """
 
-import concurrent.futures
 import functools
 import importlib.util
 import logging
@@ -21,7 +20,7 @@ import mujoco
 
 from quadcos._util import quiet
 from quadcos._util.quiet import warp_absence_unprinted
-from quadcos.env import warp_arena
+from quadcos.env import warp_arena, warp_preload
 
 logger = logging.getLogger(__name__)
 
@@ -170,14 +169,14 @@ def put_model(
     if warp_config.arena or warp_config.graph_mode == "jax":
         warp_arena.install()
     model = mjx.put_model(mj_model, device=local_device(), impl=impl, graph_mode=mode)
-    preload_warp_modules()
     from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType  # noqa: PLC0415
 
     option = model.opt._impl  # noqa: SLF001 — Warp's own options live there
     quiet = int(option.warn_overflow) & ~int(OverflowType.ITERATIONS | OverflowType.LS_ITERATIONS)
-    option = option.replace(
-        warn_overflow=quiet, graph_conditional=bool(warp_config.graph_conditional)
-    )
+    changed = {"warn_overflow": quiet, "graph_conditional": bool(warp_config.graph_conditional)}
+    sizes = warp_sizes(ml_collections.ConfigDict({"warp": warp_config}), mj_model)
+    warp_preload.preload(mj_model, changed, sizes)
+    option = option.replace(**changed)
     return model.replace(opt=model.opt.replace(_impl=option))
 
 
@@ -222,42 +221,3 @@ def local_device() -> jax.Device:
     """This process's first device, where an env's model and data live (MJX's default, the
     first of `jax.devices()`, is process 0's in a run over several processes)."""
     return jax.local_devices()[0]
-
-
-# MuJoCo Warp's modules that every MJX-Warp step loads (Warp 1.19's module-load lines), ~40 s of
-# CUDA compiling one after the other at a step's first launches on a machine with an empty kernel
-# cache (passive 13 s, smooth 12 s, sensor 7 s, forward 6 s); the kernels built per model
-# (collision, the Cholesky solve) still compile at their first launch.
-_STEP_MODULES = tuple(
-    "mujoco.mjx." + name
-    for name in (
-        "warp.ffi",
-        *(
-            f"third_party.mujoco_warp._src.{module}"
-            for module in (
-                "smooth", "constraint", "sensor", "forward", "passive", "support", "solver"
-            )
-        ),
-    )
-)
-
-
-@functools.cache
-def preload_warp_modules() -> None:
-    """Compiles (or loads from Warp's kernel cache) `_STEP_MODULES` on the first CUDA device, a
-    thread each, once a process: a cold start waits for the longest module, not their sum.
-    Nothing without a CUDA device; a module this MJX does not have is skipped."""
-    import warp  # noqa: PLC0415 — installed wherever impl is warp
-
-    if not warp.is_cuda_available():
-        return
-    device = warp.get_cuda_device(0)
-
-    def load(name: str) -> None:
-        try:
-            warp.load_module(name, device=device)
-        except RuntimeError as error:  # not in this MJX: it loads (if ever) at its launch
-            logger.debug("Warp preload: %s skipped (%s)", name, error)
-
-    with concurrent.futures.ThreadPoolExecutor(len(_STEP_MODULES)) as pool:
-        list(pool.map(load, _STEP_MODULES))

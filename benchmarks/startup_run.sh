@@ -2,13 +2,13 @@
 # Start-up of `python -m quadcos.train` on one GPU (after `source experiments/gpu_setup.sh`,
 # warp-lang installed), process start -> the first training chunk, as each run's startup.json
 # records it: this tree (/tmp/new: `git archive HEAD quadcos models pyproject.toml`) and
-# BASE (/tmp/base: the same of the revision before `env.backends.preload_warp_modules`).
+# BASE (/tmp/base: the same of a revision to compare with, e.g. the one before `env.warp_preload`).
 #   cold: the run's whole cache folder (JAX's and Warp's kernels) emptied; jaxcold: JAX's cache
 #   emptied, Warp's kept (a machine that has run quadcos before, under another JAX); warm: a run
 #   after them; BASE's rows only where /tmp/base exists. any_cold (ANY_COLD=0 skips it):
 #   `--preset=any_slope` from empty caches (its gait search included).
 # $O/NAME.startup.json, NAME.log (with --verbose: Warp's module loads and their seconds), status.
-# Then: python -m quadcos.results record --name startup_h200 ... $O/*.startup.json
+# Then: python -m quadcos.results record --name startup_h100 ... $O/*.startup.json (its device)
 set -u
 O=${OUT:-/tmp/su}; mkdir -p "$O"
 run() {  # TREE NAME CACHE FLAGS...

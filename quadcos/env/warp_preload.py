@@ -1,0 +1,100 @@
+"""MuJoCo Warp's kernels compiled side by side, before the first step launches them.
+
+A cold MJX-Warp step compiles each Warp module at its first launch, one after the other: MuJoCo
+Warp's own modules (passive, smooth, sensor, forward, ...) and the kernels it builds for one model
+(its collision pairs, the solver's tiles for its degrees of freedom). `preload` steps the model
+once on MuJoCo Warp with every kernel launch recorded instead of run, then compiles (or loads from
+Warp's kernel cache) each recorded module in a thread of its own: a cold start waits for the
+slowest module, not for their sum. A module the recording missed still compiles at its launch.
+"""
+
+import concurrent.futures
+import contextlib
+import logging
+import math
+from collections.abc import Iterator
+from typing import Any
+
+logger = logging.getLogger(__name__)
+
+# Warp's default threads per block on a CUDA device (a launch without `block_dim`)
+_CUDA_BLOCK_DIM = 256
+# modules of MJX's own (its FFI's kernels), which a MuJoCo Warp step does not launch
+_MJX_MODULES = ("mujoco.mjx.warp.ffi",)
+
+
+@contextlib.contextmanager
+def launches_recorded(warp: Any) -> Iterator[dict[tuple[str, int], Any]]:
+    """Within: `warp`'s kernel launches record {(module name, block dim): module} of each launch
+    with work (a launch of size 0 loads nothing) instead of running; a graph's loop
+    (`capture_while`) runs its body once, a graph's branch (`capture_if`) both its sides. Warp's
+    functions are restored on leaving. Kernels only: copies and fills still run."""
+    launched: dict[tuple[str, int], Any] = {}
+
+    def record(kernel=None, dim=0, *args, block_dim=None, **kwargs):
+        size = math.prod(dim) if isinstance(dim, list | tuple) else dim
+        if size:
+            block = block_dim if block_dim and block_dim > 0 else _CUDA_BLOCK_DIM
+            launched.setdefault((kernel.module.name, block), kernel.module)
+
+    def loop_once(condition, while_body, *args, **kwargs):
+        while_body(**kwargs)
+
+    def both_sides(condition, on_true=None, on_false=None, *args, **kwargs):
+        for side in (on_true, on_false):
+            if side is not None:
+                side(**kwargs)
+
+    names = {
+        "launch": record,
+        "launch_tiled": record,
+        "capture_while": loop_once,
+        "capture_if": both_sides,
+    }
+    saved = {name: getattr(warp, name) for name in names}
+    try:
+        for name, function in names.items():
+            setattr(warp, name, function)
+        yield launched
+    finally:
+        for name, function in saved.items():
+            setattr(warp, name, function)
+
+
+def preload(mj_model, option: dict[str, Any], sizes: dict[str, int]) -> int:
+    """Compiles, a thread each, the Warp modules one MuJoCo Warp step of `mj_model` launches on
+    the first CUDA device (its options set to `option`, e.g. MJX's `graph_conditional` and
+    `warn_overflow`, which change the kernels built; its buffers `sizes`, `naconmax` and `njmax`),
+    and MJX's own. Returns how many modules; 0 without a CUDA device."""
+    import warp  # noqa: PLC0415 — installed wherever impl is warp
+    from mujoco.mjx.third_party import mujoco_warp  # noqa: PLC0415
+
+    if not warp.is_cuda_available():
+        return 0
+    device = warp.get_cuda_device(0)
+    with warp.ScopedDevice(device):
+        model = mujoco_warp.put_model(mj_model)
+        for key, value in option.items():
+            setattr(model.opt, key, value)
+        data = mujoco_warp.make_data(mj_model, nworld=1, **sizes)
+        with launches_recorded(warp) as launched:
+            mujoco_warp.step(model, data)
+
+    def load(job: tuple[Any, int]) -> None:
+        module, block = job
+        module.load(device, block)
+
+    def load_named(name: str) -> None:
+        try:
+            warp.load_module(name, device=device)
+        except RuntimeError as error:  # not in this MJX: it loads (if ever) at its launch
+            logger.debug("Warp preload: %s skipped (%s)", name, error)
+
+    jobs = [(module, block) for (_, block), module in launched.items()]
+    with concurrent.futures.ThreadPoolExecutor(min(32, len(jobs) + len(_MJX_MODULES))) as pool:
+        done = [pool.submit(load, job) for job in jobs]
+        done += [pool.submit(load_named, name) for name in _MJX_MODULES]
+        for future in done:
+            future.result()
+    logger.debug("Warp preload: %d modules", len(jobs) + len(_MJX_MODULES))
+    return len(jobs) + len(_MJX_MODULES)
