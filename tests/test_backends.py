@@ -1,6 +1,7 @@
 """Choosing the MJX implementation: JAX on the CPU, Warp only where it can run."""
 
 import contextlib
+import logging
 import sys
 import threading
 import time
@@ -261,7 +262,7 @@ def test_a_recorded_step_records_each_launched_module_and_runs_no_kernel(fake_wa
     assert {name: getattr(fake_warp, name) for name in originals} == originals  # restored
 
 
-def test_warp_preload_compiles_every_launched_module_in_threads(fake_warp, monkeypatch):
+def test_warp_preload_compiles_every_launched_module_in_threads(fake_warp, monkeypatch, caplog):
     loaded, threads, options = [], set(), {}
 
     class Module:
@@ -300,4 +301,9 @@ def test_warp_preload_compiles_every_launched_module_in_threads(fake_warp, monke
         setattr(fake_warp, name, None)
     count = warp_preload.preload(None, {"graph_conditional": True}, {"njmax": 64})
     assert sorted(loaded) == [(name, "cuda:0", 256) for name in ("passive", "smooth", "solver")]
-    assert len(threads) > 1 and options == {"graph_conditional": True} and count == 4
+    assert len(threads) > 1 and options == {"graph_conditional": True} and count == 3
+    loaded.clear()
+    fake_mjw.step = lambda model, data: fake_warp.capture_while(None)  # a Warp it cannot record
+    with caplog.at_level(logging.WARNING):
+        assert warp_preload.preload(None, {}, {}) == 0  # the run goes on: kernels at launch
+    assert not loaded and "not recorded" in caplog.text and fake_warp.launch is None  # restored

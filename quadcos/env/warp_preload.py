@@ -65,36 +65,46 @@ def preload(mj_model, option: dict[str, Any], sizes: dict[str, int]) -> int:
     """Compiles, a thread each, the Warp modules one MuJoCo Warp step of `mj_model` launches on
     the first CUDA device (its options set to `option`, e.g. MJX's `graph_conditional` and
     `warn_overflow`, which change the kernels built; its buffers `sizes`, `naconmax` and `njmax`),
-    and MJX's own. Returns how many modules; 0 without a CUDA device."""
+    and MJX's own. Returns how many modules it compiled or loaded; 0 without a CUDA device. An
+    optimisation only: a step that cannot be recorded is warned of, a module that fails here is
+    skipped, and the run goes on (what is left compiles at its launch, as without the preload)."""
     import warp  # noqa: PLC0415 — installed wherever impl is warp
     from mujoco.mjx.third_party import mujoco_warp  # noqa: PLC0415
 
     if not warp.is_cuda_available():
         return 0
     device = warp.get_cuda_device(0)
-    with warp.ScopedDevice(device):
-        model = mujoco_warp.put_model(mj_model)
-        for key, value in option.items():
-            setattr(model.opt, key, value)
-        data = mujoco_warp.make_data(mj_model, nworld=1, **sizes)
-        with launches_recorded(warp) as launched:
-            mujoco_warp.step(model, data)
+    try:
+        with warp.ScopedDevice(device):
+            model = mujoco_warp.put_model(mj_model)
+            for key, value in option.items():
+                setattr(model.opt, key, value)
+            data = mujoco_warp.make_data(mj_model, nworld=1, **sizes)
+            with launches_recorded(warp) as launched:
+                mujoco_warp.step(model, data)
+    except Exception as error:  # noqa: BLE001 — MuJoCo Warp's step changed: compile at launch
+        logger.warning(
+            "Warp preload: the step was not recorded (%r); its kernels compile at"
+            " their first launch",
+            error,
+        )
+        launched = {}
 
-    def load(job: tuple[Any, int]) -> None:
+    def load(job: tuple[Any, int | None]) -> bool:
         module, block = job
-        module.load(device, block)
-
-    def load_named(name: str) -> None:
         try:
-            warp.load_module(name, device=device)
-        except RuntimeError as error:  # not in this MJX: it loads (if ever) at its launch
-            logger.debug("Warp preload: %s skipped (%s)", name, error)
+            if isinstance(module, str):
+                warp.load_module(module, device=device)
+            else:
+                module.load(device, block)
+        except Exception as error:  # noqa: BLE001 — e.g. not in this MJX: it loads at its launch
+            logger.debug("Warp preload: %s skipped (%r)", getattr(module, "name", module), error)
+            return False
+        return True
 
     jobs = [(module, block) for (_, block), module in launched.items()]
-    with concurrent.futures.ThreadPoolExecutor(min(32, len(jobs) + len(_MJX_MODULES))) as pool:
-        done = [pool.submit(load, job) for job in jobs]
-        done += [pool.submit(load_named, name) for name in _MJX_MODULES]
-        for future in done:
-            future.result()
-    logger.debug("Warp preload: %d modules", len(jobs) + len(_MJX_MODULES))
-    return len(jobs) + len(_MJX_MODULES)
+    jobs += [(name, None) for name in _MJX_MODULES]
+    with concurrent.futures.ThreadPoolExecutor(min(32, len(jobs))) as pool:
+        loaded = sum(pool.map(load, jobs))
+    logger.debug("Warp preload: %d of %d modules", loaded, len(jobs))
+    return loaded
