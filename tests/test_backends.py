@@ -307,3 +307,46 @@ def test_warp_preload_compiles_every_launched_module_in_threads(fake_warp, monke
     with caplog.at_level(logging.WARNING):
         assert warp_preload.preload(None, {}, {}) == 0  # the run goes on: kernels at launch
     assert not loaded and "not recorded" in caplog.text and fake_warp.launch is None  # restored
+
+
+def test_a_deferred_preload_returns_while_the_step_compiles_and_wait_joins_it(
+    fake_warp, monkeypatch
+):
+    compiling, loaded = threading.Event(), []
+
+    class Module:
+        def __init__(self, name):
+            self.name = name
+
+        def load(self, device, block_dim):
+            assert compiling.wait(10)  # a compile that lasts until the test ends it
+            loaded.append(self.name)
+
+    modules = [Module("smooth"), Module("solver")]
+
+    def step(model, data):
+        for module in modules:
+            fake_warp.launch(types.SimpleNamespace(module=module), 1)
+
+    fake_mjw = types.SimpleNamespace(
+        put_model=lambda mj_model: types.SimpleNamespace(opt=types.SimpleNamespace()),
+        make_data=lambda mj_model, nworld, **sizes: None,
+        step=step,
+    )
+    monkeypatch.setitem(sys.modules, "mujoco.mjx.third_party.mujoco_warp", fake_mjw)
+    monkeypatch.setattr(
+        sys.modules["mujoco.mjx.third_party"], "mujoco_warp", fake_mjw, raising=False
+    )
+    fake_warp.is_cuda_available = lambda: True
+    fake_warp.get_cuda_device = lambda ordinal: f"cuda:{ordinal}"
+    fake_warp.ScopedDevice = lambda device: contextlib.nullcontext()
+    fake_warp.load_module = lambda name, device: loaded.append(name)  # MJX's own: waited for
+    for name in ("launch", "launch_tiled", "capture_while", "capture_if"):
+        setattr(fake_warp, name, None)
+    with warp_preload.deferred():
+        assert warp_preload.preload(None, {}, {}) == 3
+        assert warp_preload.preload(None, {}, {}) == 3  # a second env of the model
+    assert loaded == ["mujoco.mjx.warp.ffi"] * 2  # the step's two modules still compiling
+    compiling.set()
+    assert warp_preload.wait() == 3 and warp_preload.wait() == 0
+    assert sorted(loaded) == ["mujoco.mjx.warp.ffi"] * 2 + ["smooth", "solver"]  # each once

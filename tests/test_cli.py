@@ -48,9 +48,9 @@ def test_smoke_run_writes_a_complete_run_directory(smoke_run):
         "imports",
         "envs_built",
         "trainer_built",
+        "programs_traced",  # before the state: they compile while Warp's modules do
         "state_initialised",
         "run_dir_ready",
-        "programs_traced",
         "prefill_dispatched",
         "first_chunk",
         "first_evaluation",

@@ -282,6 +282,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [trackatt8]="$trackatt8"
     # ... among the 8 best of a search that ranks only level gaits (searchatt's bound)
     [searchtrackatt8]="--config.sac.gait_search.max_attitude=0.085 $trackatt8"
+    # ... among its 16 best (searchtrackatt8's seed 2: none of its 8 within the speed target)
+    [searchtrackatt16]="--config.sac.gait_search.max_attitude=0.085 ${trackatt8/=8/=16}"
     # Eq. 12's roll weight w5 ×3 with trackatt8 (SAC has moved a gait's roll by <= 0.023 rad at
     # w5 30; trackatt's misses are rolls of 0.104-0.111)
     [trackatt8roll90]="$trackatt8 --config.env.reward.roll=90"

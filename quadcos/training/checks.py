@@ -138,7 +138,7 @@ def check_memory(trainer: sac.SACTrainer) -> None:
     envs included) and the evaluation envs' states; not the temporaries of a step.
     """
     config = trainer.config
-    state = jax.eval_shape(trainer.init)
+    state = trainer.state_shapes
     replay_bytes = _nbytes(state.replay)
     env_bytes = _nbytes(state.env_state) * (1 + config.num_eval_envs / config.num_envs)
     # Spread over the devices (the replicated networks are small beside the buffer and envs).

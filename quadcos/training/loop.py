@@ -25,6 +25,7 @@ import ml_collections
 from brax import envs
 
 from quadcos._util import provenance
+from quadcos.env import warp_preload
 from quadcos.training import best_policy, checkpoint, host, metrics_log, parallel, run_files, sac
 from quadcos.training import config as config_lib
 from quadcos.training import policy as policy_lib
@@ -139,6 +140,11 @@ def train(
     check_memory(trainer)
     spec = run_files.policy_spec(trainer)
     run_info = _run_info(config, extra_run_info)
+    if not resume and config.num_timesteps > 0 and trainer.layout.mesh is None:
+        # the programs compile while Warp's modules do (`warp_preload.deferred`: quadcos.train)
+        trainer.compile_ahead(trainer.state_shapes, prefill=config.min_replay_size > 0)
+        startup.mark("programs_traced")
+    warp_preload.wait()  # before the first Warp launch
     state = jax.block_until_ready(trainer.init())
     startup.mark("state_initialised")
     run = run_files.RunFiles(state=state)
@@ -215,8 +221,7 @@ def run_chunks(
     # Not when resuming a finished run (e.g. killed before its policy was saved): nothing to train.
     unfinished = num_timesteps is None or step < num_timesteps
     prefill = trainer.replay_size(state) < trainer.config.min_replay_size and unfinished
-    if unfinished:
-        trainer.compile_ahead(state, prefill=prefill)
+    if unfinished and trainer.compile_ahead(state, prefill=prefill):  # (none: compiled ahead)
         startup.mark("programs_traced")
     finish_start = on_start(state) if step == 0 else None
     if num_timesteps is not None:

@@ -189,6 +189,22 @@ class SACTrainer:
             return jax.device_put(self._init(self._key_init, self._gait), jax.devices()[0])
         return self._init(self._key_init)
 
+    @functools.cached_property
+    def state_shapes(self) -> TrainingState:
+        """What `init` returns, as shapes and dtypes (`jax.ShapeDtypeStruct`), without running
+        it; on one device with its placement too, so that the programs compile from it before
+        the state exists (`compile_ahead`)."""
+        shapes = jax.eval_shape(self.init)
+        if self.layout.mesh is not None:
+            return shapes
+        device = jax.sharding.SingleDeviceSharding(jax.devices()[0])
+        return jax.tree.map(
+            lambda x: jax.ShapeDtypeStruct(
+                x.shape, x.dtype, sharding=device, weak_type=x.weak_type
+            ),
+            shapes,
+        )
+
     def compile_ahead(
         self, state: TrainingState, *, prefill: bool
     ) -> list[concurrent.futures.Future[Any]]:
@@ -198,8 +214,9 @@ class SACTrainer:
         cold start waits for the longest program, not for their sum, and the evaluation is
         traced while the host waits for the others. A later call of either waits for its
         program and runs it; `state`'s shapes and placement must not change after this (they do
-        not: a chunk returns the state as it took it). Returns the compilations (futures); a
-        second call does nothing and returns none."""
+        not: a chunk returns the state as it took it). `state` may be `state_shapes` on one
+        device. Returns the compilations (futures); a second call does nothing and returns
+        none."""
         if isinstance(self.train_chunk, _Compiling):
             return []
         lowered = {"train_chunk": self.train_chunk.lower(state)}
@@ -213,7 +230,7 @@ class SACTrainer:
         # committed to a device (the keys) goes where the others are, as in a call.
         args = jax.tree.map(
             lambda x: jax.ShapeDtypeStruct(
-                x.shape, x.dtype, sharding=x.sharding if x.committed else None
+                x.shape, x.dtype, sharding=x.sharding if getattr(x, "committed", True) else None
             ),
             (state.normalizer_params, state.policy_params, self._eval_keys, self._eval_gait),
         )

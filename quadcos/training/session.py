@@ -19,7 +19,7 @@ import ml_collections
 
 from quadcos import env as env_lib
 from quadcos._util import files
-from quadcos.env import solver_probe
+from quadcos.env import solver_probe, warp_preload
 from quadcos.equations import oscillator
 from quadcos.training import ahead, host, loop, reuse
 from quadcos.training.checks import ConfigError
@@ -105,7 +105,8 @@ def run(
     reused = None
     if trainers is not None and jax.process_count() == 1:
         reused = trainers.get(key, config.sac)
-    env, eval_env, trainer = reused or (*_envs(config.env), None)
+    with warp_preload.deferred():  # Warp's modules compile while the trainer's programs do
+        env, eval_env, trainer = reused or (*_envs(config.env), None)
     startup.mark("envs_built")
     result = loop.train(
         env,
