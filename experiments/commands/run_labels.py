@@ -137,6 +137,9 @@ TRACK_ATTITUDE8 = ("go1cmd_trackatt8_s0", "go1cmd_trackatt8_s1", "go1cmd_trackat
 # bound): Go1's three seeds sharing one GPU
 SEARCH_TRACK_ATTITUDE8 = ("go1cmd_searchtrackatt8_s0", "go1cmd_searchtrackatt8_s1",
                           "go1cmd_searchtrackatt8_s2")
+# ... among its 16 best (lever `searchtrackatt16`): Go1's three seeds sharing one GPU
+SEARCH_TRACK_ATTITUDE16 = ("go1cmd_searchtrackatt16_s0", "go1cmd_searchtrackatt16_s1",
+                           "go1cmd_searchtrackatt16_s2")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",

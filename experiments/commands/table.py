@@ -28,6 +28,7 @@ from run_labels import (
     SAC_LEVERS,
     SEARCH_ATTITUDE,
     SEARCH_TRACK_ATTITUDE8,
+    SEARCH_TRACK_ATTITUDE16,
     TRACK_ATTITUDE,
     TRACK_ATTITUDE8,
     TRACKED,
@@ -460,7 +461,7 @@ def blocks() -> tuple[str, ...]:
     return (
         table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
         seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
-        anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
+        seeds(SEARCH_TRACK_ATTITUDE16), anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
 
