@@ -1,19 +1,18 @@
 """Soft Actor-Critic as one compiled program per chunk of env steps.
 
-Built from Brax's SAC pieces (networks, losses, gradient updates, running
-statistics, training wrappers) because stock `brax.training.agents.sac.train`
-calls `jax.device_put_replicated`, which JAX 0.10 removed. One device, or data-parallel over
-several (`config.num_devices`, `quadcos.training.parallel`): the same program, jitted on a state
-whose envs and replay buffer are split over the devices (XLA partitions it); each device steps its
-envs, fills and samples its own ring of the buffer, and the gradients are summed across devices.
+Built from Brax's SAC pieces (networks, losses, gradient updates, running statistics, training
+wrappers) because stock `brax.training.agents.sac.train` calls `jax.device_put_replicated`, which
+JAX 0.10 removed. One device, or data-parallel over several (`config.num_devices`,
+`quadcos.training.parallel`): the same program, jitted on a state whose envs and replay buffer are
+split over the devices (XLA partitions it); each device steps its envs, fills and samples its own
+ring of the buffer, and the gradients are summed across devices.
 
-One chunk is `steps_per_chunk` iterations of: act with the stochastic policy
-in all training envs, guard against non-finite env outputs, insert the
-transitions into the replay buffer, update the observation statistics, then
-`updates_per_step` SAC updates (Haarnoja et al. 2018, arXiv:1812.05905). With
-`overlap_updates` the updates come first, on the buffer as it stood before the env step, and the
-policy acts with the parameters before them: the updates and the env step no longer depend on each
-other, so the GPU may run them side by side.
+One chunk is `steps_per_chunk` iterations of: act with the stochastic policy in all training envs,
+guard against non-finite env outputs, insert the transitions into the replay buffer, update the
+observation statistics, then `updates_per_step` SAC updates (Haarnoja et al. 2018,
+arXiv:1812.05905). With `overlap_updates` the updates come first, on the buffer as it stood before
+the env step, and the policy acts with the parameters before them: the updates and the env step no
+longer depend on each other, so the GPU may run them side by side.
 """
 
 import concurrent.futures
@@ -191,19 +190,13 @@ class SACTrainer:
 
     @functools.cached_property
     def state_shapes(self) -> TrainingState:
-        """What `init` returns, as shapes and dtypes (`jax.ShapeDtypeStruct`), without running
-        it; on one device with its placement too, so that the programs compile from it before
-        the state exists (`compile_ahead`)."""
+        """`init`'s state as shapes (`jax.ShapeDtypeStruct`), not run; on one device placed too,
+        so that the programs compile from it before the state exists (`compile_ahead`)."""
         shapes = jax.eval_shape(self.init)
         if self.layout.mesh is not None:
             return shapes
         device = jax.sharding.SingleDeviceSharding(jax.devices()[0])
-        return jax.tree.map(
-            lambda x: jax.ShapeDtypeStruct(
-                x.shape, x.dtype, sharding=device, weak_type=x.weak_type
-            ),
-            shapes,
-        )
+        return jax.tree.map(lambda x: x.update(sharding=device), shapes)
 
     def compile_ahead(
         self, state: TrainingState, *, prefill: bool
@@ -213,10 +206,9 @@ class SACTrainer:
         `evaluate` traced and compiled in a third: XLA compiles without holding the GIL, so a
         cold start waits for the longest program, not for their sum, and the evaluation is
         traced while the host waits for the others. A later call of either waits for its
-        program and runs it; `state`'s shapes and placement must not change after this (they do
-        not: a chunk returns the state as it took it). `state` may be `state_shapes` on one
-        device. Returns the compilations (futures); a second call does nothing and returns
-        none."""
+        program and runs it; `state` (or on one device `state_shapes`) must keep its shapes and
+        placement (a chunk returns the state as it took it). Returns the compilations (futures);
+        a second call does nothing and returns none."""
         if isinstance(self.train_chunk, _Compiling):
             return []
         lowered = {"train_chunk": self.train_chunk.lower(state)}
