@@ -262,6 +262,26 @@ def test_a_recorded_step_records_each_launched_module_and_runs_no_kernel(fake_wa
     assert {name: getattr(fake_warp, name) for name in originals} == originals  # restored
 
 
+def _cuda_step(fake_warp, monkeypatch, step):
+    """A fake MuJoCo Warp whose step is `step(model, data)` (`data.nworld`, the buffer sizes),
+    and a CUDA device in `fake_warp` with its launches unset (the preload records them)."""
+    fake_mjw = types.SimpleNamespace(
+        put_model=lambda mj_model: types.SimpleNamespace(opt=types.SimpleNamespace()),
+        make_data=lambda mj_model, nworld, **sizes: types.SimpleNamespace(nworld=nworld, **sizes),
+        step=step,
+    )
+    monkeypatch.setitem(sys.modules, "mujoco.mjx.third_party.mujoco_warp", fake_mjw)
+    monkeypatch.setattr(
+        sys.modules["mujoco.mjx.third_party"], "mujoco_warp", fake_mjw, raising=False
+    )
+    fake_warp.is_cuda_available = lambda: True
+    fake_warp.get_cuda_device = lambda ordinal: f"cuda:{ordinal}"
+    fake_warp.ScopedDevice = lambda device: contextlib.nullcontext()
+    for name in ("launch", "launch_tiled", "capture_while", "capture_if"):
+        setattr(fake_warp, name, None)
+    return fake_mjw
+
+
 def test_warp_preload_compiles_every_launched_module_in_threads(fake_warp, monkeypatch, caplog):
     loaded, threads, options = [], set(), {}
 
@@ -282,23 +302,10 @@ def test_warp_preload_compiles_every_launched_module_in_threads(fake_warp, monke
     def load_module(name, device):
         raise RuntimeError(f"Module '{name}' does not contain any Warp kernels")
 
-    fake_mjw = types.SimpleNamespace(
-        put_model=lambda mj_model: types.SimpleNamespace(opt=types.SimpleNamespace()),
-        make_data=lambda mj_model, nworld, **sizes: types.SimpleNamespace(nworld=nworld, **sizes),
-        step=step,
-    )
-    monkeypatch.setitem(sys.modules, "mujoco.mjx.third_party.mujoco_warp", fake_mjw)
-    monkeypatch.setattr(
-        sys.modules["mujoco.mjx.third_party"], "mujoco_warp", fake_mjw, raising=False
-    )
     fake_warp.is_cuda_available = lambda: False
     assert warp_preload.preload(None, {}, {}) == 0 and not loaded  # no CUDA device: nothing
-    fake_warp.is_cuda_available = lambda: True
-    fake_warp.get_cuda_device = lambda ordinal: f"cuda:{ordinal}"
-    fake_warp.ScopedDevice = lambda device: contextlib.nullcontext()
+    fake_mjw = _cuda_step(fake_warp, monkeypatch, step)
     fake_warp.load_module = load_module  # MJX's own module absent: skipped
-    for name in ("launch", "launch_tiled", "capture_while", "capture_if"):
-        setattr(fake_warp, name, None)
     count = warp_preload.preload(None, {"graph_conditional": True}, {"njmax": 64})
     assert sorted(loaded) == [(name, "cuda:0", 256) for name in ("passive", "smooth", "solver")]
     assert len(threads) > 1 and options == {"graph_conditional": True} and count == 3
@@ -328,21 +335,8 @@ def test_a_deferred_preload_returns_while_the_step_compiles_and_wait_joins_it(
         for module in modules:
             fake_warp.launch(types.SimpleNamespace(module=module), 1)
 
-    fake_mjw = types.SimpleNamespace(
-        put_model=lambda mj_model: types.SimpleNamespace(opt=types.SimpleNamespace()),
-        make_data=lambda mj_model, nworld, **sizes: None,
-        step=step,
-    )
-    monkeypatch.setitem(sys.modules, "mujoco.mjx.third_party.mujoco_warp", fake_mjw)
-    monkeypatch.setattr(
-        sys.modules["mujoco.mjx.third_party"], "mujoco_warp", fake_mjw, raising=False
-    )
-    fake_warp.is_cuda_available = lambda: True
-    fake_warp.get_cuda_device = lambda ordinal: f"cuda:{ordinal}"
-    fake_warp.ScopedDevice = lambda device: contextlib.nullcontext()
+    _cuda_step(fake_warp, monkeypatch, step)
     fake_warp.load_module = lambda name, device: loaded.append(name)  # MJX's own: waited for
-    for name in ("launch", "launch_tiled", "capture_while", "capture_if"):
-        setattr(fake_warp, name, None)
     with warp_preload.deferred():
         assert warp_preload.preload(None, {}, {}) == 3
         assert warp_preload.preload(None, {}, {}) == 3  # a second env of the model
