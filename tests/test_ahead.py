@@ -1,15 +1,17 @@
-"""A from-scratch run's trainer compiled during its gait search (`quadcos.training.ahead`; the
-run that uses it end to end: tests/test_gait_search.py), and a search that eats the run's time
-budget warned of."""
+"""A from-scratch run's trainer built before its gait search and compiled during it
+(`quadcos.training.ahead`; the run that uses it end to end: tests/test_gait_search.py), the
+trainers kept for later runs of the same programs given the run's gait (`reuse`), and a search
+that eats the run's time budget warned of."""
 
-import logging
-import threading
-import time
-
+import jax
+import ml_collections
+import numpy as np
 import pytest
 
-from quadcos import train
-from quadcos.training import ahead, session
+from quadcos import train, training
+from quadcos.env import quadruped
+from quadcos.equations import oscillator
+from quadcos.training import ahead, host, reuse, session
 
 
 @pytest.fixture(autouse=True)
@@ -24,17 +26,17 @@ def _config(**overrides: str):
 
 
 @pytest.mark.parametrize(
-    "overrides, applies",
+    "overrides, resume, applies",
     [
-        ({}, True),  # the tests' compilation cache is on
-        ({"sac.gait_search.compile_trainer": False}, False),
-        ({"env.action_centre": "trot"}, False),  # no search to overlap
-        ({"env.impl": "warp"}, False),  # MJX-Warp (here: not installed, the env says so)
-        ({"sac.num_devices": 1}, True),
+        ({}, False, True),
+        ({"sac.gait_search.compile_trainer": False}, False, False),
+        ({"env.action_centre": "trot"}, False, False),  # no search to overlap
+        ({}, True, False),  # a resumed run: its state comes from a checkpoint
+        ({"sac.num_devices": 1}, False, True),
     ],
 )
-def test_a_searching_run_on_mjx_jax_compiles_its_trainer_during_the_search(overrides, applies):
-    assert ahead.applies(_config(**overrides)) is applies
+def test_a_fresh_searching_run_on_one_device_builds_its_trainer_first(overrides, resume, applies):
+    assert ahead.applies(_config(**overrides), resume) is applies
 
 
 def test_not_on_a_cpu(monkeypatch):
@@ -42,41 +44,34 @@ def test_not_on_a_cpu(monkeypatch):
     assert not ahead.applies(_config())
 
 
-def test_the_trainer_compiles_on_a_placeholder_gait_beside_the_search_and_is_waited_for():
-    built, searched = [], threading.Event()
-
-    def build_envs(env_config):
-        built.append(env_config.action_centre)
-        assert searched.wait(10)  # runs while the body (the search) runs
-        raise RuntimeError("no envs in this test")
-
-    with ahead.during_search(_config(), build_envs):
-        searched.set()
-    assert built == [ahead.PLACEHOLDER_CENTRE]  # the thread ran, and was joined on leaving
+def test_the_program_key_leaves_out_the_gait_a_search_sets():
+    config = _config()
+    searched = ml_collections.ConfigDict(config.env.to_dict())
+    searched.action_centre = "0.38877,0.195895,0.50539,1.8099,-1.33169"
+    searched.commands.reference_speed = 0.9
+    assert reuse.program_key(searched, config.sac) == reuse.program_key(config.env, config.sac)
+    searched.action_scale = 0.3  # a field the programs read
+    assert reuse.program_key(searched, config.sac) != reuse.program_key(config.env, config.sac)
 
 
-def test_a_search_that_raises_waits_for_the_thread():
-    def build_envs(env_config):
-        time.sleep(0.5)  # still compiling when the search is interrupted
-        raise RuntimeError("no envs in this test")
-
-    with pytest.raises(KeyboardInterrupt), ahead.during_search(_config(), build_envs):
-        raise KeyboardInterrupt
-    assert "quadcos-compile-during-search" not in [t.name for t in threading.enumerate()]
-
-
-def test_a_failed_compilation_is_one_warning_and_the_run_goes_on(caplog):
-    def build_envs(env_config):
-        raise RuntimeError("boom")
-
-    with (
-        caplog.at_level(logging.WARNING, logger=ahead.__name__),
-        ahead.during_search(_config(), build_envs),
-    ):
-        pass
-    (record,) = caplog.records
-    assert "RuntimeError: boom" in record.getMessage()
-    assert "the run compiles it after the search" in record.getMessage()
+def test_an_env_with_a_searched_gait_is_the_env_built_for_it():
+    config = _config(**{"env.commands.spec": "random", "env.commands.feed_forward": True})
+    placeholder = ml_collections.ConfigDict(config.env.to_dict())
+    placeholder.action_centre = ahead.PLACEHOLDER_CENTRE
+    searched = ml_collections.ConfigDict(config.env.to_dict())
+    searched.action_centre = "0.38877,0.195895,0.50539,1.8099,-1.33169"
+    searched.commands.reference_speed, searched.commands.half_track = 0.9, 0.2
+    base = quadruped.QuadrupedEnv(config.env.terrain, placeholder)
+    env = base.with_gait_of(searched)
+    built = quadruped.QuadrupedEnv(config.env.terrain, searched)
+    assert env.config.to_dict() == built.config.to_dict()
+    for name, value in built.gait.items():
+        np.testing.assert_array_equal(env.gait[name], value)
+    np.testing.assert_array_equal(
+        env.action_centre, oscillator.action_centre(searched.action_centre, config.env.period_min)
+    )
+    assert env.commands.spec == built.commands.spec
+    assert env.mj_model is base.mj_model and base.config.action_centre == ahead.PLACEHOLDER_CENTRE
 
 
 @pytest.mark.parametrize(
@@ -89,3 +84,31 @@ def test_a_search_that_takes_half_the_run_or_more_is_warned_of(max_seconds, sear
     if warned:
         assert f"ended {searched_s:.0f} s into the run's {max_seconds} s" in message
         assert f"leaving SAC {max(max_seconds - searched_s, 0):.0f} s" in message
+
+
+def test_a_trainer_compiled_during_the_search_trains_as_one_built_after_it():
+    centre = "0.38877,0.195895,0.50539,1.8099,-1.33169"
+
+    def find_gait(config):
+        return {"action_centre": centre, "setup": {"wall_time_s": 0.0}}
+
+    runs = {}
+    for first in (True, False):
+        config = _config(**{"sac.gait_search.compile_trainer": first, "sac.num_timesteps": 320})
+        startup = host.StartUp()
+        result = training.run(config, find_gait=find_gait, progress=False, startup=startup)
+        runs[first] = result, list(startup.seconds)
+    (early, events), (after, events_after) = runs[True], runs[False]
+    # traced before the search, not after it
+    assert events.index("trainer_traced") < events.index("gait_search") < events.index("envs_built")
+    assert "trainer_traced" not in events_after
+    # the states step through the searched gait, and the two runs are the same run
+    gait = early.state.env_state.info["gait"]["action_map"][0]
+    np.testing.assert_array_equal(gait, after.state.env_state.info["gait"]["action_map"][0])
+    period_min = train.build_config(train.PRESETS["smoke"], {}).env.period_min
+    expected = oscillator.action_map(period_min, oscillator.action_centre(centre, period_min))
+    np.testing.assert_allclose(gait, expected, rtol=1e-6)
+    jax.tree.map(
+        np.testing.assert_array_equal, early.state.policy_params, after.state.policy_params
+    )
+    assert early.env_steps == after.env_steps > 0

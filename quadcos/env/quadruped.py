@@ -406,6 +406,25 @@ class QuadrupedEnv(base.Env):
         copy.__dict__.update(self.__dict__, **gait)
         return copy
 
+    def with_gait_of(self, env_config: ml_collections.ConfigDict) -> "QuadrupedEnv":
+        """This env (a shallow copy sharing its models) as built from its config with the
+        `gait_fields` of `env_config` (the gait a search found): that config, action centre and
+        maps, and the command plan of its spec read with that config."""
+        config = ml_collections.ConfigDict(self.config.to_dict())
+        for field in self.gait_fields:
+            section, _, name = field.rpartition(".")
+            source = env_config[section] if section else env_config
+            (config[section] if section else config)[name] = source[name]
+        centre = oscillator.action_centre(config.action_centre, config.period_min)
+        copy = self.with_gait({
+            "action_centre": centre,
+            "action_map": oscillator.action_map(config.period_min, centre),
+            "drive_map": commands.drive_map(config.commands) if self.commanded else None,
+        })  # fmt: skip
+        copy.config = config
+        copy.commands = commands.Plan(self.commands.spec, config.commands)
+        return copy
+
     def _track(self, info: dict[str, Any], yaw: jax.Array, before: mjx.Data, now: jax.Array,
                moved: jax.Array):
         """The reward's command arguments for a step from state `before` to time `now` (s), at

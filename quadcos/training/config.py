@@ -170,9 +170,8 @@ def _gait_search(config: ml_collections.ConfigDict) -> None:
     # track_attitude: rad; > 0: "tracks best" also scores each of them by its mean peak roll and
     # pitch error against this target (gait_tracking.score: the worst of its ratios to 0.10 m/s,
     # 0.15 rad/s and this), so a gait that tracks but rolls ranks below a level one; 0: off.
-    # compile_trainer: while the search runs, a thread compiles the trainer's programs on a
-    # placeholder gait into the compilation caches (quadcos.training.ahead; MJX-JAX, one GPU or
-    # TPU of one process).
+    # compile_trainer: the run's envs and trainer built before the search on a placeholder gait,
+    # their programs compiling while it runs (quadcos.training.ahead; a fresh run on one device).
     # max_fraction: in a run with a time budget (max_seconds), the search runs no round (nor its
     # confirmation) that would end past this fraction of the budget, as timed by the round before
     # (0: every round).

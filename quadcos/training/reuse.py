@@ -2,9 +2,10 @@
 
 Tracing, lowering and loading a trainer's programs costs a process seconds even when the
 persistent compilation cache holds them. Runs whose env config and trainer config agree in every
-field a program reads (another seed, a longer or resumed run) can share one `SACTrainer`:
-`Trainers.get` hands out the one of the last run of those programs, reseeded, and
-`Trainers.keep` stores the one a run used (with the programs it compiled).
+field a program reads (another seed, a longer or resumed run, another searched gait: the programs
+take it as data) can share one `SACTrainer`: `Trainers.get` hands out the one of the last run of
+those programs, reseeded and with the run's gait (`with_gait`), and `Trainers.keep` stores the one
+a run used (with the programs it compiled).
 """
 
 import copy
@@ -14,15 +15,36 @@ from typing import Any
 import jax
 import ml_collections
 
+from quadcos._util.overrides import flatten
+from quadcos.env.quadruped import QuadrupedEnv
 from quadcos.training import config as config_lib
 from quadcos.training import sac
+from quadcos.training import state as state_lib
 
 
 def program_key(env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict) -> str:
-    """What a trainer's programs depend on: the env config and the trainer config but for
-    `config.HOST_FIELDS`, as one JSON string."""
+    """What a trainer's programs depend on: the env config but for the gait's fields
+    (`QuadrupedEnv.gait_fields`) and the trainer config but for `config.HOST_FIELDS`, as one JSON
+    string (the same before a gait search and after it)."""
+    env = flatten(env_config.to_dict())
+    env = {key: value for key, value in env.items() if key not in QuadrupedEnv.gait_fields}
     programs = config_lib.program_fields(config)
-    return json.dumps({"env": env_config.to_dict(), "sac": programs}, sort_keys=True, default=str)
+    return json.dumps({"env": env, "sac": programs}, sort_keys=True, default=str)
+
+
+def with_gait(
+    env: Any, eval_env: Any, trainer: sac.SACTrainer, env_config: ml_collections.ConfigDict
+) -> tuple[Any, Any, sac.SACTrainer]:
+    """`env`, `eval_env` and `trainer` (shallow copies, sharing their models and compiled
+    programs) with the gait of `env_config` (its `QuadrupedEnv.gait_fields`): the trainer passes
+    that gait to its programs as data. Envs not quadcos's are returned as they are."""
+    if not isinstance(env, QuadrupedEnv):
+        return env, eval_env, trainer
+    gaited = {id(e): e.with_gait_of(env_config) for e in (env, eval_env)}
+    env, eval_env = gaited[id(env)], gaited[id(eval_env)]
+    trainer = copy.copy(trainer)
+    trainer._gait, trainer._eval_gait = state_lib.gait_of(env), state_lib.gait_of(eval_env)
+    return env, eval_env, trainer
 
 
 def for_run(trainer: sac.SACTrainer, config: ml_collections.ConfigDict) -> sac.SACTrainer:
@@ -54,7 +76,8 @@ class Trainers:
     def get(
         self, key: str, config: ml_collections.ConfigDict
     ) -> tuple[Any, Any, sac.SACTrainer] | None:
-        """(env, eval_env, trainer for a run with `config`: `for_run`) kept for `key`, or None."""
+        """(env, eval_env, trainer for a run with `config`: `for_run`) kept for `key`, or None;
+        their gait is the kept run's (`with_gait` gives them the run's)."""
         if key not in self._built:
             return None
         env, eval_env, trainer = self._built[key]

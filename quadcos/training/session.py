@@ -58,11 +58,12 @@ def run(
     cheapest stable physics (`quadcos.env.solver_probe`), logs it in one line and puts it in
     `config.env` (so config.json holds it: a resumed or evaluated run probes nothing). With
     `env.action_centre="search"`, first runs `find_gait` on the run's terrain and trains from
-    the gait it found (in `config.env.action_centre`, and `run_dir`/gait_search.json), its
-    trainer compiled meanwhile where `quadcos.training.ahead` applies.
-    Then builds the envs, or takes them and their compiled trainer from `trainers` when it holds
-    a run of the same programs (`reuse.program_key`), trains with `loop.train` and keeps the envs
-    and trainer in `trainers`.
+    the gait it found (in `config.env.action_centre`, and `run_dir`/gait_search.json), its envs
+    and trainer built before it and their programs compiled meanwhile where
+    `quadcos.training.ahead` applies. Otherwise builds the envs after it, or takes them and their
+    compiled trainer from `trainers` when it holds a run of the same programs
+    (`reuse.program_key`; given this run's gait: `reuse.with_gait`). Trains with `loop.train`
+    and keeps the envs and trainer in `trainers`.
 
     Args:
       config: the run config; changed in place as above.
@@ -72,8 +73,8 @@ def run(
       find_gait: the gait search (`quadcos.evaluation.gait_search.find_gait`); needed only with
         `env.action_centre="search"`.
       progress, progress_bar, started_at, startup: as for `loop.train`; `startup` is marked
-        after the solver probe ("solver_probe"), the gait search ("gait_search") and the envs
-        ("envs_built").
+        after the solver probe ("solver_probe"), the trainer traced before the search
+        ("trainer_traced"), the gait search ("gait_search") and the envs ("envs_built").
       extra_run_info: stored in config.json's `run_info` beside the env config, the physics
         implementation, the robot's provenance, the gait search's wall time and the solver
         probe's measurements.
@@ -96,17 +97,26 @@ def run(
     probed = _probe_physics(config.env)
     if probed is not None:
         startup.mark("solver_probe")
+    _check_search(config, find_gait)
+    key = reuse.program_key(config.env, config.sac)  # (without the gait: the same after a search)
+    built = None
+    if trainers is not None and jax.process_count() == 1:
+        built = trainers.get(key, config.sac)
+    if built is None and ahead.applies(config, resume):
+        with warp_preload.deferred():  # Warp's modules compile while the trainer is traced
+            built = ahead.trainer_first(config, _envs)
+        startup.mark("trainer_traced")
     search = _resolve_centre(config, run_dir, find_gait, startup)
     if search is not None:
         overrun = search_overrun(config.sac.max_seconds, startup.seconds["gait_search"])
         if overrun and started_at is not None:  # the search counts in the run's time
             logger.warning("%s", overrun)
-    key = reuse.program_key(config.env, config.sac)
-    reused = None
-    if trainers is not None and jax.process_count() == 1:
-        reused = trainers.get(key, config.sac)
-    with warp_preload.deferred():  # Warp's modules compile while the trainer's programs do
-        env, eval_env, trainer = reused or (*_envs(config.env), None)
+    if built is not None:  # given the gait the search found (or this run's, for a kept trainer)
+        env, eval_env, trainer = reuse.with_gait(*built, config.env)
+    else:
+        with warp_preload.deferred():  # Warp's modules compile while the trainer's programs do
+            env, eval_env = _envs(config.env)
+        trainer = None
     startup.mark("envs_built")
     result = loop.train(
         env,
@@ -163,21 +173,16 @@ def _resolve_centre(
     find_gait: GaitSearch | None,
     startup: host.StartUp | None = None,
 ) -> dict[str, Any] | None:
-    """For a run config whose action centre is "search": runs `find_gait` (its trainer compiled
-    meanwhile: `ahead.during_search`), puts the gait found in `config.env.action_centre` and
-    writes the search to `run_dir`/gait_search.json; marks `startup` (if any) at the search's
-    end. Other configs: nothing (None)."""
+    """For a run config whose action centre is "search": runs `find_gait` (`_check_search`
+    first), puts the gait found in `config.env.action_centre` and writes the search to
+    `run_dir`/gait_search.json; marks `startup` (if any) at the search's end. Other configs:
+    nothing (None)."""
     if config.env.action_centre != oscillator.SEARCH_CENTRE:
         return None
-    if find_gait is None:
-        raise ConfigError(
-            f'env.action_centre="{oscillator.SEARCH_CENTRE}" needs a gait search: pass'
-            " find_gait=quadcos.evaluation.gait_search.find_gait"
-        )
-    with ahead.during_search(config, _envs):  # the trainer compiles meanwhile, where it can
-        search = find_gait(config)
-        if startup is not None:  # (waiting for the compilation counts in the envs built)
-            startup.mark("gait_search")
+    _check_search(config, find_gait)
+    search = find_gait(config)
+    if startup is not None:
+        startup.mark("gait_search")
     config.env.action_centre = search["action_centre"]
     # the feed-forward measured on the gait found
     for key in ("reference_speed", "half_track", "speed_map"):
@@ -187,6 +192,15 @@ def _resolve_centre(
         run_dir.mkdir(parents=True, exist_ok=True)
         files.atomic_write_text(run_dir / SEARCH_FILE, json.dumps(search, indent=2) + "\n")
     return search
+
+
+def _check_search(config: ml_collections.ConfigDict, find_gait: GaitSearch | None) -> None:
+    """Raises ConfigError where the run `config` searches but has no `find_gait`."""
+    if config.env.action_centre == oscillator.SEARCH_CENTRE and find_gait is None:
+        raise ConfigError(
+            f'env.action_centre="{oscillator.SEARCH_CENTRE}" needs a gait search: pass'
+            " find_gait=quadcos.evaluation.gait_search.find_gait"
+        )
 
 
 def _envs(env_config: ml_collections.ConfigDict) -> tuple[Any, Any]:
