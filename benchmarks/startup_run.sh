@@ -6,8 +6,8 @@
 #   cold: the run's whole cache folder (JAX's and Warp's kernels) emptied (three of each tree,
 #   the last two alternating); jaxcold: JAX's cache emptied, Warp's kept (a machine that has run
 #   quadcos before, under another JAX); warm: a run after them; BASE's rows only where /tmp/base
-#   exists. any_cold (ANY_COLD=0 skips it): `--preset=any_slope` from empty caches (its gait
-#   search included).
+#   exists. any_cold, base_any_cold (ANY_COLD=0 skips them): `--preset=any_slope` from empty
+#   caches (its gait search included).
 # $O/NAME.startup.json, NAME.log (with --verbose: Warp's module loads and their seconds), status.
 # Then: python -m quadcos.results record --name startup_h100 ... $O/*.startup.json (its device)
 set -u
@@ -33,6 +33,9 @@ if [ -d /tmp/base ]; then  # BASE's rows only where its tree was unpacked
     rm -rf /tmp/cn; run /tmp/new "new_cold$i" /tmp/cn $F
   done
 fi
-[ "${ANY_COLD:-1}" = 1 ] &&
-  { rm -rf /tmp/ca; run /tmp/new any_cold /tmp/ca --preset=any_slope --num_timesteps=100000; }
+if [ "${ANY_COLD:-1}" = 1 ]; then  # a searching run from empty caches, this tree then BASE
+  A="--preset=any_slope --num_timesteps=100000"
+  rm -rf /tmp/ca; run /tmp/new any_cold /tmp/ca $A
+  [ -d /tmp/base ] && { rm -rf /tmp/ca; run /tmp/base base_any_cold /tmp/ca $A; }
+fi
 echo "$(date +%T) done" >> "$O/status"
