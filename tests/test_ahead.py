@@ -3,15 +3,14 @@
 trainers kept for later runs of the same programs given the run's gait (`reuse`), and a search
 that eats the run's time budget warned of."""
 
-import jax
 import ml_collections
 import numpy as np
 import pytest
 
-from quadcos import train, training
+from quadcos import train
 from quadcos.env import quadruped
 from quadcos.equations import oscillator
-from quadcos.training import ahead, host, reuse, session
+from quadcos.training import ahead, reuse, session
 
 
 @pytest.fixture(autouse=True)
@@ -85,30 +84,3 @@ def test_a_search_that_takes_half_the_run_or_more_is_warned_of(max_seconds, sear
         assert f"ended {searched_s:.0f} s into the run's {max_seconds} s" in message
         assert f"leaving SAC {max(max_seconds - searched_s, 0):.0f} s" in message
 
-
-def test_a_trainer_compiled_during_the_search_trains_as_one_built_after_it():
-    centre = "0.38877,0.195895,0.50539,1.8099,-1.33169"
-
-    def find_gait(config):
-        return {"action_centre": centre, "setup": {"wall_time_s": 0.0}}
-
-    runs = {}
-    for first in (True, False):
-        config = _config(**{"sac.gait_search.compile_trainer": first, "sac.num_timesteps": 320})
-        startup = host.StartUp()
-        result = training.run(config, find_gait=find_gait, progress=False, startup=startup)
-        runs[first] = result, list(startup.seconds)
-    (early, events), (after, events_after) = runs[True], runs[False]
-    # traced before the search, not after it
-    assert events.index("trainer_traced") < events.index("gait_search") < events.index("envs_built")
-    assert "trainer_traced" not in events_after
-    # the states step through the searched gait, and the two runs are the same run
-    gait = early.state.env_state.info["gait"]["action_map"][0]
-    np.testing.assert_array_equal(gait, after.state.env_state.info["gait"]["action_map"][0])
-    period_min = train.build_config(train.PRESETS["smoke"], {}).env.period_min
-    expected = oscillator.action_map(period_min, oscillator.action_centre(centre, period_min))
-    np.testing.assert_allclose(gait, expected, rtol=1e-6)
-    jax.tree.map(
-        np.testing.assert_array_equal, early.state.policy_params, after.state.policy_params
-    )
-    assert early.env_steps == after.env_steps > 0

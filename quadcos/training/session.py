@@ -99,13 +99,7 @@ def run(
         startup.mark("solver_probe")
     _check_search(config, find_gait)
     key = reuse.program_key(config.env, config.sac)  # (without the gait: the same after a search)
-    built = None
-    if trainers is not None and jax.process_count() == 1:
-        built = trainers.get(key, config.sac)
-    if built is None and ahead.applies(config, resume):
-        with warp_preload.deferred():  # Warp's modules compile while the trainer is traced
-            built = ahead.trainer_first(config, _envs)
-        startup.mark("trainer_traced")
+    built = _built_before_search(config, key, resume, trainers, startup)
     search = _resolve_centre(config, run_dir, find_gait, startup)
     if search is not None:
         overrun = search_overrun(config.sac.max_seconds, startup.seconds["gait_search"])
@@ -192,6 +186,28 @@ def _resolve_centre(
         run_dir.mkdir(parents=True, exist_ok=True)
         files.atomic_write_text(run_dir / SEARCH_FILE, json.dumps(search, indent=2) + "\n")
     return search
+
+
+def _built_before_search(
+    config: ml_collections.ConfigDict,
+    key: str,
+    resume: bool,
+    trainers: reuse.Trainers | None,
+    startup: host.StartUp,
+) -> tuple[Any, Any, Any] | None:
+    """The envs and trainer kept in `trainers` for `key`, else (where `ahead.applies`) the run's
+    own, built on a placeholder gait and compiling while the gait search runs (marks
+    "trainer_traced"), else None."""
+    if trainers is not None and jax.process_count() == 1:
+        kept = trainers.get(key, config.sac)
+        if kept is not None:
+            return kept
+    if not ahead.applies(config, resume):
+        return None
+    with warp_preload.deferred():  # Warp's modules compile while the trainer is traced
+        built = ahead.trainer_first(config, _envs)
+    startup.mark("trainer_traced")
+    return built
 
 
 def _check_search(config: ml_collections.ConfigDict, find_gait: GaitSearch | None) -> None:

@@ -4,7 +4,8 @@
 # slope5, 4096 envs, 1 and 8 updates an env step, each row its own bench process: MJX's default, the
 # solver's early exit off alone, and the path with MJX-Warp's calls in XLA's graphs (with and
 # without `overlap_updates`). One GPU, after `source experiments/gpu_setup.sh` with warp-lang
-# installed; writes $OUT/bench_*.{json,log}. Table: `python benchmarks/h200/gait/table.py DIR`.
+# installed; writes $OUT/bench_*.{json,log}. Table: `python benchmarks/h200/gait/table.py DIR`
+# (its rows on one H100: benchmarks/h100/gait/).
 # A repeat of some rows: `TERRAINS=flat SETS="default jax" ROWS=4096x8192x1 bash ...run.sh`.
 set -u
 O=${OUT:-/tmp/quadcos_out}; mkdir -p $O

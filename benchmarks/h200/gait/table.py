@@ -3,7 +3,6 @@ of robots walking the fixed trot, both measured in the row's own process, and ag
 default's walking physics on the same terrain. Each folder's rows are the `bench_NAME_TERRAIN.json`
 it holds (NAME one of ROWS; `warp`, as `benchmarks/h100/run.sh` names its files, is the default).
 
-    python benchmarks/h200/gait/table.py benchmarks/h200/gait/main
     python benchmarks/h200/gait/table.py benchmarks/h100/gait/default benchmarks/h100/gait/jax
 """
 
