@@ -10,7 +10,7 @@ import pytest
 from quadcos import train
 from quadcos.env import quadruped
 from quadcos.equations import oscillator
-from quadcos.training import ahead, reuse, session
+from quadcos.training import ahead, parallel, reuse, session
 
 
 @pytest.fixture(autouse=True)
@@ -50,6 +50,15 @@ def test_the_program_key_leaves_out_the_gait_a_search_sets():
     searched.commands.reference_speed = 0.9
     assert reuse.program_key(searched, config.sac) == reuse.program_key(config.env, config.sac)
     searched.action_scale = 0.3  # a field the programs read
+    assert reuse.program_key(searched, config.sac) != reuse.program_key(config.env, config.sac)
+
+
+def test_on_several_devices_the_program_key_keeps_the_gait(monkeypatch):
+    # (the initial state's program holds the gait as a constant there)
+    monkeypatch.setattr(reuse.parallel, "make_layout", lambda n: parallel.Layout(mesh=object()))
+    config = _config()
+    searched = ml_collections.ConfigDict(config.env.to_dict())
+    searched.action_centre = "0.38877,0.195895,0.50539,1.8099,-1.33169"
     assert reuse.program_key(searched, config.sac) != reuse.program_key(config.env, config.sac)
 
 

@@ -18,18 +18,28 @@ import ml_collections
 from quadcos._util.overrides import flatten
 from quadcos.env.quadruped import QuadrupedEnv
 from quadcos.training import config as config_lib
-from quadcos.training import sac
+from quadcos.training import parallel, sac
 from quadcos.training import state as state_lib
 
 
 def program_key(env_config: ml_collections.ConfigDict, config: ml_collections.ConfigDict) -> str:
-    """What a trainer's programs depend on: the env config but for the gait's fields
-    (`QuadrupedEnv.gait_fields`) and the trainer config but for `config.HOST_FIELDS`, as one JSON
-    string (the same before a gait search and after it)."""
+    """What a trainer's programs depend on: the env config (on one device but for the gait's
+    fields, `QuadrupedEnv.gait_fields`: the same before a gait search and after it) and the
+    trainer config but for `config.HOST_FIELDS`, as one JSON string."""
     env = flatten(env_config.to_dict())
-    env = {key: value for key, value in env.items() if key not in QuadrupedEnv.gait_fields}
+    if _gait_is_data(config):
+        env = {key: value for key, value in env.items() if key not in QuadrupedEnv.gait_fields}
     programs = config_lib.program_fields(config)
     return json.dumps({"env": env, "sac": programs}, sort_keys=True, default=str)
+
+
+def _gait_is_data(config: ml_collections.ConfigDict) -> bool:
+    """Whether the programs of a trainer with `config` take the gait as data: on one device of
+    one process (on several, the initial state's program holds it as a constant)."""
+    try:
+        return parallel.make_layout(config.num_devices).mesh is None
+    except ValueError:  # a device count the trainer refuses, saying why
+        return False
 
 
 def with_gait(
