@@ -3,14 +3,15 @@
 trainers kept for later runs of the same programs given the run's gait (`reuse`), and a search
 that eats the run's time budget warned of."""
 
+import jax
 import ml_collections
 import numpy as np
 import pytest
 
-from quadcos import train
+from quadcos import train, training
 from quadcos.env import quadruped
 from quadcos.equations import oscillator
-from quadcos.training import ahead, parallel, reuse, session
+from quadcos.training import ahead, host, parallel, reuse, session
 
 
 @pytest.fixture(autouse=True)
@@ -93,3 +94,42 @@ def test_a_search_that_takes_half_the_run_or_more_is_warned_of(max_seconds, sear
         assert f"ended {searched_s:.0f} s into the run's {max_seconds} s" in message
         assert f"leaving SAC {max(max_seconds - searched_s, 0):.0f} s" in message
 
+
+def test_a_trainer_compiled_during_the_search_trains_as_one_built_after_it():
+    # the run's trainer built before the search on a placeholder gait, then given the gait
+    # found, against one built after the search (the smoke run's programs, as other tests')
+    centre = "0.38877,0.195895,0.50539,1.8099,-1.33169"
+
+    def find_gait(config):
+        return {"action_centre": centre, "setup": {"wall_time_s": 0.0}}
+
+    runs = {}
+    for first in (True, False):
+        flags = {"env.action_centre": "search", "sac.gait_search.compile_trainer": first}
+        flags["sac.num_timesteps"] = 320  # the prefill and one chunk
+        config = train.build_config(train.PRESETS["smoke"], flags)
+        startup = host.StartUp()
+        result = training.run(config, find_gait=find_gait, progress=False, startup=startup)
+        runs[first] = result, startup
+    (early, startup), (after, startup_after) = runs[True], runs[False]
+    events = list(startup.seconds)
+    assert events.index("trainer_traced") < events.index("gait_search") < events.index("envs_built")
+    assert "trainer_traced" not in startup_after.seconds
+    # traced before the search, and not again after it
+    assert startup.compile["trainer_traced"]["lower_s"] > 0
+    assert (
+        startup.compile["programs_traced"]["lower_s"]
+        == 0
+        < startup_after.compile["programs_traced"]["lower_s"]
+    )
+    # both step through the gait found, and are the same run
+    gait = early.state.env_state.info["gait"]["action_map"][0]
+    period_min = config.env.period_min
+    expected = oscillator.action_map(period_min, oscillator.action_centre(centre, period_min))
+    np.testing.assert_allclose(gait, expected, rtol=1e-6)
+    np.testing.assert_array_equal(gait, after.state.env_state.info["gait"]["action_map"][0])
+    for mine, theirs in zip(
+        jax.tree.leaves(early.state.policy_params), jax.tree.leaves(after.state.policy_params)
+    ):
+        np.testing.assert_array_equal(mine, theirs)
+    assert early.env_steps == after.env_steps > 0

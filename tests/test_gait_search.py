@@ -3,7 +3,6 @@
 import json
 import math
 
-import jax
 import numpy as np
 import pytest
 
@@ -11,7 +10,6 @@ import quadcos
 from quadcos import train, training
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from quadcos.equations import oscillator
-from quadcos.training import host
 from tests.cli_runs import ROOT, run_in_process
 
 
@@ -293,46 +291,6 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
     assert config["run_info"]["robot"]["name"] == "quad12"
     policy = quadcos.load_policy(run_dir / "policy")
     assert policy.act(np.zeros(3 + 3 + 12 + 5)).shape == (5,)
-
-
-def test_a_trainer_compiled_during_the_search_trains_as_one_built_after_it(monkeypatch):
-    # quadcos.training.ahead: the run's trainer built before the search on a placeholder gait,
-    # then given the gait found, against one built after the search (the smoke run's programs,
-    # which other tests' smoke runs have compiled already).
-    monkeypatch.setattr(training.ahead, "PLATFORMS", (*training.ahead.PLATFORMS, "cpu"))
-    centre = "0.38877,0.195895,0.50539,1.8099,-1.33169"
-
-    def find_gait(config):
-        return {"action_centre": centre, "setup": {"wall_time_s": 0.0}}
-
-    runs = {}
-    for first in (True, False):
-        flags = {"env.action_centre": "search", "sac.gait_search.compile_trainer": first}
-        flags["sac.num_timesteps"] = 320  # the prefill and one chunk
-        config = train.build_config(train.PRESETS["smoke"], flags)
-        startup = host.StartUp()
-        result = training.run(config, find_gait=find_gait, progress=False, startup=startup)
-        runs[first] = result, startup
-    (early, startup), (after, startup_after) = runs[True], runs[False]
-    events = list(startup.seconds)
-    assert events.index("trainer_traced") < events.index("gait_search") < events.index("envs_built")
-    assert "trainer_traced" not in startup_after.seconds
-    # traced before the search, and not again after it
-    assert startup.compile["trainer_traced"]["lower_s"] > 0
-    assert startup.compile["programs_traced"]["lower_s"] == 0 < startup_after.compile[
-        "programs_traced"
-    ]["lower_s"]
-    # both step through the gait found, and are the same run
-    gait = early.state.env_state.info["gait"]["action_map"][0]
-    period_min = config.env.period_min
-    expected = oscillator.action_map(period_min, oscillator.action_centre(centre, period_min))
-    np.testing.assert_allclose(gait, expected, rtol=1e-6)
-    np.testing.assert_array_equal(gait, after.state.env_state.info["gait"]["action_map"][0])
-    for mine, theirs in zip(
-        jax.tree.leaves(early.state.policy_params), jax.tree.leaves(after.state.policy_params)
-    ):
-        np.testing.assert_array_equal(mine, theirs)
-    assert early.env_steps == after.env_steps > 0
 
 
 @pytest.mark.parametrize(
