@@ -167,13 +167,12 @@ def _resolve_centre(
     find_gait: GaitSearch | None,
     startup: host.StartUp | None = None,
 ) -> dict[str, Any] | None:
-    """For a run config whose action centre is "search": runs `find_gait` (`_check_search`
-    first), puts the gait found in `config.env.action_centre` and writes the search to
+    """For a run config whose action centre is "search" (and a `find_gait`: `_check_search`):
+    runs `find_gait`, puts the gait found in `config.env.action_centre` and writes the search to
     `run_dir`/gait_search.json; marks `startup` (if any) at the search's end. Other configs:
     nothing (None)."""
     if config.env.action_centre != oscillator.SEARCH_CENTRE:
         return None
-    _check_search(config, find_gait)
     search = find_gait(config)
     if startup is not None:
         startup.mark("gait_search")
