@@ -2,11 +2,14 @@
 whose physics blows up counts as a fall without turning the means into NaN; the attitude reported
 as each episode's peak."""
 
+import jax
 import jax.numpy as jnp
+import ml_collections
 import numpy as np
 import pytest
 from brax import envs
 
+from quadcos.env import randomization
 from quadcos.training import periodic_eval
 
 NAN = float("nan")
@@ -63,3 +66,35 @@ def test_a_diverged_robot_counts_as_a_fall_and_leaves_the_means_finite():
     assert metrics["eval/mean_max_abs_roll"] == pytest.approx((0.1 + 0.1 + 0.3) / 3)
     assert "eval/abs_roll" not in metrics
     assert all(np.isfinite(value) for value in metrics.values())
+
+
+class ConditionedEnv(ScriptedEnv):
+    """ScriptedEnv whose robots take conditions (`randomization.conditions`): robot 0 the
+    nominal robot, robots 1 and 2 friction 0.4."""
+
+    def __init__(self):
+        config = randomization.default_config()
+        config.update(enabled=True, conditions="nominal;friction 0.4")
+        self.config = ml_collections.ConfigDict({"randomization": config})
+        self.unwrapped = self
+
+    def reset(self, keys):
+        state = super().reset(keys)
+        draws = jax.vmap(lambda key: randomization.sample(key, self.config.randomization, 0.005))
+        physics = draws(jax.random.split(jax.random.PRNGKey(0), 3))
+        return state.replace(info={"physics": physics._replace(condition=jnp.array([0, 1, 1]))})
+
+
+def test_robots_under_conditions_are_reported_per_condition_beside_the_pooled_metrics():
+    metrics = periodic_eval.evaluate(
+        ConditionedEnv(),
+        lambda obs: jnp.zeros((obs.shape[0], 1)),
+        jnp.zeros((3, 2)),
+        episode_length=6,
+    )
+    metrics = {key: float(value) for key, value in metrics.items()}
+    assert metrics["eval/fall_rate"] == pytest.approx(2 / 3)
+    assert metrics["eval/nominal/fall_rate"] == 1.0  # robot 0, whose physics blew up
+    assert metrics["eval/friction_0.4/fall_rate"] == pytest.approx(0.5)  # robot 1 of 1 and 2
+    assert metrics["eval/friction_0.4/mean_max_abs_roll"] == pytest.approx((0.1 + 0.3) / 2)
+    assert not any("tracking" in key for key in metrics)  # robots without commands

@@ -37,6 +37,35 @@ def test_draws_stay_in_their_ranges_and_fixed_ranges_fix_the_value():
     np.testing.assert_array_equal(draws.push, 0.0)
 
 
+def test_conditions_give_each_robot_one_robustness_condition_and_only_its_perturbation():
+    """`conditions` "robustness": each robot is the nominal robot, or at 40 ms of latency, or
+    pushed (50 N, 0.1 s, every 2 s), or at friction 0.4 — evenly, the condition in its draw — as
+    experiments/robustness/measure.py measures them one at a time; no observation noise."""
+    config = _config(conditions="robustness", obs_noise=0.02, push_interval_s=5.0)
+    keys = jax.random.split(jax.random.PRNGKey(0), 1024)
+    draws = jax.vmap(lambda key: randomization.sample(key, config, 0.005))(keys)
+    condition = np.asarray(draws.condition)
+    assert randomization.condition_names("robustness") == randomization.ROBUSTNESS
+    assert (np.bincount(condition, minlength=4) > 200).all()
+    np.testing.assert_allclose(draws.friction, np.where(condition == 3, 0.4, 1.5), rtol=1e-6)
+    np.testing.assert_array_equal(draws.latency_steps, np.where(condition == 1, 8, 0))
+    for name in ("torso_mass_scale", "kp_scale", "damping_scale", "strength_scale"):
+        np.testing.assert_array_equal(getattr(draws, name), 1.0)
+
+    def pushes(physics, key):  # 20 s of control steps: the largest push force seen
+        def step(physics, key):
+            physics = randomization.next_push(key, physics, config, 0.02)
+            return physics, jnp.linalg.norm(physics.push)
+
+        return jax.lax.scan(step, physics, jax.random.split(key, 1000))[1].max()
+
+    pushed = np.asarray(jax.vmap(pushes)(draws, keys))
+    np.testing.assert_allclose(pushed, np.where(condition == 2, 50.0, 0.0), rtol=1e-5)
+    assert not randomization.has_obs_noise(config)
+    assert randomization.has_obs_noise(_config(conditions="nominal;observation noise 0.05"))
+    assert randomization.condition_key("pushes 50 N, 0.1 s") == "pushes_50_n_0.1_s"
+
+
 def test_range_ends_put_that_share_of_draws_at_the_ends_and_keep_the_rest():
     keys = jax.random.split(jax.random.PRNGKey(3), 4096)
 
@@ -68,6 +97,7 @@ def test_a_draw_changes_only_the_model_fields_it_names():
         push=jnp.zeros(3),
         push_left_s=jnp.float32(0.0),
         level=jnp.float32(1.0),
+        condition=jnp.int32(-1),
     )
     torso = env.mj_model.body(constants.TORSO_BODY).id
     model = randomization.apply(env.model, physics, torso)
@@ -199,6 +229,11 @@ def test_pushes_start_run_for_their_duration_and_stop():
         ("randomization.obs_noise", -0.1, "randomization.obs_noise must be finite and >= 0"),
         ("randomization.ramp_s", -1.0, "randomization.ramp_s must be finite and >= 0"),
         ("randomization.range_ends", 1.5, "randomization.range_ends must be a share from 0 to 1"),
+        (
+            "randomization.eval_conditions",
+            "nominal;ice",
+            "eval_conditions: unknown condition 'ice'",
+        ),
     ],
 )
 def test_bad_ranges_are_named(key, value, message):
@@ -314,6 +349,13 @@ def test_nominal_pins_every_range_at_the_nominal_robot():
     assert pinned["enabled"] and pinned["com_offset_m"] == 0
     assert pinned["push_interval_s"] == 0 and pinned["obs_noise"] == 0
     unset = set(randomization.default_config()) - set(pinned)
-    assert unset == {"push_force_n", "push_duration_s", "ramp_s", "range_ends"}
+    assert unset == {
+        "push_force_n",
+        "push_duration_s",
+        "ramp_s",
+        "range_ends",
+        "conditions",
+        "eval_conditions",
+    }
     config = apply_overrides(quadcos.env.default_config(), randomization.NOMINAL)
     randomization.validate(config.randomization)  # a config the env accepts

@@ -255,6 +255,32 @@ def test_best_policy_by_gait_keeps_the_evaluation_that_improves_most_on_step_0(t
     assert resumed.score == pytest.approx(-0.079 / 0.08)
 
 
+def test_best_policy_by_gait_with_conditions_must_beat_the_gait_in_each(tmp_path):
+    """With `randomization.eval_conditions` the rows carry each condition's tracking and falls:
+    the gait rank takes the worst ratio over every cell, and a row that falls more often than
+    step 0 under a condition never beats it."""
+    speed, yaw_rate = best_policy.TRACKING
+    gait = {"step": 0, speed: 0.10, yaw_rate: 0.08, "eval/fall_rate": 0.0}
+    gait |= {"eval/latency_40_ms/speed_tracking_rms": 0.12, "eval/latency_40_ms/fall_rate": 0.0}
+    gait |= {"eval/latency_40_ms/yaw_rate_tracking_rms": 0.09}
+    best = best_policy.BestPolicy(tmp_path / "b", _SPEC, {}, [gait], 0.01, "gait")
+    worse_late = gait | {"step": 10, speed: 0.08, yaw_rate: 0.06}
+    worse_late |= {"eval/latency_40_ms/yaw_rate_tracking_rms": 0.091}
+    assert not best.offer(_STATE, worse_late)  # better pooled, worse at 40 ms
+    falls = worse_late | {"step": 20, "eval/latency_40_ms/yaw_rate_tracking_rms": 0.08}
+    falls |= {"eval/latency_40_ms/speed_tracking_rms": 0.11}
+    assert not best.offer(_STATE, falls | {"eval/latency_40_ms/fall_rate": 0.004})
+    assert best.offer(_STATE, falls)
+    assert best.score == pytest.approx(-0.11 / 0.12)  # the worst of the four ratios
+    assert best_policy.cells(falls) == {
+        key: falls[key]
+        for key in (speed, yaw_rate)
+        + tuple(
+            f"eval/latency_40_ms/{name}" for name in ("speed_tracking_rms", "yaw_rate_tracking_rms")
+        )
+    }
+
+
 def test_an_attitude_bound_ranks_a_level_evaluation_above_a_rolling_one(tmp_path):
     """`best_policy_max_attitude`: an evaluation that rolls or pitches beyond the bound (mean of
     the episodes' peaks) ranks below every one within it, however well it tracks; rows that

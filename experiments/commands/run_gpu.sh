@@ -284,6 +284,10 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [searchtrackatt8]="--config.sac.gait_search.max_attitude=0.085 $trackatt8"
     # ... among its 16 best (searchtrackatt8's seed 2: none of its 8 within the speed target)
     [searchtrackatt16]="--config.sac.gait_search.max_attitude=0.085 ${trackatt8/=8/=16}"
+    # ... with the training evaluations' robots in the four robustness conditions, a quarter
+    # each: the kept policy must beat step 0 in every condition's tracking and falls
+    # (searchtrackatt16's seeds 0 and 1 trailed their gaits at friction 0.4 and at 40 ms)
+    [searchtrackatt16cond]="--config.sac.gait_search.max_attitude=0.085 ${trackatt8/=8/=16} --config.env.randomization.eval_conditions=robustness"
     # Eq. 12's roll weight w5 ×3 with trackatt8 (SAC has moved a gait's roll by <= 0.023 rad at
     # w5 30; trackatt's misses are rolls of 0.104-0.111)
     [trackatt8roll90]="$trackatt8 --config.env.reward.roll=90"

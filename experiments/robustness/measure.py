@@ -18,6 +18,8 @@ import json
 import time
 from pathlib import Path
 
+from quadcos.env.randomization import CONDITIONS
+
 # Gait quality beside survival (quadcos.evaluation's keys; null where a policy has no commands).
 GAIT_KEYS = (
     "speed_tracking_rms",
@@ -25,22 +27,6 @@ GAIT_KEYS = (
     "mean_max_abs_pitch_error",
     "mean_max_abs_roll",
 )
-CONDITIONS = {
-    "nominal": {},
-    "friction 0.4": {"randomization.friction": (0.4, 0.4)},
-    "friction 1.0": {"randomization.friction": (1.0, 1.0)},
-    "friction 1.5": {"randomization.friction": (1.5, 1.5)},
-    "torso mass +20 %": {"randomization.torso_mass_scale": (1.2, 1.2)},
-    "motor strength -20 %": {"randomization.strength_scale": (0.8, 0.8)},
-    "latency 40 ms": {"randomization.latency_s": (0.04, 0.04)},
-    "observation noise 0.05": {"randomization.obs_noise": 0.05},
-    # 50 N for 0.1 s, every 2 s on average (about ten pushes per 20-s episode).
-    "pushes 50 N, 0.1 s": {
-        "randomization.push_force_n": 50.0,
-        "randomization.push_duration_s": 0.1,
-        "randomization.push_interval_s": 2.0,
-    },
-}
 
 
 def main() -> None:

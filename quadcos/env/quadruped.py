@@ -316,10 +316,11 @@ class QuadrupedEnv(base.Env):
 
     def _seen(self, obs: jax.Array, info: dict[str, Any]) -> tuple[jax.Array, dict[str, Any]]:
         """The observation as the policy sees it: with a randomised robot's observation noise."""
-        if not self.randomized or self.config.randomization.obs_noise == 0:
+        config = self.config.randomization
+        if not self.randomized or not randomization.has_obs_noise(config):
             return obs, info
         rng, noise_key = jax.random.split(info["rng"])
-        return randomization.observed(noise_key, obs, self.config.randomization), {
+        return randomization.observed(noise_key, obs, config, info["physics"]), {
             **info,
             "rng": rng,
         }

@@ -73,6 +73,13 @@ def default_config() -> ml_collections.ConfigDict:
     # The share of draws of each range at one of its ends (either, evenly) instead of inside it:
     # the extremes the robustness conditions test; 0: uniform (the draws as without it).
     config.range_ends = 0.0
+    # Instead of the ranges: each robot takes one of these `CONDITIONS` (names joined by ";";
+    # "robustness": the four of `ROBUSTNESS`), evenly at random, at level 1 ("": the ranges).
+    # `eval_conditions`: those of the training-time evaluations (the trainer's evaluation env
+    # takes them as its `conditions`), which then report each condition's falls and tracking
+    # beside the pooled ones (and the kept policy must beat its gait in each: `best_policy`).
+    config.conditions = ""
+    config.eval_conditions = ""
     return config
 
 
@@ -94,6 +101,52 @@ NOMINAL = {
 }
 
 
+# The robustness conditions of experiments/robustness/measure.py: each is the nominal robot
+# (NOMINAL) with one perturbation, as env overrides.
+CONDITIONS = {
+    "nominal": {},
+    "friction 0.4": {"randomization.friction": (0.4, 0.4)},
+    "friction 1.0": {"randomization.friction": (1.0, 1.0)},
+    "friction 1.5": {"randomization.friction": (1.5, 1.5)},
+    "torso mass +20 %": {"randomization.torso_mass_scale": (1.2, 1.2)},
+    "motor strength -20 %": {"randomization.strength_scale": (0.8, 0.8)},
+    "latency 40 ms": {"randomization.latency_s": (0.04, 0.04)},
+    "observation noise 0.05": {"randomization.obs_noise": 0.05},
+    # 50 N for 0.1 s, every 2 s on average (about ten pushes per 20-s episode).
+    "pushes 50 N, 0.1 s": {
+        "randomization.push_force_n": 50.0,
+        "randomization.push_duration_s": 0.1,
+        "randomization.push_interval_s": 2.0,
+    },
+}
+# What the kept policy of a commanded run must beat its gait in (`eval_conditions` of the command
+# preset): survival and tracking under each.
+ROBUSTNESS = ("nominal", "latency 40 ms", "pushes 50 N, 0.1 s", "friction 0.4")
+_PUSH = ("push_force_n", "push_duration_s", "push_interval_s")
+
+
+def condition_names(spec: str) -> tuple[str, ...]:
+    """The condition names of a `conditions` spec: names of `CONDITIONS` joined by ";", where
+    "robustness" stands for `ROBUSTNESS` ("" → none)."""
+    names = (name.strip() for name in spec.split(";")) if spec.strip() else ()
+    return tuple(n for name in names for n in (ROBUSTNESS if name == "robustness" else (name,)))
+
+
+def condition_values(name: str) -> dict[str, float]:
+    """One condition's values: the low end of each of `RANGES` (its fixed value), the CoM offset,
+    the push settings and the observation noise."""
+    config = default_config()
+    for key, value in {**NOMINAL, **CONDITIONS[name]}.items():
+        config[key.removeprefix("randomization.")] = value
+    values = {field: float(config[field][0]) for field in RANGES}
+    return values | {field: float(config[field]) for field in ("com_offset_m", *_PUSH, "obs_noise")}
+
+
+def condition_key(name: str) -> str:
+    """A condition's name as a metric key part: "pushes 50 N, 0.1 s" → "pushes_50_n_0.1_s"."""
+    return "_".join(name.lower().replace(",", " ").replace("%", "pct").split())
+
+
 class Physics(NamedTuple):
     """One robot's draw (the nominal robot: friction of the MJCF, scales 1, no latency, no push)."""
 
@@ -107,6 +160,7 @@ class Physics(NamedTuple):
     push: jax.Array  # (3,) N on the torso now (zero between pushes), as drawn
     push_left_s: jax.Array  # () s
     level: jax.Array  # () in [0, 1]: the share of the way from the nominal robot to the draw
+    condition: jax.Array  # () int32: its index in the env's `conditions`; -1: drawn from ranges
 
 
 def validate(config: ml_collections.ConfigDict) -> None:
@@ -124,14 +178,22 @@ def validate(config: ml_collections.ConfigDict) -> None:
     if not 0 <= config.range_ends <= 1:
         ends = config.range_ends
         raise ValueError(f"randomization.range_ends must be a share from 0 to 1; got {ends}")
+    for field in ("conditions", "eval_conditions"):
+        unknown = [name for name in condition_names(config[field]) if name not in CONDITIONS]
+        if unknown:
+            raise ValueError(
+                f"randomization.{field}: unknown condition {unknown[0]!r}; give names joined by"
+                f" ';' from {list(CONDITIONS)}"
+            )
 
 
 def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float) -> Physics:
-    """A fresh draw for one robot (no push under way)."""
+    """A fresh draw for one robot (no push under way): from the ranges, or one of `conditions`."""
+    names = condition_names(config.conditions)
+    if names:
+        return _condition_draw(rng, names, physics_dt)
     keys = jax.random.split(rng, len(RANGES) + 1)
-    drawn = {
-        name: _draw(key, *config[name], config.range_ends) for name, key in zip(RANGES, keys)
-    }
+    drawn = {name: _draw(key, *config[name], config.range_ends) for name, key in zip(RANGES, keys)}
     offset = config.com_offset_m
     return Physics(
         friction=drawn["friction"],
@@ -144,7 +206,37 @@ def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float)
         push=jnp.zeros(3),
         push_left_s=jnp.zeros(()),
         level=jnp.ones(()),
+        condition=jnp.int32(-1),
     )
+
+
+def _condition_draw(rng: jax.Array, names: tuple[str, ...], physics_dt: float) -> Physics:
+    """One of the conditions `names`, evenly at random."""
+    index = jax.random.randint(rng, (), 0, len(names))
+    table = _table(names)
+
+    def value(field: str) -> jax.Array:
+        return table[field][index]
+
+    return Physics(
+        friction=value("friction"),
+        torso_mass_scale=value("torso_mass_scale"),
+        com_offset=jnp.zeros(3),  # every condition's (NOMINAL's)
+        kp_scale=value("kp_scale"),
+        damping_scale=value("damping_scale"),
+        strength_scale=value("strength_scale"),
+        latency_steps=jnp.round(value("latency_s") / physics_dt).astype(jnp.int32),
+        push=jnp.zeros(3),
+        push_left_s=jnp.zeros(()),
+        level=jnp.ones(()),
+        condition=index.astype(jnp.int32),
+    )
+
+
+def _table(names: tuple[str, ...]) -> dict[str, jax.Array]:
+    """Each condition value of `names` as an array over the conditions."""
+    rows = [condition_values(name) for name in names]
+    return {field: jnp.array([row[field] for row in rows], jnp.float32) for field in rows[0]}
 
 
 def _draw(key: jax.Array, low: float, high: float, ends: float) -> jax.Array:
@@ -202,18 +294,48 @@ def next_push(
     rng: jax.Array, physics: Physics, config: ml_collections.ConfigDict, dt: float
 ) -> Physics:
     """One control step of the push process: a push under way runs down; otherwise one starts
-    with probability dt / push_interval_s, in a random horizontal direction."""
-    if config.push_interval_s <= 0 or config.push_force_n <= 0:
+    with probability dt / push_interval_s, in a random horizontal direction (the settings of the
+    robot's condition where the env draws `conditions`)."""
+    force_n, duration_s, interval_s = _settings(config, physics, _PUSH)
+    if not (_anywhere(config, "push_interval_s") and _anywhere(config, "push_force_n")):
         return physics
     start_key, angle_key = jax.random.split(rng)
     left = jnp.maximum(physics.push_left_s - dt, 0.0)
-    start = (left <= 0) & (jax.random.uniform(start_key) < dt / config.push_interval_s)
+    rate = jnp.where(interval_s > 0, dt / jnp.maximum(interval_s, 1e-9), 0.0)
+    start = (left <= 0) & (jax.random.uniform(start_key) < rate) & (force_n > 0)
     angle = jax.random.uniform(angle_key, maxval=2 * jnp.pi)
-    force = config.push_force_n * jnp.array([jnp.cos(angle), jnp.sin(angle), 0.0])
+    force = force_n * jnp.array([jnp.cos(angle), jnp.sin(angle), 0.0])
     push = jnp.where(start, force, jnp.where(left > 0, physics.push, 0.0))
-    return physics._replace(push=push, push_left_s=jnp.where(start, config.push_duration_s, left))
+    return physics._replace(push=push, push_left_s=jnp.where(start, duration_s, left))
 
 
-def observed(rng: jax.Array, obs: jax.Array, config: ml_collections.ConfigDict) -> jax.Array:
-    """What the policy sees of `obs`: each value plus N(0, obs_noise²)."""
-    return obs + config.obs_noise * jax.random.normal(rng, obs.shape, obs.dtype)
+def _settings(config: ml_collections.ConfigDict, physics: Physics, fields: tuple[str, ...]):
+    """The config's values of `fields`, or those of the robot's condition (arrays) where the env
+    draws `conditions`."""
+    names = condition_names(config.conditions)
+    if not names:
+        return tuple(config[field] for field in fields)
+    table = _table(names)
+    return tuple(table[field][physics.condition] for field in fields)
+
+
+def _anywhere(config: ml_collections.ConfigDict, field: str) -> bool:
+    """Whether `field` is > 0 for any robot of an env with this config."""
+    names = condition_names(config.conditions)
+    if names:
+        return any(condition_values(name)[field] > 0 for name in names)
+    return config[field] > 0
+
+
+def has_obs_noise(config: ml_collections.ConfigDict) -> bool:
+    """Whether any robot of an env with this config sees observation noise."""
+    return _anywhere(config, "obs_noise")
+
+
+def observed(
+    rng: jax.Array, obs: jax.Array, config: ml_collections.ConfigDict, physics: Physics
+) -> jax.Array:
+    """What the policy sees of `obs`: each value plus N(0, obs_noise²) (its condition's noise
+    where the env draws `conditions`)."""
+    (noise,) = _settings(config, physics, ("obs_noise",))
+    return obs + noise * jax.random.normal(rng, obs.shape, obs.dtype)

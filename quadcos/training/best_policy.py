@@ -22,7 +22,7 @@ def rank(
     row: dict[str, Any],
     max_fall_rate: float,
     by: str = "reward",
-    targets: tuple[float, float] = (0.10, 0.15),
+    targets: tuple[float, float] | dict[str, float] = (0.10, 0.15),
     max_attitude: float = 0.0,
 ) -> tuple[bool, float]:
     """How an evaluation row ranks for `policy_best` (higher is better): whether it falls in at
@@ -30,15 +30,34 @@ def rank(
     slope by at most `max_attitude` rad, mean of the episodes' peaks; a row that measured neither
     counts as within), then its episode reward (`by` "reward"), or (`by` "tracking") minus its
     worse tracking relative to `targets` (m/s, rad/s): −max(speed RMS / targets[0], yaw-rate RMS
-    / targets[1]), > −1 where both are within their targets. NaN where the row has no such
+    / targets[1]), > −1 where both are within their targets; `targets` may name the row's keys
+    instead ({key: target}: the worst of those ratios). NaN where the row has no such
     evaluation."""
     if by == "reward":
         value = row.get(_BEST_BY, math.nan)
     else:
-        ratios = [row.get(key, math.nan) / target for key, target in zip(TRACKING, targets)]
+        if not isinstance(targets, dict):
+            targets = dict(zip(TRACKING, targets))
+        ratios = [row.get(key, math.nan) / target for key, target in targets.items()]
         value = -max(ratios) if all(math.isfinite(r) for r in ratios) else math.nan
     level = max_attitude <= 0 or all(row.get(key, 0.0) <= max_attitude for key in ATTITUDE)
     return row.get(_FALLS, 0.0) <= max_fall_rate and level, value
+
+
+def cells(row: dict[str, Any]) -> dict[str, float]:
+    """A commanded evaluation's tracking RMS: pooled, and under each condition it measured
+    (`randomization.eval_conditions`: `eval/<condition>/speed_tracking_rms`, ...)."""
+    ends = tuple("/" + key.removeprefix("eval/") for key in TRACKING)
+    return {key: row[key] for key in row if key.startswith("eval/") and key.endswith(ends)}
+
+
+def condition_falls(row: dict[str, Any]) -> dict[str, float]:
+    """An evaluation's fall rate under each condition it measured (none: {})."""
+    return {
+        key: row[key]
+        for key in row
+        if key.startswith("eval/") and key.endswith("/fall_rate") and key != _FALLS
+    }
 
 
 class BestPolicy:
@@ -50,7 +69,10 @@ class BestPolicy:
     or with `by` "tracking" the better command tracking (`rank`), or with `by` "gait" the tracking
     rank with the run's step-0 evaluation's own tracking RMS as the targets: the policy that
     improves most on the gait it started from in the worse of the two (the step-0 row scores −1;
-    a row before it, none).
+    a row before it, none). Where the evaluations measured conditions
+    (`randomization.eval_conditions`), every condition's speed and yaw-rate RMS is a target too,
+    and a row that falls in more of a condition's episodes than step 0 is beyond the bounds: the
+    policy must beat its gait in each.
     `offer` saves the state's policy to `directory` when its evaluation beats every earlier one of
     the run (rows before a resume included), its step, reward and fall rate added to the saved
     config under "best_of_run" (with `written_at_s`, the run's wall time at the write, if given).
@@ -74,6 +96,7 @@ class BestPolicy:
         self._max_attitude = max_attitude
         if by == "gait":
             self._targets = None  # the step-0 evaluation's tracking, once seen
+            self._gait_falls: dict[str, float] = {}
         ranked = (self._rank(row) for row in history)
         self.rank = max((r for r in ranked if math.isfinite(r[1])), default=None)
 
@@ -81,11 +104,17 @@ class BestPolicy:
         if self._by != "gait":
             return rank(row, self._max_fall_rate, self._by, self._targets, self._max_attitude)
         if row.get("step") == 0 and all(row.get(key, 0) > 0 for key in TRACKING):
-            self._targets = tuple(row[key] for key in TRACKING)
+            self._targets = {k: v for k, v in cells(row).items() if v > 0}  # NaN: no windows
+            self._gait_falls = condition_falls(row)
         if self._targets is None:
             within = rank(row, self._max_fall_rate, max_attitude=self._max_attitude)[0]
             return within, math.nan
-        return rank(row, self._max_fall_rate, "tracking", self._targets, self._max_attitude)
+        within, value = rank(
+            row, self._max_fall_rate, "tracking", self._targets, self._max_attitude
+        )
+        falls = condition_falls(row)
+        no_more = all(falls.get(key, math.inf) <= gait for key, gait in self._gait_falls.items())
+        return within and no_more, value
 
     @property
     def score(self) -> float:

@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 from brax import envs
 
-from quadcos.env import episodes
+from quadcos.env import episodes, randomization
 from quadcos.env import tracking as tracking_lib
 
 Metrics = dict[str, jax.Array]
@@ -65,7 +65,8 @@ def evaluate(
       `eval/mean_max_abs_pitch_error`, rad), else the per-episode mean over alive steps; with
       commands `eval/speed_tracking_rms` (m/s) and `eval/yaw_rate_tracking_rms` (rad/s), every
       closed window of every episode pooled (over several devices the trainer averages each
-      device's).
+      device's). Where the env's robots take robustness conditions (`randomization.conditions`),
+      also each condition's `eval/<condition key>/fall_rate`, its attitude peaks and tracking.
     """
     env_state = eval_env.reset(keys)
     zeros = jnp.zeros((keys.shape[0],))
@@ -85,6 +86,7 @@ def evaluate(
     def update(totals: EvalTotals, next_env_state: envs.State, _) -> EvalTotals:
         blown_up = ~jnp.isfinite(next_env_state.reward)
         counted = totals.alive & ~blown_up
+
         # `where`, not multiplication: a fallen env may produce NaN.
         def alive_sum(total: jax.Array, value: jax.Array) -> jax.Array:
             return total + jnp.where(counted & jnp.isfinite(value), value, 0.0)
@@ -134,6 +136,39 @@ def evaluate(
     if totals.followed is not None:
         speed, yaw_rate = tracking_lib.pooled_rms(totals.followed.windows)
         metrics |= {"eval/speed_tracking_rms": speed, "eval/yaw_rate_tracking_rms": yaw_rate}
+    for index, name in enumerate(_conditions(eval_env)):
+        metrics |= _condition(totals, env_state.info["physics"].condition == index, name)
+    return metrics
+
+
+def _conditions(eval_env: envs.Env) -> tuple[str, ...]:
+    """The robustness conditions the env's robots take (`randomization.conditions`), or ()."""
+    config = getattr(getattr(eval_env, "unwrapped", eval_env), "config", None)
+    if config is None or "randomization" not in config or not config.randomization.enabled:
+        return ()
+    return randomization.condition_names(config.randomization.conditions)
+
+
+def _condition(totals: EvalTotals, member: jax.Array, name: str) -> Metrics:
+    """The falls, attitude peaks and tracking of the episodes `member` ((n,) bool) under the
+    condition `name`, under `eval/<its key>/`."""
+    prefix = f"eval/{randomization.condition_key(name)}/"
+    count = jnp.maximum(jnp.sum(member), 1)
+
+    def mean(per_episode: jax.Array) -> jax.Array:
+        return jnp.sum(jnp.where(member, per_episode, 0.0)) / count
+
+    metrics = {prefix + "fall_rate": mean(~totals.alive)}
+    for step_name, key in PEAKS.items():
+        if step_name in totals.metrics:
+            metrics[prefix + key] = mean(totals.metrics[step_name])
+    if totals.followed is not None:
+        windows = jax.tree.map(lambda a: jnp.where(member, a, 0), totals.followed.windows)
+        speed, yaw_rate = tracking_lib.pooled_rms(windows)
+        metrics |= {
+            prefix + "speed_tracking_rms": speed,
+            prefix + "yaw_rate_tracking_rms": yaw_rate,
+        }
     return metrics
 
 

@@ -220,9 +220,15 @@ def _check_search(config: ml_collections.ConfigDict, find_gait: GaitSearch | Non
 
 def _envs(env_config: ml_collections.ConfigDict) -> tuple[Any, Any]:
     """The training env and the evaluation env (the same unless robots spawn along the ground:
-    evaluations start at the spawn point, as quadcos.evaluate's do)."""
+    evaluations start at the spawn point, as quadcos.evaluate's do; or unless evaluations take
+    robustness conditions, `randomization.eval_conditions`)."""
     env = env_lib.QuadrupedEnv(env_config.terrain, ml_collections.ConfigDict(env_config.to_dict()))
-    if env_config.spawn_x_max <= 0:
+    conditions = (
+        env_config.randomization.eval_conditions if env_config.randomization.enabled else ""
+    )
+    if env_config.spawn_x_max <= 0 and not conditions:
         return env, env
-    eval_config = ml_collections.ConfigDict({**env_config.to_dict(), "spawn_x_max": 0.0})
+    eval_config = ml_collections.ConfigDict(env_config.to_dict())
+    eval_config.spawn_x_max = 0.0
+    eval_config.randomization.conditions = conditions
     return env, env_lib.QuadrupedEnv(env_config.terrain, eval_config)
