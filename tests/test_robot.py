@@ -360,7 +360,7 @@ def test_short_names_are_read_from_the_spec_alone():
 
 
 @needs_menagerie
-def test_the_command_preset_stiffens_anymal_c_and_flags_still_win(menagerie_root):
+def test_the_command_preset_stiffens_anymal_c_ranks_go1_by_conditions_flags_win(menagerie_root):
     from quadcos.training import presets
 
     def built(preset, **overrides):
@@ -378,6 +378,12 @@ def test_the_command_preset_stiffens_anymal_c_and_flags_still_win(menagerie_root
     # the command line wins; other robots, ANYmal C by its path and other presets are untouched
     flagged = built("command", **{"env.robot": anymal, "env.servo_kp": 500.0})
     assert flagged.env.servo_kp == 500.0 and flagged.env.servo_kd == 4.0
+    assert config.env.randomization.eval_conditions == ""
+    go1 = built("command", **{"env.robot": "menagerie:unitree_go1"})
+    assert go1.env.randomization.eval_conditions == "robustness"
+    assert (go1.sac.gait_search.track_gaits, go1.sac.gait_search.max_attitude) == (16, 0.085)
+    scratch = built("scratch", **{"env.robot": "menagerie:unitree_go1"})
+    assert scratch.sac.gait_search.track_gaits == 0
     path = str(MENAGERIE / "anybotics_anymal_c" / "anymal_c.xml")
     for preset, robot in (("command", "menagerie:unitree_go1"), ("command", path),
                           ("scratch", anymal)):

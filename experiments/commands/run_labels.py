@@ -140,6 +140,11 @@ SEARCH_TRACK_ATTITUDE8 = ("go1cmd_searchtrackatt8_s0", "go1cmd_searchtrackatt8_s
 # ... among its 16 best (lever `searchtrackatt16`): Go1's three seeds sharing one GPU
 SEARCH_TRACK_ATTITUDE16 = ("go1cmd_searchtrackatt16_s0", "go1cmd_searchtrackatt16_s1",
                            "go1cmd_searchtrackatt16_s2")
+# ... with the training evaluations' robots in the four robustness conditions, the kept policy
+# ranked against step 0 in each (`randomization.eval_conditions`, lever `searchtrackatt16cond`):
+# Go1's three seeds sharing one GPU
+SEARCH_TRACK_CONDITIONS16 = ("go1cmd_searchtrackatt16cond_s0", "go1cmd_searchtrackatt16cond_s1",
+                             "go1cmd_searchtrackatt16cond_s2")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",

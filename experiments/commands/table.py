@@ -29,6 +29,7 @@ from run_labels import (
     SEARCH_ATTITUDE,
     SEARCH_TRACK_ATTITUDE8,
     SEARCH_TRACK_ATTITUDE16,
+    SEARCH_TRACK_CONDITIONS16,
     TRACK_ATTITUDE,
     TRACK_ATTITUDE8,
     TRACKED,
@@ -461,7 +462,8 @@ def blocks() -> tuple[str, ...]:
     return (
         table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
         seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
-        seeds(SEARCH_TRACK_ATTITUDE16), anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
+        seeds(SEARCH_TRACK_ATTITUDE16), seeds(SEARCH_TRACK_CONDITIONS16), anymal_sac(), no_preset(),
+        gain(), campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
 
