@@ -111,15 +111,19 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert env.pop("observe_angular_velocity") is False  # the gyro, added since: not observed
     assert env["reward"].pop("action_rate") == 0.0  # the action-rate term, added since: off
     assert env["randomization"].pop("range_ends") == 0.0  # draws at the ranges' ends: off
+    # robots in the robustness conditions, added since: none, in training or its evaluations
+    conditions = env["randomization"].pop("conditions"), env["randomization"].pop("eval_conditions")
+    assert conditions == ("", "")
     assert env.pop("held_rhythm") == ""  # every rhythm parameter the policy's, as run
     assert env == recorded["run_info"]["env"]
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 
 
 def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
-    # experiments/commands, "The preset as it is": the shipped policy's run named the preset (and
-    # flags that are its values now); what may differ is the robot, the seed and what the gait
-    # search and the feed-forward's calibration resolved. Go1 has no per-robot settings.
+    # experiments/commands, "The preset's shared settings": the shipped policy's run named the
+    # preset (and flags that are its values now); what may differ is the robot, the seed and what
+    # the gait search and the feed-forward's calibration resolved. The preset is built for the
+    # default robot: without Go1's own settings, which came later.
     policy = ROOT / "experiments/policies/unitree_go1_command/policy.json"
     recorded = json.loads(policy.read_text())["config"]
     config = json.loads(json.dumps(train.build_config(train.PRESETS["command"], {}).to_dict()))
@@ -141,6 +145,9 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     assert env["commands"].pop("speed_tau") == 0.0  # the forward term on each step's progress
     assert env["commands"].pop("observe_drive") is False  # the observation as trained
     assert env.pop("held_rhythm") == ""  # every rhythm parameter the policy's, as trained
+    # the evaluations' robots in the robustness conditions (Go1's own setting now): none, as trained
+    assert env["randomization"].pop("eval_conditions") == ""
+    assert env["randomization"].pop("conditions") == ""
     assert (env.pop("robot"), trained.pop("robot")) == ("quadcos", "menagerie:unitree_go1")
     assert env.pop("action_centre") == "search" and trained.pop("action_centre") != "search"
     for resolved in ("reference_speed", "half_track", "speed_map"):  # the calibration's
