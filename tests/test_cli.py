@@ -113,6 +113,11 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
         (["--population_envs=8"], "--population_envs: for --population only"),
         (["--reward=yx"], "invalid choice"),
         (["--preset=huge"], "invalid choice"),
+        (
+            ["--config.env.randomization.eval_conditions=robustness"],
+            "eval_conditions needs config.env.randomization.enabled",
+        ),
+        (["--config.env.randomization.eval_conditions=ice"], "unknown condition 'ice'"),
         ([], "--output_dir is required"),
     ],
 )

@@ -234,6 +234,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
             "nominal;ice",
             "eval_conditions: unknown condition 'ice'",
         ),
+        ("randomization.conditions", "robustness", "conditions needs randomization.enabled"),
     ],
 )
 def test_bad_ranges_are_named(key, value, message):

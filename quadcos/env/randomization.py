@@ -185,6 +185,8 @@ def validate(config: ml_collections.ConfigDict) -> None:
                 f"randomization.{field}: unknown condition {unknown[0]!r}; give names joined by"
                 f" ';' from {list(CONDITIONS)}"
             )
+    if config.conditions.strip() and not config.enabled:  # (eval_conditions: the trainer's)
+        raise ValueError("randomization.conditions needs randomization.enabled")
 
 
 def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float) -> Physics:

@@ -328,6 +328,11 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
                 f"config.sac.best_policy_by {by!r} ranks evaluations by command tracking: it"
                 " needs config.env.commands.spec"
             )
+        randomization = config.env.randomization
+        if randomization.eval_conditions.strip() and not randomization.enabled:
+            raise ValueError(
+                "config.env.randomization.eval_conditions needs config.env.randomization.enabled"
+            )
         if non_finite:  # in range, as far as the checks above know
             key, value = next(iter(non_finite.items()))
             raise ValueError(f"bad value {value} for config key {key!r}: it must be finite")
