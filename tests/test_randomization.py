@@ -44,7 +44,7 @@ def test_conditions_give_each_robot_one_robustness_condition_and_only_its_pertur
     config = _config(conditions="robustness", obs_noise=0.02, push_interval_s=5.0)
     keys = jax.random.split(jax.random.PRNGKey(0), 1024)
     draws = jax.vmap(lambda key: randomization.sample(key, config, 0.005))(keys)
-    condition = np.asarray(draws.condition)
+    condition = np.asarray(jax.vmap(lambda key: randomization.condition_index(key, config))(keys))
     assert randomization.condition_names("robustness") == randomization.ROBUSTNESS
     assert (np.bincount(condition, minlength=4) > 200).all()
     np.testing.assert_allclose(draws.friction, np.where(condition == 3, 0.4, 1.5), rtol=1e-6)
@@ -52,14 +52,14 @@ def test_conditions_give_each_robot_one_robustness_condition_and_only_its_pertur
     for name in ("torso_mass_scale", "kp_scale", "damping_scale", "strength_scale"):
         np.testing.assert_array_equal(getattr(draws, name), 1.0)
 
-    def pushes(physics, key):  # 20 s of control steps: the largest push force seen
+    def pushes(physics, index, key):  # 20 s of control steps: the largest push force seen
         def step(physics, key):
-            physics = randomization.next_push(key, physics, config, 0.02)
+            physics = randomization.next_push(key, physics, config, 0.02, index)
             return physics, jnp.linalg.norm(physics.push)
 
         return jax.lax.scan(step, physics, jax.random.split(key, 1000))[1].max()
 
-    pushed = np.asarray(jax.vmap(pushes)(draws, keys))
+    pushed = np.asarray(jax.vmap(pushes)(draws, jnp.asarray(condition), keys))
     np.testing.assert_allclose(pushed, np.where(condition == 2, 50.0, 0.0), rtol=1e-5)
     assert not randomization.has_obs_noise(config)
     assert randomization.has_obs_noise(_config(conditions="nominal;observation noise 0.05"))
@@ -97,7 +97,6 @@ def test_a_draw_changes_only_the_model_fields_it_names():
         push=jnp.zeros(3),
         push_left_s=jnp.float32(0.0),
         level=jnp.float32(1.0),
-        condition=jnp.int32(-1),
     )
     torso = env.mj_model.body(constants.TORSO_BODY).id
     model = randomization.apply(env.model, physics, torso)
@@ -235,6 +234,7 @@ def test_pushes_start_run_for_their_duration_and_stop():
             "eval_conditions: unknown condition 'ice'",
         ),
         ("randomization.conditions", "robustness", "conditions needs randomization.enabled"),
+        ("randomization.eval_conditions", "nominal;nominal", "a condition named twice"),
     ],
 )
 def test_bad_ranges_are_named(key, value, message):
@@ -350,13 +350,7 @@ def test_nominal_pins_every_range_at_the_nominal_robot():
     assert pinned["enabled"] and pinned["com_offset_m"] == 0
     assert pinned["push_interval_s"] == 0 and pinned["obs_noise"] == 0
     unset = set(randomization.default_config()) - set(pinned)
-    assert unset == {
-        "push_force_n",
-        "push_duration_s",
-        "ramp_s",
-        "range_ends",
-        "conditions",
-        "eval_conditions",
-    }
+    assert unset == {"push_force_n", "push_duration_s", "ramp_s", "range_ends", "eval_conditions"}
+    assert pinned["conditions"] == ""  # the ranges, also for a policy trained on conditions
     config = apply_overrides(quadcos.env.default_config(), randomization.NOMINAL)
     randomization.validate(config.randomization)  # a config the env accepts

@@ -77,6 +77,10 @@ class QuadrupedEnv(base.Env):
         )
         self.impl = backends.resolve_impl(config.impl, self.robot.preset.gpu_physics)
         self.randomized = bool(config.randomization.enabled)
+        # robots in robustness conditions (`randomization.conditions`), each's index in its info
+        self.conditioned = self.randomized and bool(
+            randomization.condition_names(config.randomization.conditions)
+        )
         self.model = backends.put_model(self.mj_model, self.impl, config.warp)
         # XLA options for the programs that step these envs (read by the trainer).
         self.compiler_options = backends.compiler_options(self.impl, config.warp)
@@ -161,6 +165,9 @@ class QuadrupedEnv(base.Env):
                 draw_key, self.config.randomization, self.config.physics_dt
             )
             info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
+            if self.conditioned:  # which robustness condition the robot takes
+                conditions = self.config.randomization
+                info["condition"] = randomization.condition_index(draw_key, conditions)
         data = backends.pose(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)
@@ -310,9 +317,16 @@ class QuadrupedEnv(base.Env):
         fresh = randomization.sample(draw_key, config, self.config.physics_dt)
         fresh = fresh._replace(level=info["physics"].level)  # a level is the trainer's to set
         physics = jax.tree.map(lambda a, b: jnp.where(just_reset, a, b), fresh, info["physics"])
-        physics = randomization.next_push(push_key, physics, config, self.dt)
-        action = jnp.where(just_reset, 0.0, info["action"])  # what acts during the latency
-        return {**info, "physics": physics, "rng": rng, "action": action}
+        perturbed = {**info, "rng": rng}
+        if self.conditioned:
+            fresh_condition = randomization.condition_index(draw_key, config)
+            perturbed["condition"] = jnp.where(just_reset, fresh_condition, info["condition"])
+        condition = perturbed.get("condition")
+        perturbed["physics"] = randomization.next_push(
+            push_key, physics, config, self.dt, condition
+        )
+        perturbed["action"] = jnp.where(just_reset, 0.0, info["action"])  # acts during latency
+        return perturbed
 
     def _seen(self, obs: jax.Array, info: dict[str, Any]) -> tuple[jax.Array, dict[str, Any]]:
         """The observation as the policy sees it: with a randomised robot's observation noise."""
@@ -320,7 +334,7 @@ class QuadrupedEnv(base.Env):
         if not self.randomized or not randomization.has_obs_noise(config):
             return obs, info
         rng, noise_key = jax.random.split(info["rng"])
-        return randomization.observed(noise_key, obs, config, info["physics"]), {
+        return randomization.observed(noise_key, obs, config, info.get("condition")), {
             **info,
             "rng": rng,
         }

@@ -98,6 +98,7 @@ NOMINAL = {
     "randomization.latency_s": (0.0, 0.0),
     "randomization.push_interval_s": 0.0,
     "randomization.obs_noise": 0.0,
+    "randomization.conditions": "",  # (a policy trained on conditions: the ranges above)
 }
 
 
@@ -160,7 +161,6 @@ class Physics(NamedTuple):
     push: jax.Array  # (3,) N on the torso now (zero between pushes), as drawn
     push_left_s: jax.Array  # () s
     level: jax.Array  # () in [0, 1]: the share of the way from the nominal robot to the draw
-    condition: jax.Array  # () int32: its index in the env's `conditions`; -1: drawn from ranges
 
 
 def validate(config: ml_collections.ConfigDict) -> None:
@@ -185,6 +185,9 @@ def validate(config: ml_collections.ConfigDict) -> None:
                 f"randomization.{field}: unknown condition {unknown[0]!r}; give names joined by"
                 f" ';' from {list(CONDITIONS)}"
             )
+        names = condition_names(config[field])
+        if len(set(names)) < len(names):
+            raise ValueError(f"randomization.{field}: a condition named twice in {names}")
     if config.conditions.strip() and not config.enabled:  # (eval_conditions: the trainer's)
         raise ValueError("randomization.conditions needs randomization.enabled")
 
@@ -208,12 +211,17 @@ def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float)
         push=jnp.zeros(3),
         push_left_s=jnp.zeros(()),
         level=jnp.ones(()),
-        condition=jnp.int32(-1),
     )
 
 
+def condition_index(rng: jax.Array, config: ml_collections.ConfigDict) -> jax.Array:
+    """() int32: which of `conditions` the robot whose draw key is `rng` takes (its index; the
+    env keeps it as `info["condition"]`), evenly at random: the one `sample` draws from it."""
+    return jax.random.randint(rng, (), 0, len(condition_names(config.conditions)))
+
+
 def _condition_draw(rng: jax.Array, names: tuple[str, ...], physics_dt: float) -> Physics:
-    """One of the conditions `names`, evenly at random."""
+    """One of the conditions `names`, evenly at random (`condition_index`)."""
     index = jax.random.randint(rng, (), 0, len(names))
     table = _table(names)
 
@@ -231,7 +239,6 @@ def _condition_draw(rng: jax.Array, names: tuple[str, ...], physics_dt: float) -
         push=jnp.zeros(3),
         push_left_s=jnp.zeros(()),
         level=jnp.ones(()),
-        condition=index.astype(jnp.int32),
     )
 
 
@@ -293,32 +300,40 @@ def push_force(physics: Physics) -> jax.Array:
 
 
 def next_push(
-    rng: jax.Array, physics: Physics, config: ml_collections.ConfigDict, dt: float
+    rng: jax.Array,
+    physics: Physics,
+    config: ml_collections.ConfigDict,
+    dt: float,
+    condition: jax.Array | None = None,
 ) -> Physics:
     """One control step of the push process: a push under way runs down; otherwise one starts
     with probability dt / push_interval_s, in a random horizontal direction (the settings of the
-    robot's condition where the env draws `conditions`)."""
-    force_n, duration_s, interval_s = _settings(config, physics, _PUSH)
+    robot's `condition`, its `condition_index`, where the env draws `conditions`)."""
     if not (_anywhere(config, "push_interval_s") and _anywhere(config, "push_force_n")):
         return physics
+    force_n, duration_s, interval_s = _settings(config, condition, _PUSH)
     start_key, angle_key = jax.random.split(rng)
     left = jnp.maximum(physics.push_left_s - dt, 0.0)
-    rate = jnp.where(interval_s > 0, dt / jnp.maximum(interval_s, 1e-9), 0.0)
-    start = (left <= 0) & (jax.random.uniform(start_key) < rate) & (force_n > 0)
+    if condition is None:
+        start = (left <= 0) & (jax.random.uniform(start_key) < dt / interval_s)
+    else:  # a condition without pushes: interval 0
+        rate = jnp.where(interval_s > 0, dt / jnp.maximum(interval_s, 1e-9), 0.0)
+        start = (left <= 0) & (jax.random.uniform(start_key) < rate) & (force_n > 0)
     angle = jax.random.uniform(angle_key, maxval=2 * jnp.pi)
     force = force_n * jnp.array([jnp.cos(angle), jnp.sin(angle), 0.0])
     push = jnp.where(start, force, jnp.where(left > 0, physics.push, 0.0))
     return physics._replace(push=push, push_left_s=jnp.where(start, duration_s, left))
 
 
-def _settings(config: ml_collections.ConfigDict, physics: Physics, fields: tuple[str, ...]):
-    """The config's values of `fields`, or those of the robot's condition (arrays) where the env
-    draws `conditions`."""
-    names = condition_names(config.conditions)
-    if not names:
+def _settings(
+    config: ml_collections.ConfigDict, condition: jax.Array | None, fields: tuple[str, ...]
+) -> tuple:
+    """The config's values of `fields`, or (`condition` given: the env draws `conditions`) those
+    of the robot's condition."""
+    if condition is None:
         return tuple(config[field] for field in fields)
-    table = _table(names)
-    return tuple(table[field][physics.condition] for field in fields)
+    table = _table(condition_names(config.conditions))
+    return tuple(table[field][condition] for field in fields)
 
 
 def _anywhere(config: ml_collections.ConfigDict, field: str) -> bool:
@@ -335,9 +350,12 @@ def has_obs_noise(config: ml_collections.ConfigDict) -> bool:
 
 
 def observed(
-    rng: jax.Array, obs: jax.Array, config: ml_collections.ConfigDict, physics: Physics
+    rng: jax.Array,
+    obs: jax.Array,
+    config: ml_collections.ConfigDict,
+    condition: jax.Array | None = None,
 ) -> jax.Array:
-    """What the policy sees of `obs`: each value plus N(0, obs_noise²) (its condition's noise
-    where the env draws `conditions`)."""
-    (noise,) = _settings(config, physics, ("obs_noise",))
+    """What the policy sees of `obs`: each value plus N(0, obs_noise²) (the noise of the robot's
+    `condition` where the env draws `conditions`)."""
+    (noise,) = _settings(config, condition, ("obs_noise",))
     return obs + noise * jax.random.normal(rng, obs.shape, obs.dtype)

@@ -38,23 +38,31 @@ def rank(
     else:
         if not isinstance(targets, dict):
             targets = dict(zip(TRACKING, targets))
-        ratios = [row.get(key, math.nan) / target for key, target in targets.items()]
+        ratios = [_value(row, key) / target for key, target in targets.items()]
         value = -max(ratios) if all(math.isfinite(r) for r in ratios) else math.nan
     level = max_attitude <= 0 or all(row.get(key, 0.0) <= max_attitude for key in ATTITUDE)
     return row.get(_FALLS, 0.0) <= max_fall_rate and level, value
 
 
+def _value(row: dict[str, Any], key: str) -> float:
+    """A row's value of `key`; NaN where it has none (a resumed run's metrics.jsonl keeps NaN
+    as null)."""
+    value = row.get(key)
+    return math.nan if value is None else value
+
+
 def cells(row: dict[str, Any]) -> dict[str, float]:
     """A commanded evaluation's tracking RMS: pooled, and under each condition it measured
-    (`randomization.eval_conditions`: `eval/<condition>/speed_tracking_rms`, ...)."""
+    (`randomization.eval_conditions`: `eval/<condition>/speed_tracking_rms`, ...); NaN where a
+    condition closed no tracking window."""
     ends = tuple("/" + key.removeprefix("eval/") for key in TRACKING)
-    return {key: row[key] for key in row if key.startswith("eval/") and key.endswith(ends)}
+    return {key: _value(row, key) for key in row if key.startswith("eval/") and key.endswith(ends)}
 
 
 def condition_falls(row: dict[str, Any]) -> dict[str, float]:
     """An evaluation's fall rate under each condition it measured (none: {})."""
     return {
-        key: row[key]
+        key: _value(row, key)
         for key in row
         if key.startswith("eval/") and key.endswith("/fall_rate") and key != _FALLS
     }
@@ -103,7 +111,7 @@ class BestPolicy:
     def _rank(self, row: dict[str, Any]) -> tuple[bool, float]:
         if self._by != "gait":
             return rank(row, self._max_fall_rate, self._by, self._targets, self._max_attitude)
-        if row.get("step") == 0 and all(row.get(key, 0) > 0 for key in TRACKING):
+        if row.get("step") == 0 and all(_value(row, key) > 0 for key in TRACKING):
             self._targets = {k: v for k, v in cells(row).items() if v > 0}  # NaN: no windows
             self._gait_falls = condition_falls(row)
         if self._targets is None:

@@ -137,7 +137,7 @@ def evaluate(
         speed, yaw_rate = tracking_lib.pooled_rms(totals.followed.windows)
         metrics |= {"eval/speed_tracking_rms": speed, "eval/yaw_rate_tracking_rms": yaw_rate}
     for index, name in enumerate(_conditions(eval_env)):
-        metrics |= _condition(totals, env_state.info["physics"].condition == index, name)
+        metrics |= _condition(totals, env_state.info["condition"] == index, name)
     return metrics
 
 

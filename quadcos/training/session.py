@@ -230,5 +230,5 @@ def _envs(env_config: ml_collections.ConfigDict) -> tuple[Any, Any]:
         return env, env
     eval_config = ml_collections.ConfigDict(env_config.to_dict())
     eval_config.spawn_x_max = 0.0
-    eval_config.randomization.conditions = conditions
+    eval_config.randomization.conditions = conditions or env_config.randomization.conditions
     return env, env_lib.QuadrupedEnv(env_config.terrain, eval_config)
