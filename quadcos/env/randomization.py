@@ -196,7 +196,7 @@ def sample(rng: jax.Array, config: ml_collections.ConfigDict, physics_dt: float)
     """A fresh draw for one robot (no push under way): from the ranges, or one of `conditions`."""
     names = condition_names(config.conditions)
     if names:
-        return _condition_draw(rng, names, physics_dt)
+        return _condition_draw(condition_index(rng, config), names, physics_dt)
     keys = jax.random.split(rng, len(RANGES) + 1)
     drawn = {name: _draw(key, *config[name], config.range_ends) for name, key in zip(RANGES, keys)}
     offset = config.com_offset_m
@@ -220,9 +220,8 @@ def condition_index(rng: jax.Array, config: ml_collections.ConfigDict) -> jax.Ar
     return jax.random.randint(rng, (), 0, len(condition_names(config.conditions)))
 
 
-def _condition_draw(rng: jax.Array, names: tuple[str, ...], physics_dt: float) -> Physics:
-    """One of the conditions `names`, evenly at random (`condition_index`)."""
-    index = jax.random.randint(rng, (), 0, len(names))
+def _condition_draw(index: jax.Array, names: tuple[str, ...], physics_dt: float) -> Physics:
+    """The robot of the condition `names[index]`."""
     table = _table(names)
 
     def value(field: str) -> jax.Array:
