@@ -28,6 +28,10 @@ friction U(0.4, 1.0), body masses ×U(0.9, 1.1), base mass ±1 kg, joint frictio
   --obs_noise` adds in C MuJoCo. Brax's auto-reset restarts an env from its first state, so its
   episodes begin with the same noisy first observation.
 
+`conditions` replaces the ranges by named robustness conditions (`CONDITIONS`, one per robot,
+its index in the env state's `info["condition"]`): the training evaluations of
+`eval_conditions` measure a policy under each at once (quadcos.training.periodic_eval).
+
 Every range is (low, high) in SI units; equal ends fix a value, which is how an evaluation applies
 one perturbation (`quadcos.evaluate --env.randomization.enabled=True
 --env.randomization.friction='(0.4, 0.4)'`).
