@@ -166,8 +166,8 @@ class QuadrupedEnv(base.Env):
             )
             info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
             if self.conditioned:  # which robustness condition the robot takes
-                conditions = self.config.randomization
-                info["condition"] = randomization.condition_index(draw_key, conditions)
+                drawn_from = self.config.randomization
+                info["condition"] = randomization.condition_index(draw_key, drawn_from)
         data = backends.pose(self._model(info), data)
         phase = jnp.zeros(())
         command = jnp.zeros(self.action_size)

@@ -183,13 +183,13 @@ def validate(config: ml_collections.ConfigDict) -> None:
         ends = config.range_ends
         raise ValueError(f"randomization.range_ends must be a share from 0 to 1; got {ends}")
     for field in ("conditions", "eval_conditions"):
-        unknown = [name for name in condition_names(config[field]) if name not in CONDITIONS]
+        names = condition_names(config[field])
+        unknown = [name for name in names if name not in CONDITIONS]
         if unknown:
             raise ValueError(
                 f"randomization.{field}: unknown condition {unknown[0]!r}; give names joined by"
                 f" ';' from {list(CONDITIONS)}"
             )
-        names = condition_names(config[field])
         if len(set(names)) < len(names):
             raise ValueError(f"randomization.{field}: a condition named twice in {names}")
     if config.conditions.strip() and not config.enabled:  # (eval_conditions: the trainer's)
