@@ -360,7 +360,7 @@ def test_short_names_are_read_from_the_spec_alone():
 
 
 @needs_menagerie
-def test_the_command_preset_stiffens_anymal_c_ranks_go1_by_conditions_flags_win(menagerie_root):
+def test_the_command_preset_stiffens_anymal_c_ranks_by_conditions_flags_win(menagerie_root):
     from quadcos.training import presets
 
     def built(preset, **overrides):
@@ -378,10 +378,16 @@ def test_the_command_preset_stiffens_anymal_c_ranks_go1_by_conditions_flags_win(
     # the command line wins; other robots, ANYmal C by its path and other presets are untouched
     flagged = built("command", **{"env.robot": anymal, "env.servo_kp": 500.0})
     assert flagged.env.servo_kp == 500.0 and flagged.env.servo_kd == 4.0
-    assert config.env.randomization.eval_conditions == ""
-    go1 = built("command", **{"env.robot": "menagerie:unitree_go1"})
-    assert go1.env.randomization.eval_conditions == "robustness"
-    assert (go1.sac.gait_search.track_gaits, go1.sac.gait_search.max_attitude) == (16, 0.085)
+    # ANYmal C's SAC: 2 updates per env step, ranked in the robustness conditions
+    assert (config.sac.updates_per_step, config.env.randomization.eval_conditions) == (
+        2, "robustness")
+    assert config.sac.gait_search.track_gaits == 0  # its search's best gait
+    for robot in ("menagerie:unitree_go1", "menagerie:unitree_go2"):
+        go = built("command", **{"env.robot": robot})
+        assert go.env.randomization.eval_conditions == "robustness"
+        assert (go.sac.gait_search.track_gaits, go.sac.gait_search.max_attitude) == (16, 0.085)
+        assert go.sac.updates_per_step == 8
+    assert built("command", **{}).env.randomization.eval_conditions == ""  # the default robot
     scratch = built("scratch", **{"env.robot": "menagerie:unitree_go1"})
     assert scratch.sac.gait_search.track_gaits == 0
     path = str(MENAGERIE / "anybotics_anymal_c" / "anymal_c.xml")
