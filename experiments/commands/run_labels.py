@@ -64,7 +64,7 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " iterations; search floored at 0.15 m/s, confirmed on 256 robots), 540 s, MJX-Warp",
     "anymal_cap_s0": "as `anymal_cmd_s0` with the drive's turn capped at 0.4 rad/s, 420 s",
     "anymal_reward_s0": "as `anymal_cap_s0`, the yaw term on the yaw rate low-passed over 0.25 s,"
-    " \"moving\" along the heading (the preset then), 480 s: its best evaluation the searched gait"
+    ' "moving" along the heading (the preset then), 480 s: its best evaluation the searched gait'
     " (step 0; `../policies/anybotics_anymal_c_command` at commit efcb692)",
     "go1warp_s0": "the preset (seed 0), 300 s, MJX-Warp, two runs sharing one GPU",
     "go2warp_s0": "as `go1warp_s0`, Go2",
@@ -143,8 +143,12 @@ SEARCH_TRACK_ATTITUDE16 = ("go1cmd_searchtrackatt16_s0", "go1cmd_searchtrackatt1
 # ... with the training evaluations' robots in the four robustness conditions, the kept policy
 # ranked against step 0 in each (`randomization.eval_conditions`, lever `searchtrackatt16cond`):
 # Go1's three seeds sharing one GPU
-SEARCH_TRACK_CONDITIONS16 = ("go1cmd_searchtrackatt16cond_s0", "go1cmd_searchtrackatt16cond_s1",
-                             "go1cmd_searchtrackatt16cond_s2", "go2cmd_searchtrackatt16cond_s0")
+SEARCH_TRACK_CONDITIONS16 = (
+    "go1cmd_searchtrackatt16cond_s0",
+    "go1cmd_searchtrackatt16cond_s1",
+    "go1cmd_searchtrackatt16cond_s2",
+    "go2cmd_searchtrackatt16cond_s0",
+)
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",

@@ -193,8 +193,9 @@ PRESETS["robust"] = {
 # evaluation (every 2 M env steps) that improves most on the run's step 0, the searched gait, in
 # the worse of its speed and yaw-rate tracking: ranked by reward, no Go1 seed's kept policy beat
 # its gait in every robustness condition; ranked so, each of three Go1 seeds' and Go2's did
-# (experiments/commands, "The preset's shared settings"). The gait search scores candidates on the run's
-# commanded reward under the drive. The drive's loops are closed in training as at deployment:
+# (experiments/commands, "The preset's shared settings"). The gait search scores candidates on
+# the run's commanded reward under the drive. The drive's loops are closed in training as at
+# deployment:
 # its gain (1/s) removes the speed error the map leaves, its heading loop (2/s) the slow drift of
 # the heading (quadcos.env.commands; with both, ranked by reward, Go1's three seeds tracked
 # 0.091-0.103 m/s and 0.092-0.132 rad/s, without 0.102-0.128 and 0.139-0.153:
