@@ -195,9 +195,8 @@ PRESETS["robust"] = {
 # its gait in every robustness condition; ranked so, each of three Go1 seeds' and Go2's did
 # (experiments/commands, "The preset's shared settings"). The gait search scores candidates on
 # the run's commanded reward under the drive. The drive's loops are closed in training as at
-# deployment:
-# its gain (1/s) removes the speed error the map leaves, its heading loop (2/s) the slow drift of
-# the heading (quadcos.env.commands; with both, ranked by reward, Go1's three seeds tracked
+# deployment: its gain (1/s) removes the speed error the map leaves, its heading loop (2/s) the
+# slow drift of the heading (quadcos.env.commands; with both, ranked by reward, Go1's three seeds tracked
 # 0.091-0.103 m/s and 0.092-0.132 rad/s, without 0.102-0.128 and 0.139-0.153:
 # experiments/commands). About 8 minutes on one GPU (max_seconds).
 _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS = {
@@ -246,8 +245,8 @@ PRESETS["command"] = {
         # in 0.999 against 1.000, Go1 seed 2 and Go2 track the yaw rate at friction 0.4 within
         # 0.0002 rad/s of their gaits (on 4096 other episodes a condition, Go1's: 35 of 36, seed
         # 0 falling in 1 of 4096 pushed episodes). With the search's best gait every Go1 seed
-        # kept a policy better in all 36 cells, but two of three missed a target; Go2's gait
-        # chosen by the shared settings pitched 0.112 rad (experiments/commands, "Robustness
+        # kept a policy better in all 36 cells, but two of three missed a target; with the shared
+        # settings Go2's kept policy pitched 0.112 rad (experiments/commands, "Robustness
         # conditions in the evaluations").
         "unitree_go1": _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS,
         "unitree_go2": _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS,
