@@ -196,8 +196,8 @@ PRESETS["robust"] = {
 # (experiments/commands, "The preset's shared settings"). The gait search scores candidates on
 # the run's commanded reward under the drive. The drive's loops are closed in training as at
 # deployment: its gain (1/s) removes the speed error the map leaves, its heading loop (2/s) the
-# slow drift of the heading (quadcos.env.commands; with both, ranked by reward, Go1's three seeds tracked
-# 0.091-0.103 m/s and 0.092-0.132 rad/s, without 0.102-0.128 and 0.139-0.153:
+# slow drift of the heading (quadcos.env.commands; with both, ranked by reward, Go1's three seeds
+# tracked 0.091-0.103 m/s and 0.092-0.132 rad/s, without 0.102-0.128 and 0.139-0.153:
 # experiments/commands). About 8 minutes on one GPU (max_seconds).
 _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS = {
     "sac.gait_search.max_attitude": 0.085,
