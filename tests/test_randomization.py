@@ -199,7 +199,7 @@ def test_the_ramp_raises_each_training_robots_level_with_its_steps_and_keeps_it_
     assert seen == pytest.approx([0.0, 0.5, 1.0, 1.0])  # min(1, steps · dt / ramp_s)
     env = quadcos.make_env("flat", **{"randomization.enabled": True})
     one = jax.tree.map(lambda value: value[0], physics)._replace(level=jnp.float32(0.3))
-    info = {"physics": one, "rng": jax.random.PRNGKey(2)}
+    info = {"physics": one, "rng": jax.random.PRNGKey(2), "fresh_draw": jnp.bool_(False)}
     redrawn = env._perturb(info | {"action": jnp.zeros(env.action_size)}, jnp.bool_(True))
     assert float(redrawn["physics"].level) == pytest.approx(0.3)  # the auto-reset's new draw
 
@@ -277,7 +277,6 @@ def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways(randomised
     assert len(np.unique(state.info["physics"].friction)) == ROBOTS
     # Robots with the same draw; robot 0 is pushed along +y with 200 N, the others are not.
     action = jnp.zeros((ROBOTS, env.action_size))
-    # (The first step after a reset draws afresh, as after Brax's auto-reset.)
     state = step(reset(jnp.stack([jax.random.PRNGKey(2)] * ROBOTS)), action)
     push = jnp.zeros((ROBOTS, 3)).at[0, 1].set(200.0)
     # float32, not a weakly typed 0.05: the state keeps its types, and `step` is not traced again.
@@ -293,10 +292,25 @@ def test_randomised_robots_differ_and_a_push_moves_the_torso_sideways(randomised
 
 
 @pytest.mark.slow
+def test_a_robot_steps_with_its_resets_draw_and_draws_anew_after_an_auto_reset(randomised):
+    """A robot keeps the physics its reset drew (an evaluation in robustness conditions groups
+    its robots by that draw's condition); Brax's auto-reset restores the first physics state and
+    keeps the finished episode's info, and the step after it draws anew."""
+    env, reset, step = randomised
+    action = jnp.zeros((ROBOTS, env.action_size))
+    first = reset(jax.random.split(jax.random.PRNGKey(6), ROBOTS))
+    state = step(first, action)
+    np.testing.assert_array_equal(state.info["physics"].friction, first.info["physics"].friction)
+    auto_reset = step(state.replace(pipeline_state=first.pipeline_state), action)
+    redrawn = np.asarray(auto_reset.info["physics"].friction)
+    assert (redrawn != np.asarray(first.info["physics"].friction)).all(), redrawn
+
+
+@pytest.mark.slow
 def test_observation_noise_reaches_the_policy_not_the_robot(randomised):
     env, reset, step = randomised
-    # The same 8 robots twice: their first step draws their physics from the same keys; then
-    # the two halves' noise is drawn from other keys.
+    # The same 8 robots twice: their resets draw their physics from the same keys; then the two
+    # halves' noise is drawn from other keys.
     half = ROBOTS // 2
     state = reset(jnp.tile(jax.random.split(jax.random.PRNGKey(4), half), (2, 1)))
     action = jnp.zeros((ROBOTS, env.action_size))

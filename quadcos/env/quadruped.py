@@ -165,6 +165,9 @@ class QuadrupedEnv(base.Env):
                 draw_key, self.config.randomization, self.config.physics_dt
             )
             info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
+            # The robot steps with this draw (the one its reset posed it with, whose condition
+            # an evaluation groups it by) until an auto-reset: `_perturb`.
+            info["fresh_draw"] = jnp.ones((), bool)
             if self.conditioned:  # which robustness condition the robot takes
                 drawn_from = self.config.randomization
                 info["condition"] = randomization.condition_index(draw_key, drawn_from)
@@ -308,19 +311,21 @@ class QuadrupedEnv(base.Env):
         return randomization.apply(self.model, info["physics"], self._torso_body)
 
     def _perturb(self, info: dict[str, Any], just_reset: jax.Array) -> dict[str, Any]:
-        """A randomised robot's physics for this step: drawn anew after a reset (Brax's
-        auto-reset keeps `info`), then the push process advanced."""
+        """A randomised robot's physics for this step: drawn anew after Brax's auto-reset (which
+        keeps the finished episode's `info`), kept after `reset` (which drew it: an evaluation
+        groups its robots by that draw's condition), then the push process advanced."""
         if not self.randomized:
             return dict(info)  # the step writes into it: not into the caller's state
         config = self.config.randomization
+        redraw = just_reset & ~info["fresh_draw"]
         rng, draw_key, push_key = jax.random.split(info["rng"], 3)
         fresh = randomization.sample(draw_key, config, self.config.physics_dt)
         fresh = fresh._replace(level=info["physics"].level)  # a level is the trainer's to set
-        physics = jax.tree.map(lambda a, b: jnp.where(just_reset, a, b), fresh, info["physics"])
-        perturbed = {**info, "rng": rng}
+        physics = jax.tree.map(lambda a, b: jnp.where(redraw, a, b), fresh, info["physics"])
+        perturbed = {**info, "rng": rng, "fresh_draw": jnp.zeros((), bool)}
         if self.conditioned:
             fresh_condition = randomization.condition_index(draw_key, config)
-            perturbed["condition"] = jnp.where(just_reset, fresh_condition, info["condition"])
+            perturbed["condition"] = jnp.where(redraw, fresh_condition, info["condition"])
         condition = perturbed.get("condition")
         perturbed["physics"] = randomization.next_push(
             push_key, physics, config, self.dt, condition
