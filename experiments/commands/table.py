@@ -21,6 +21,7 @@ from run_labels import (
     ANYMAL_SAC,
     ATTITUDE,
     CAMPAIGN,
+    CONDITIONS16_EVAL20,
     CONDITIONS16_UPDATES2,
     GO1_LEVERS,
     LEVERS,
@@ -464,8 +465,8 @@ def blocks() -> tuple[str, ...]:
         table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
         seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
         seeds(SEARCH_TRACK_ATTITUDE16), seeds(SEARCH_TRACK_CONDITIONS16),
-        seeds(CONDITIONS16_UPDATES2), anymal_sac(), no_preset(), gain(), campaign(), anymal(),
-        sac_levers(),
+        seeds(CONDITIONS16_UPDATES2), seeds(CONDITIONS16_EVAL20), anymal_sac(), no_preset(), gain(),
+        campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
 

@@ -247,7 +247,8 @@ PRESETS["command"] = {
         # 0 falling in 1 of 4096 pushed episodes). With the search's best gait every Go1 seed
         # kept a policy better in all 36 cells, but two of three missed a target; with the shared
         # settings Go2's kept policy pitched 0.112 rad (experiments/commands, "Robustness
-        # conditions in the evaluations").
+        # conditions in the evaluations"). Those runs grouped their evaluations' robots by a draw
+        # the first step replaced (the env before commit 67d1a44): each condition mixed all four.
         "unitree_go1": _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS,
         "unitree_go2": _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS,
         # ANYmal C's MJCF servos (kp 100 for 45 kg) sag under an open-loop rhythm: with them no
@@ -277,11 +278,13 @@ PRESETS["command"] = {
             "sac.gait_search.confirm_robots": 256,
             # SAC beat ANYmal C's gait only with 2 updates per env step, not 8 (replay ratio 4,
             # not 16: Raffin's low replay ratio for SAC on massively parallel envs), its training
-            # evaluations in the four robustness conditions: kept at 8.1 M env steps, no worse
-            # than its gait in any of the 12 (condition, measure) cells, tracking 0.069 m/s and
-            # 0.079 rad/s. With 8, none of fifteen runs of other levers kept a policy no worse
-            # than its gait in every condition (experiments/commands, "ANYmal C: SAC against its
-            # searched gait": anymalcmd_condupd2_s0).
+            # evaluations in the four robustness conditions (their groups mixed, as Go1's): kept
+            # at 8.1 M env steps, no worse than its gait in any of the 12 (condition, measure)
+            # cells, tracking 0.069 m/s and 0.079 rad/s. With 8, none of fifteen runs of other
+            # levers kept a policy no worse than its gait in every condition
+            # (experiments/commands, "ANYmal C: SAC against its searched gait":
+            # anymalcmd_condupd2_s0). On Go1 and Go2, 2 updates kept the gait or a policy worse
+            # than it at friction 0.4 (experiments/commands, "With 2 updates per env step").
             "sac.updates_per_step": 2,
             "env.randomization.eval_conditions": "robustness",
         },
