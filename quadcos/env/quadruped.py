@@ -165,9 +165,7 @@ class QuadrupedEnv(base.Env):
                 draw_key, self.config.randomization, self.config.physics_dt
             )
             info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
-            # The robot steps with this draw (the one its reset posed it with, whose condition
-            # an evaluation groups it by) until an auto-reset: `_perturb`.
-            info["fresh_draw"] = jnp.ones((), bool)
+            info["fresh_draw"] = jnp.ones((), bool)  # the draw it steps with: `_perturb`
             if self.conditioned:  # which robustness condition the robot takes
                 drawn_from = self.config.randomization
                 info["condition"] = randomization.condition_index(draw_key, drawn_from)
