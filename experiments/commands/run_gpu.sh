@@ -240,6 +240,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
   trackatt8="--config.sac.gait_search.track_gaits=8 --config.sac.gait_search.track_attitude=0.1"
   declare -A lever=(
     [base]=""  # the same start on the same machine, no lever
+    # go1seeds: the preset as it is, its training evaluations' groups each in their condition
+    [preset]=""
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
     [eval2]="$eval2" [yaw3]="$yaw3" [tau]="$tau" [tauyaw3]="$tau $yaw3" [as10]="$as10"

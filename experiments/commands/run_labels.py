@@ -155,6 +155,10 @@ CONDITIONS16_UPDATES2 = ("go1cmd_upd2_s0", "go1cmd_upd2_s1", "go1cmd_upd2_s2", "
 # ... with the training evaluations 20 s long, as measure.py's episodes (`sac.eval_episode_length`
 # 1000, the preset 400): Go1's three seeds and Go2's sharing one GPU
 CONDITIONS16_EVAL20 = ("go1cmd_ev20_s0", "go1cmd_ev20_s1", "go1cmd_ev20_s2", "go2cmd_ev20_s0")
+# the preset as it is (lever `preset`), each training evaluation group in its own condition:
+# Go1's three seeds and Go2's sharing one GPU, then ANYmal C's seeds 0 and 1 sharing it
+PRESET_CONDITIONS = ("go1cmd_preset_s0", "go1cmd_preset_s1", "go1cmd_preset_s2",
+                     "go2cmd_preset_s0", "anymalcmd_preset_s0", "anymalcmd_preset_s1")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",

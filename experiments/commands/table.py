@@ -27,6 +27,7 @@ from run_labels import (
     LEVERS,
     NO_PRESET,
     PRESET,
+    PRESET_CONDITIONS,
     SAC_LEVERS,
     SEARCH_ATTITUDE,
     SEARCH_TRACK_ATTITUDE8,
@@ -465,7 +466,8 @@ def blocks() -> tuple[str, ...]:
         table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
         seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
         seeds(SEARCH_TRACK_ATTITUDE16), seeds(SEARCH_TRACK_CONDITIONS16),
-        seeds(CONDITIONS16_UPDATES2), seeds(CONDITIONS16_EVAL20), anymal_sac(), no_preset(), gain(),
+        seeds(CONDITIONS16_UPDATES2), seeds(CONDITIONS16_EVAL20), seeds(PRESET_CONDITIONS),
+        anymal_sac(), no_preset(), gain(),
         campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
