@@ -242,6 +242,10 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [base]=""  # the same start on the same machine, no lever
     # go1seeds: the preset as it is, its training evaluations' groups each in their condition
     [preset]=""
+    # a third of the randomisation's draws at its ranges' ends (latency 40 ms, friction 0.4, ...):
+    # the preset's SAC trails its gaits at 40 ms, which delays the policy's action alone
+    # (latency_cells.py)
+    [ends]="--config.env.randomization.range_ends=0.33"
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
     [eval2]="$eval2" [yaw3]="$yaw3" [tau]="$tau" [tauyaw3]="$tau $yaw3" [as10]="$as10"
