@@ -246,6 +246,9 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # the preset's SAC trails its gaits at 40 ms, which delays the policy's action alone
     # (latency_cells.py)
     [ends]="--config.env.randomization.range_ends=0.33"
+    # ... or the latency always 40 ms in training (the preset draws it from 0-40 ms): SAC's
+    # feedback trained under the delay the condition measures, where its gait loses nothing
+    [lat40]="--config.env.randomization.latency_s=(0.04,0.04)"
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
     [eval2]="$eval2" [yaw3]="$yaw3" [tau]="$tau" [tauyaw3]="$tau $yaw3" [as10]="$as10"
