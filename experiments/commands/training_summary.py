@@ -17,6 +17,7 @@ physics they ran on where recorded (per-episode data left out).
 
 import io
 import json
+import math
 import re
 import sys
 import tarfile
@@ -90,7 +91,8 @@ def summary(path: Path) -> dict:
     rows = STEP.findall(log)
     rounds, found = SEARCH_ROUND.findall(log), SEARCH_END.search(log)
     config = json.loads(files.get("config.json", "{}"))
-    smoothness = _smoothness(files.get("metrics.jsonl", ""))
+    metrics = files.get("metrics.jsonl", "")
+    smoothness, against_gait = _smoothness(metrics), _against_gait(metrics)
     argv = config.get("run_info", {}).get("argv")
     centre = config.get("run_info", {}).get("env", {}).get("action_centre")
     return {
@@ -119,6 +121,9 @@ def summary(path: Path) -> dict:
                 # the actor's loss and its CAPS term over the chunk the evaluation ends (runs
                 # with `sac.smoothness` on)
                 **smoothness.get(int(steps.replace(",", "")), {}),
+                # against step 0 in each condition's tracking (runs whose evaluations measured
+                # the robustness conditions: `_against_gait`)
+                **against_gait.get(int(steps.replace(",", "")), {}),
             }
             for steps, rate, reward, speed, falls, speed_rms, yaw_rms, roll in rows
         ],
@@ -163,6 +168,39 @@ def _smoothness(metrics: str) -> dict[int, dict]:
         for row in rows
         if "train/smoothness" in row
     }
+
+
+def _against_gait(metrics: str) -> dict[int, dict]:
+    """{env step: its evaluation against step 0's} of a metrics.jsonl whose evaluations measured
+    the robustness conditions (`randomization.eval_conditions`), as `best_policy_by=gait` ranks
+    them: the worst ratio of its tracking RMS cells (pooled and per condition, speed and yaw
+    rate) to step 0's, that cell ("condition/measure"), and the conditions where it fell more
+    often than step 0 (where any); none for step 0 itself."""
+    from quadcos.training import best_policy
+
+    rows = [json.loads(line) for line in metrics.splitlines() if line.strip()]
+    rows = [row for row in rows if best_policy.condition_falls(row)]
+    start = next((row for row in rows if row.get("step") == 0), None)
+    if start is None:
+        return {}
+    targets = {key: value for key, value in best_policy.cells(start).items() if value > 0}
+    falls = best_policy.condition_falls(start)
+    against = {}
+    for row in rows:
+        if row is start:
+            continue
+        ratios = {key: best_policy.cells(row)[key] / target for key, target in targets.items()}
+        worst = max(ratios, key=ratios.get)
+        more = sorted(
+            key.split("/")[1]
+            for key, value in best_policy.condition_falls(row).items()
+            if value > falls.get(key, math.inf)
+        )
+        against[row["step"]] = {
+            "to_step0": ratios[worst],
+            "worst_cell": worst.removeprefix("eval/").removesuffix("_tracking_rms"),
+        } | ({"falls_above_step0": more} if more else {})
+    return against
 
 
 def rounded(value, digits: int = 6):
