@@ -7,7 +7,9 @@
 replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
 --no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
-rate, the env-steps/s of the window it ends, its tracking RMS where logged), the training rate
+rate, the env-steps/s of the window it ends, its tracking RMS where logged, and where its
+evaluations measured the robustness conditions its worst ratio to step 0 as the gait rank reads
+it: `to_step0`, `worst_cell`), the training rate
 at the last evaluation, the solver probe's physics (a robot without a preset), the gait tracking
 measure's finalists (`sac.gait_search.track_gaits`), and the key
 numbers of the kept policy's random-command evaluation and robustness conditions, of its step-0
