@@ -191,7 +191,8 @@ def _against_gait(metrics: str) -> dict[int, dict]:
     for row in rows:
         if row is start:
             continue
-        ratios = {key: best_policy.cells(row)[key] / target for key, target in targets.items()}
+        cells = best_policy.cells(row)
+        ratios = {key: cells[key] / target for key, target in targets.items()}
         worst = max(ratios, key=ratios.get)
         more = sorted(
             key.split("/")[1]
