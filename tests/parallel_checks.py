@@ -14,12 +14,13 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-import jax  # noqa: E402
-import numpy as np  # noqa: E402
+import jax
+import numpy as np
 
-from quadcos import training  # noqa: E402
-from quadcos.training import parallel, reuse  # noqa: E402
-from tests.toy_env import CHUNK, PointEnv, toy_config  # noqa: E402
+from quadcos import training
+from quadcos.training import parallel, reuse
+from tests.toy_env import CHUNK, PointEnv, toy_config
+
 
 def replicas_identical(tree) -> bool:
     """Whether every device holds the same values of every (replicated) leaf."""
@@ -43,11 +44,11 @@ def replicated_state(state):
     )
 
 
-def collectives(env: PointEnv) -> list[str]:
-    """The cross-device operations of a compiled 2-device training chunk of one env step and
-    one update, as "kind what" (what: "gradients" for a reduction of the update's gradients,
-    else the JAX operation XLA's partitioner made it from)."""
-    trainer = training.SACTrainer(env, toy_config(num_devices=2, steps_per_chunk=1))
+def collectives(trainer: training.SACTrainer) -> list[str]:
+    """The cross-device operations of the trainer's compiled 2-device training chunk (a loop of
+    env steps, each with one update: its body's operations, once), as "kind what" (what:
+    "gradients" for a reduction of the update's gradients, else the JAX operation XLA's
+    partitioner made it from). The chunk its runs compile: nothing compiled for it alone."""
     return _collectives(trainer.train_chunk.lower(trainer.prefill(trainer.init())))
 
 
@@ -66,7 +67,10 @@ def _collectives(lowered) -> list[str]:
     text = lowered.compile().as_text()
     found = []
     for line in text.splitlines():
-        kind = re.search(r" (all-reduce|all-gather|all-to-all|collective-permute|reduce-scatter)(-start)?\(", line)
+        kind = re.search(
+            r" (all-reduce|all-gather|all-to-all|collective-permute|reduce-scatter)(-start)?\(",
+            line,
+        )
         if kind:
             name = re.search(r'op_name="([^"]+)"', line)
             name = name.group(1) if name else ""
@@ -84,19 +88,24 @@ class PerDevicePointEnv(PointEnv):
 def devices(run_dir: pathlib.Path) -> dict:
     env = PointEnv()
     shardy = jax.config.jax_use_shardy_partitioner  # before any trainer runs over the mesh
-    out = {"device_count": jax.device_count(), "collectives": collectives(env), "shardy": shardy}
     # One trainer per device count, its programs traced once: the runs below differ from it
     # only in what no program reads (`quadcos.training.reuse`).
     trainers = {count: training.SACTrainer(env, toy_config(num_devices=count)) for count in (1, 2)}
+    out = {"device_count": jax.device_count(), "collectives": collectives(trainers[2])}
+    out["shardy"] = shardy
     out["eval_collectives"] = eval_collectives(trainers[2])
     try:  # n-step returns keep their queue on one device: refused over two
         training.SACTrainer(env, toy_config(num_devices=2, n_step=3))
         out["n_step_refused"] = None
     except ValueError as error:
         out["n_step_refused"] = str(error)
-    per_device = training.train(PerDevicePointEnv(), toy_config(num_devices=2), progress=False)
+    per_device_trainer = training.SACTrainer(PerDevicePointEnv(), toy_config(num_devices=2))
+    per_device_collectives = collectives(per_device_trainer)  # before a run compiles it ahead
+    per_device = training.train(
+        PerDevicePointEnv(), toy_config(num_devices=2), progress=False, trainer=per_device_trainer
+    )
     out["per_device"] = {
-        "collectives": collectives(PerDevicePointEnv()),
+        "collectives": per_device_collectives,
         "final_eval_reward": per_device.metrics["eval/episode_reward"],
         "obs_sharding": str(per_device.state.env_state.obs.sharding.spec),
         "shardy": jax.config.jax_use_shardy_partitioner,
@@ -111,9 +120,7 @@ def devices(run_dir: pathlib.Path) -> dict:
             "critic_loss": [row["train/critic_loss"] for row in result.history[1:]],
             "replay_sizes": np.atleast_1d(np.asarray(result.state.replay.size)).tolist(),
             "env_steps": result.env_steps,
-            "obs_sharding": str(result.state.env_state.obs.sharding.spec)
-            if count == 2
-            else None,
+            "obs_sharding": str(result.state.env_state.obs.sharding.spec) if count == 2 else None,
             "replicas_identical": replicas_identical(replicated_state(result.state)),
         }
     # A checkpoint with its replay buffer, saved on 2 devices, resumed on 1, and back on 2.
@@ -123,7 +130,11 @@ def devices(run_dir: pathlib.Path) -> dict:
     for count, until in ((1, 5 * CHUNK), (2, 7 * CHUNK)):
         config = toy_config(num_devices=count, save_replay=True, num_timesteps=until)
         result = training.train(
-            env, config, run_dir, resume=True, progress=False,
+            env,
+            config,
+            run_dir,
+            resume=True,
+            progress=False,
             trainer=reuse.for_run(trainers[count], config),
         )
         resumed[f"on_{count}"] = {
