@@ -159,6 +159,11 @@ CONDITIONS16_EVAL20 = ("go1cmd_ev20_s0", "go1cmd_ev20_s1", "go1cmd_ev20_s2", "go
 # Go1's three seeds and Go2's sharing one GPU, then ANYmal C's seeds 0 and 1 sharing it
 PRESET_CONDITIONS = ("go1cmd_preset_s0", "go1cmd_preset_s1", "go1cmd_preset_s2",
                      "go2cmd_preset_s0", "anymalcmd_preset_s0", "anymalcmd_preset_s1")
+# levers against the 40-ms cell on the preset, seed 0: latency always 40 ms in training (`lat40`),
+# a third of the draws at the ranges' ends (`ends`), and for ANYmal C `anchor10` with the groups
+# read; Go1's and Go2's four sharing one GPU, then ANYmal C's two
+LATENCY_LEVERS = ("go1cmd_lat40_s0", "go2cmd_lat40_s0", "go1cmd_ends_s0", "go2cmd_ends_s0",
+                  "anymalcmd_lat40_s0", "anymalcmd_anchor10cond_s0")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",

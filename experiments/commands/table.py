@@ -24,6 +24,7 @@ from run_labels import (
     CONDITIONS16_EVAL20,
     CONDITIONS16_UPDATES2,
     GO1_LEVERS,
+    LATENCY_LEVERS,
     LEVERS,
     NO_PRESET,
     PRESET,
@@ -467,8 +468,7 @@ def blocks() -> tuple[str, ...]:
         seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
         seeds(SEARCH_TRACK_ATTITUDE16), seeds(SEARCH_TRACK_CONDITIONS16),
         seeds(CONDITIONS16_UPDATES2), seeds(CONDITIONS16_EVAL20), seeds(PRESET_CONDITIONS),
-        anymal_sac(), no_preset(), gain(),
-        campaign(), anymal(), sac_levers(),
+        seeds(LATENCY_LEVERS), anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
 
