@@ -672,13 +672,17 @@ def test_gaits_given_as_data_walk_as_envs_built_with_them():
     for name in maps:
         np.testing.assert_array_equal(maps[name], built.gait[name])
     own = rollout_lib.rollout(built, source, num_envs=2, num_steps=10, seed=3).stats
-    gaits = {name: np.stack([value] * 2) for name, value in maps.items()}
+    # Given as data, to three copies of own's two robots (their episode keys): the program that
+    # `track` below runs (three gaits of two robots for 10 steps), compiled once for both.
+    gaits = {name: np.stack([value] * 6) for name, value in maps.items()}
+    keys = jnp.tile(jax.random.split(jax.random.PRNGKey(3), 2), (3, 1))
     given = rollout_lib.rollout(
-        env_lib.QuadrupedEnv("flat", base), source, num_envs=2, num_steps=10, seed=3, gaits=gaits
-    ).stats
-    np.testing.assert_allclose(given.x, own.x, atol=1e-6)
+        env_lib.QuadrupedEnv("flat", base), source, num_envs=6, num_steps=10, gaits=gaits,
+        keys=keys,
+    ).stats  # fmt: skip
+    np.testing.assert_allclose(given.x, np.tile(own.x, 3), atol=1e-6)
     np.testing.assert_allclose(
-        given.tracking.speed_sq_error, own.tracking.speed_sq_error, atol=1e-6
+        given.tracking.speed_sq_error, np.tile(own.tracking.speed_sq_error, 3), atol=1e-6
     )
     lines = gait_tracking.track("flat", [base, other, base], robots=2, seconds=0.5, seed=3)
     assert len(lines) == 3 and all(line["fall_rate"] == 0.0 for line in lines)
