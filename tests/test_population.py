@@ -12,7 +12,7 @@ import time
 import pytest
 
 from quadcos.training import population
-from tests.cli_runs import run_cli, run_in_process
+from tests.cli_runs import cli_env, run_in_process
 
 
 def test_a_member_runs_the_command_with_its_own_seed_and_folder(tmp_path):
@@ -133,10 +133,15 @@ def test_a_stopped_population_says_so_and_exits_130(tmp_path, monkeypatch):
 def test_a_population_of_two_keeps_the_better_members_policy(tmp_path, smoke_run, monkeypatch):
     del smoke_run  # its programs in the cache: the members load them
     monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "")  # no GPU: both on the CPU
+    # The population in this process (no import of its own), its members in subprocesses with
+    # the CLI runs' environment (the checkout importable, the tests' cache); each member half a
+    # smoke run (its programs, one evaluation interval).
+    for name, value in cli_env().items():
+        monkeypatch.setenv(name, value)
     out = tmp_path / "population"
-    result = run_cli(
+    result = run_in_process(
         "--preset=smoke", "--seed=3", "--no_progress", "--population=2", "--population_envs=2",
-        "--population_seconds=1",
+        "--population_seconds=1", "--config.sac.num_timesteps=512",
         f"--output_dir={out}",
     )
     assert result.returncode == 0, result.stderr[-3000:]
