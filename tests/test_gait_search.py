@@ -241,6 +241,7 @@ def test_a_from_scratch_run_searches_then_trains_from_the_gait_it_found(tmp_path
         "--preset=smoke",
         "--robot=quad12",
         "--config.sac.min_replay_size=0",
+        "--config.sac.num_timesteps=128",  # one chunk (4 envs x 32 steps): the run's programs
         "--config.env.action_centre=search",
         "--config.env.impl=jax",
         "--config.env.survival_min_speed=0.1",
