@@ -77,7 +77,8 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
         json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()
     ]
     argv = json.loads((run_dir / "config.json").read_text())["run_info"]["argv"]
-    args = (f"--output_dir={run_dir}", "--resume", "--num_timesteps=2048", "--no_progress",
+    extended = 1536  # the smoke run's 1024 steps, a refill of 256 and two chunks of 128
+    args = (f"--output_dir={run_dir}", "--resume", f"--num_timesteps={extended}", "--no_progress",
             "--config.sac.keep_checkpoints=2")
     result = run_in_process(*args)
     assert result.returncode == 0, result.stderr[-3000:]
@@ -90,7 +91,7 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
         json.loads(line)["step"] for line in (run_dir / "metrics.jsonl").read_text().splitlines()
     ]
     assert steps[: len(before)] == before
-    assert steps[-1] >= 2048 and steps == sorted(steps), (steps, result.stderr[-3000:])
+    assert steps[-1] >= extended and steps == sorted(steps), (steps, result.stderr[-3000:])
     config = json.loads((run_dir / "config.json").read_text())
     assert config["config"]["num_envs"] == 4  # the run's own preset survived the resume
     # The resumed process's start-up is written too, without a step-0 evaluation.
