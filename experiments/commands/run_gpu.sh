@@ -249,6 +249,10 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # ... or the latency always 40 ms in training (the preset draws it from 0-40 ms): SAC's
     # feedback trained under the delay the condition measures, where its gait loses nothing
     [lat40]="--config.env.randomization.latency_s=(0.04,0.04)"
+    # the level-gait gate at the attitude target (0.10 rad, the preset 0.085): go1cmd_lat40_s0's
+    # gait tracker dropped finalists tracking 0.106 and 0.095 m/s that roll 0.087 and 0.092 rad
+    # and kept one tracking 0.150 ("Levers against the 40-ms cell")
+    [gate10]="--config.sac.gait_search.max_attitude=0.1"
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
     [eval2]="$eval2" [yaw3]="$yaw3" [tau]="$tau" [tauyaw3]="$tau $yaw3" [as10]="$as10"
