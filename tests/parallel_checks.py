@@ -91,8 +91,11 @@ def devices(run_dir: pathlib.Path) -> dict:
     # One trainer per device count, its programs traced once: the runs below differ from it
     # only in what no program reads (`quadcos.training.reuse`).
     trainers = {count: training.SACTrainer(env, toy_config(num_devices=count)) for count in (1, 2)}
-    out = {"device_count": jax.device_count(), "collectives": collectives(trainers[2])}
-    out["shardy"] = shardy
+    out = {
+        "device_count": jax.device_count(),
+        "collectives": collectives(trainers[2]),
+        "shardy": shardy,
+    }
     out["eval_collectives"] = eval_collectives(trainers[2])
     try:  # n-step returns keep their queue on one device: refused over two
         training.SACTrainer(env, toy_config(num_devices=2, n_step=3))

@@ -16,19 +16,14 @@ import sys
 from pathlib import Path
 
 from latency_cells import median
-from table import shortfalls
+from table import flag, shortfalls
 
 NOMINAL, KEY = "nominal", "speed_tracking_rms"
 
 
 def robot(run: dict) -> str:
     """The run's robot as its train flags name it (`--robot=menagerie:NAME`)."""
-    flag = next(arg for arg in run["argv"] if arg.startswith("--robot="))
-    return flag.split(":")[-1]
-
-
-def seed(run: dict) -> str:
-    return next(arg.split("=", 1)[1] for arg in run["argv"] if arg.startswith("--seed="))
+    return flag(run["argv"], "--robot").split(":")[-1]
 
 
 def beats(run: dict) -> bool:
@@ -59,7 +54,7 @@ def lines(runs: dict) -> list[str]:
         zero = {
             run["action_centre"]: run["gait_robustness"][NOMINAL][KEY]
             for run in mine
-            if seed(run) == "0"
+            if flag(run["argv"], "--seed") == "0"
         }
         out += [
             f"{name}: SAC beats its gait in every condition: {spread(gait[True])}",

@@ -181,7 +181,7 @@ def gain() -> str:
     )
 
 
-def _flag(argv: list[str], name: str) -> str:
+def flag(argv: list[str], name: str) -> str:
     """The value of `name`=VALUE in a run's recorded train flags."""
     return next(arg.split("=", 1)[1] for arg in argv if arg.startswith(f"{name}="))
 
@@ -196,8 +196,8 @@ def seeds(names: tuple[str, ...]) -> str:
         run, kept = runs[name], runs[name]["kept"]
         conditions = run["robustness"]
         nominal = conditions["nominal"]
-        robot = _flag(run["argv"], "--robot").split(":")[-1]
-        first = f"`{name}`: {robot}, seed {_flag(run['argv'], '--seed')}"
+        robot = flag(run["argv"], "--robot").split(":")[-1]
+        first = f"`{name}`: {robot}, seed {flag(run['argv'], '--seed')}"
         rows.append(
             f"| {first} | {kept['policy_env_steps'] / 1e6:.1f} M | "
             + _rates(conditions.values())
