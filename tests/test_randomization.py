@@ -10,7 +10,7 @@ import robot_variants
 import quadcos
 from quadcos import robot as robot_lib
 from quadcos._util.overrides import apply_overrides
-from quadcos.env import randomization
+from quadcos.env import privileged, randomization
 from quadcos.env.layout import Layout
 from quadcos.robot import constants, prepare
 
@@ -323,6 +323,30 @@ def test_observation_noise_reaches_the_policy_not_the_robot(randomised):
     )  # the robot moves whatever its noise
     difference = np.asarray(one.obs - other.obs)  # two draws: 0.05·√2 apart
     assert 0.06 < difference.std() < 0.08 and abs(difference.mean()) < 0.01, difference.std()
+
+
+@pytest.mark.slow
+def test_a_privileged_critic_observes_each_robots_draw_and_the_action_still_pending(randomised):
+    """`quadcos.env.privileged`: clean velocities, then the draw as it acts (level, friction,
+    scales, latency, CoM offset, push time left), the push and the action that acts for the
+    latency's first steps of the next control step."""
+    env, reset, step = randomised
+    action = jnp.linspace(-0.5, 0.5, ROBOTS * env.action_size).reshape(ROBOTS, -1)
+    state = step(reset(jax.random.split(jax.random.PRNGKey(7), ROBOTS)), action)
+    inputs = privileged.of(env)
+    seen = np.asarray(inputs.observe(state))
+    physics = state.info["physics"]
+    assert seen.shape == (ROBOTS, inputs.size) == (ROBOTS, 6 + 11 + 3 + env.action_size)
+    np.testing.assert_allclose(
+        seen[:, :3], state.pipeline_state.qvel[:, env.layout.linear_velocity]
+    )
+    np.testing.assert_allclose(seen[:, 7], physics.friction)
+    latency = np.asarray(physics.latency_steps) * env.config.physics_dt
+    np.testing.assert_allclose(seen[:, 12], latency, atol=1e-6)
+    assert len(np.unique(seen[:, 12])) > 1 and seen[:, 12].max() <= 0.04 + 1e-6
+    np.testing.assert_allclose(seen[:, -env.action_size :], action, atol=1e-6)
+    with pytest.raises(ValueError, match="needs a quadcos env; object"):
+        privileged.of(object())
 
 
 @pytest.mark.slow

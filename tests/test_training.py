@@ -14,10 +14,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from brax import envs
+from brax.training.acme import running_statistics, specs
 
 from quadcos import training
 from quadcos._util import caches
-from quadcos.training import best_policy, checkpoint, host, loop, updates
+from quadcos.training import best_policy, checkpoint, host, loop, sac, updates
 from quadcos.training import policy as policy_lib
 from quadcos.training import state as state_lib
 from tests.toy_env import CHUNK, PointEnv, toy_config
@@ -706,6 +707,33 @@ def test_a_delayed_actor_learns_every_second_update_beside_layer_norm_critics():
         assert not _trees_equal(before[1], state.q_params)  # the critics learn every update
         moved.append(not _trees_equal(before[0], state.policy_params))
     assert moved == [True, False, True]
+
+
+def test_a_privileged_critic_observes_more_than_the_policy_which_acts_on_its_own_part():
+    """With `critic_observation_size` the critics read the whole stored observation and the
+    policy its first entries, normalised by their statistics: the policy kept from such a state
+    acts on the env's observation as the trainer's did on the stored one."""
+    nets = sac.make_networks(3, 2, (8,), (8,), True, critic_observation_size=5)
+    key_policy, key_q, key_obs = jax.random.split(jax.random.PRNGKey(0), 3)
+    policy_params, q_params = nets.policy_network.init(key_policy), nets.q_network.init(key_q)
+    obs = 2.0 + 3.0 * jax.random.normal(key_obs, (6, 5))
+    stats = running_statistics.init_state(specs.Array((5,), jnp.dtype("float32")))
+    stats = running_statistics.update(stats, obs)
+    other_extra = obs.at[:, 3:].add(1.0)
+    logits = nets.policy_network.apply(stats, policy_params, obs)
+    np.testing.assert_array_equal(
+        logits, nets.policy_network.apply(stats, policy_params, other_extra)
+    )
+    action = jnp.zeros((6, 2))
+    q = nets.q_network.apply(stats, q_params, obs, action)
+    assert not np.allclose(q, nets.q_network.apply(stats, q_params, other_extra, action))
+    spec = policy_lib.PolicySpec(3, 2, (8,), True)
+    kept = policy_lib.Policy.from_training_state(policy_lib.PolicyPart(stats, policy_params), spec)
+    assert kept.params["normalizer"]["mean"].shape == (3,)
+    expected = nets.parametric_action_distribution.mode(logits)
+    np.testing.assert_allclose(kept.act(obs[:, :3]), expected, atol=1e-6)
+    with pytest.raises(ValueError, match="privileged_critic needs a quadcos env; PointEnv"):
+        training.SACTrainer(PointEnv(), toy_config(privileged_critic=True))
 
 
 def test_the_smoothness_loss_charges_the_policys_change_and_its_update_shrinks_it():

@@ -253,6 +253,9 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     # gait tracker dropped finalists tracking 0.106 and 0.095 m/s that roll 0.087 and 0.092 rad
     # and kept one tracking 0.150 ("Levers against the 40-ms cell")
     [gate10]="--config.sac.gait_search.max_attitude=0.1"
+    # the critics observe what the policy cannot (the robot's draw, the push, the pending action,
+    # clean velocities, the drive's state: quadcos.env.privileged), the policy its observation
+    [priv]="--config.sac.privileged_critic=True"
     [lr]="--config.sac.learning_rate.critic=3e-4 --config.sac.learning_rate.alpha=3e-4"
     [warm]="--config.sac.actor_warmup_steps=20000"  # the actor waits ~10 M env steps, not 1 M
     [eval2]="$eval2" [yaw3]="$yaw3" [tau]="$tau" [tauyaw3]="$tau $yaw3" [as10]="$as10"

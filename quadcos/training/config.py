@@ -92,6 +92,11 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     # LayerNorm after each hidden layer of the critics (FastTD3, SimBa): a Q that cannot grow
     # without bound under many updates per env step.
     config.critic_layer_norm = False
+    # The critics also observe what the env knows and the policy does not (an asymmetric
+    # actor-critic: an env's `privileged` inputs, quadcos.env.privileged: a randomised robot's
+    # draw, pushes and pending action, clean velocities, the drive's state); the policy acts on
+    # its observation alone.
+    config.privileged_critic = False
     # Distributional critics (C51, as FastTD3 / FastSAC: quadcos.training.distributional): each
     # critic a categorical distribution over `critic_atoms` returns evenly spaced on
     # `critic_value_range` (v_min, v_max: the discounted returns of the scaled reward and the

@@ -5,6 +5,7 @@ from typing import Any, Sequence
 
 import jax
 import jax.numpy as jnp
+from brax.training import networks as brax_networks
 from brax.training import types
 from brax.training.acme import running_statistics
 from brax.training.agents.sac import networks as sac_networks
@@ -22,11 +23,15 @@ def make_networks(
     normalize_observations: bool,
     critic_layer_norm: bool = False,
     critics: distributional.Critics | None = None,
+    critic_observation_size: int | None = None,
 ) -> sac_networks.SACNetworks:
     """Brax SAC networks (tanh-Gaussian policy, twin Q) with separate widths; with
     `critic_layer_norm` the critics normalise each hidden layer (Brax's `layer_norm`); with
-    `critics` (`make_critics`) the twin Q is their means."""
+    `critics` (`make_critics`) the twin Q is their means. With a `critic_observation_size` beyond
+    `observation_size` the critics observe that much (the policy's observation, then the
+    privileged inputs: `config.privileged_critic`) and the policy its first `observation_size`."""
     preprocess = _preprocessor(normalize_observations)
+    critic_size = critic_observation_size or observation_size
     policy_side = sac_networks.make_sac_networks(
         observation_size,
         action_size,
@@ -35,17 +40,35 @@ def make_networks(
     )
     if critics is None:
         critics = sac_networks.make_sac_networks(
-            observation_size,
+            critic_size,
             action_size,
             preprocess_observations_fn=preprocess,
             hidden_layer_sizes=tuple(q_hidden_sizes),
             q_network_layer_norm=critic_layer_norm,
         )
+    policy_network = policy_side.policy_network
+    if critic_size != observation_size:
+        policy_network = _first_entries(policy_network, observation_size)
     return sac_networks.SACNetworks(
-        policy_network=policy_side.policy_network,
+        policy_network=policy_network,
         q_network=critics.q_network,
         parametric_action_distribution=policy_side.parametric_action_distribution,
     )
+
+
+def _first_entries(
+    network: brax_networks.FeedForwardNetwork, size: int
+) -> brax_networks.FeedForwardNetwork:
+    """`network` on the first `size` entries of its observations and of their normaliser (a
+    critic's observation, or the policy's own)."""
+
+    def apply(normalizer_params: Any, params: Any, obs: jax.Array) -> jax.Array:
+        own = running_statistics.NestedMeanStd(
+            mean=normalizer_params.mean[..., :size], std=normalizer_params.std[..., :size]
+        )
+        return network.apply(own, params, obs[..., :size])
+
+    return brax_networks.FeedForwardNetwork(init=network.init, apply=apply)
 
 
 def make_critics(

@@ -99,12 +99,14 @@ class Policy:
         spec: PolicySpec,
         config: dict[str, Any] | None = None,
     ) -> "Policy":
-        """Copies the policy part of a training state (or a `PolicyPart`) to the host."""
+        """Copies the policy part of a training state (or a `PolicyPart`) to the host: the
+        normaliser's first `spec.observation_size` entries (beyond them a privileged critic's)."""
+        own = slice(spec.observation_size)
         params = jax.device_get(
             {
                 "normalizer": {
-                    "mean": state.normalizer_params.mean,
-                    "std": state.normalizer_params.std,
+                    "mean": state.normalizer_params.mean[own],
+                    "std": state.normalizer_params.std[own],
                 },
                 "policy": state.policy_params,
             }

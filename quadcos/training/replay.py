@@ -16,6 +16,7 @@ import flax
 import jax
 import jax.numpy as jnp
 import numpy as np
+from brax.training import types
 from jax import flatten_util
 
 Sample = TypeVar("Sample")
@@ -106,9 +107,7 @@ def reshard(stored: ReplayState, shards: int) -> ReplayState:
         new_sizes[ring] = len(rows)
     new_positions = (new_sizes % capacity).astype(np.int32)
     if shards == 1:
-        return ReplayState(
-            data=new_data, insert_position=new_positions[0], size=new_sizes[0]
-        )
+        return ReplayState(data=new_data, insert_position=new_positions[0], size=new_sizes[0])
     return ReplayState(data=new_data, insert_position=new_positions, size=new_sizes)
 
 
@@ -150,3 +149,21 @@ class ShardedReplay(Generic[Sample]):
         return jax.vmap(lambda ring, key: self.ring.sample(ring, key, per_ring))(
             self._rings(state), keys
         )
+
+
+def for_transitions(
+    capacity: int, shards: int, observation_size: int, action_size: int
+) -> "RingReplay | ShardedReplay":
+    """A buffer of `capacity` SAC transitions (Brax's, with the truncation flag): one ring per
+    device of `shards`, filled by that device's envs and sampled by it."""
+    obs = jnp.zeros((observation_size,))
+    dummy = types.Transition(
+        observation=obs,
+        action=jnp.zeros((action_size,)),
+        reward=jnp.zeros(()),
+        discount=jnp.zeros(()),
+        next_observation=obs,
+        extras={"state_extras": {"truncation": jnp.zeros(())}, "policy_extras": {}},
+    )
+    ring = RingReplay(capacity // shards, dummy)
+    return ring if shards == 1 else ShardedReplay(ring, shards)

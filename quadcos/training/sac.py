@@ -31,6 +31,7 @@ from brax.training.agents.sac import networks as sac_networks
 from jax.sharding import PartitionSpec
 
 from quadcos._util import caches
+from quadcos.env import privileged
 from quadcos.training import batched_envs, curriculum, networks, parallel, periodic_eval, updates
 from quadcos.training import config as config_lib
 from quadcos.training import n_step
@@ -93,7 +94,11 @@ class SACTrainer:
             env, self._reset_envs, config.num_envs
         )
         self.action_size = env.action_size
-        critics = networks.make_critics(self.observation_size, self.action_size, config)
+        # privileged_critic: the critics observe more than the policy, stored after its obs
+        extra = privileged.of(env) if config.privileged_critic else privileged.Privileged(0, None)
+        self._privileged, critic_size = extra.observe, self.observation_size + extra.size
+        self.critic_observation_size = critic_size
+        critics = networks.make_critics(critic_size, self.action_size, config)
         self.networks = make_networks(
             self.observation_size,
             self.action_size,
@@ -102,33 +107,21 @@ class SACTrainer:
             config.normalize_observations,
             config.critic_layer_norm,
             critics,
+            critic_size,
         )
         self._make_policy = sac_networks.make_inference_fn(self.networks)
         self._sgd_step = updates.SACUpdate.from_config(
             config, self.networks, self.action_size, critics
         )
-        self.replay = self._replay(config, shards)
+        self.replay = replay_lib.for_transitions(
+            config.replay_size, shards, critic_size, self.action_size
+        )
         self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
         programs = config_lib.program_fields(config)
         fingerprint = caches.trainer_fingerprint(env, eval_env, programs, self.layout.mesh is None)
         self._compile(config, getattr(env, "compiler_options", None) or None, fingerprint)
-
-    def _replay(self, config: ml_collections.ConfigDict, shards: int) -> Any:
-        """The replay buffer: one ring per device, filled by that device's envs and sampled
-        by it."""
-        dummy_obs = jnp.zeros((self.observation_size,))
-        dummy_transition = types.Transition(
-            observation=dummy_obs,
-            action=jnp.zeros((self.action_size,)),
-            reward=jnp.zeros(()),
-            discount=jnp.zeros(()),
-            next_observation=dummy_obs,
-            extras={"state_extras": {"truncation": jnp.zeros(())}, "policy_extras": {}},
-        )
-        ring = replay_lib.RingReplay(config.replay_size // shards, dummy_transition)
-        return ring if shards == 1 else replay_lib.ShardedReplay(ring, shards)
 
     def _compile(
         self, config: ml_collections.ConfigDict, options: dict | None, fingerprint: str | None
@@ -258,7 +251,7 @@ class SACTrainer:
             log_alpha=log_alpha,
             alpha_optimizer_state=self._sgd_step.alpha_optimizer.init(log_alpha),
             normalizer_params=running_statistics.init_state(
-                specs.Array((self.observation_size,), jnp.dtype("float32"))
+                specs.Array((self.critic_observation_size,), jnp.dtype("float32"))
             ),
             env_state=state_lib.with_gait(
                 self._reset_envs(jax.random.split(key_env, self.config.num_envs)), gait
@@ -308,7 +301,7 @@ class SACTrainer:
         """
         env_state = state.env_state
         next_env_state = self._step_envs(env_state, actions)
-        transitions = state_lib.transitions(env_state, actions, next_env_state)
+        transitions = state_lib.transitions(env_state, actions, next_env_state, self._privileged)
         finite = (
             jnp.all(jnp.isfinite(transitions.observation), axis=-1)
             & jnp.all(jnp.isfinite(transitions.next_observation), axis=-1)
@@ -353,7 +346,7 @@ class SACTrainer:
         """Transitions of the envs' shapes, all marked non-finite: storing them stores nothing."""
         env_state = state.env_state
         actions = jnp.zeros((self.config.num_envs, self.action_size))
-        transitions = state_lib.transitions(env_state, actions, env_state)
+        transitions = state_lib.transitions(env_state, actions, env_state, self._privileged)
         return jax.tree.map(jnp.zeros_like, transitions), jnp.zeros((self.config.num_envs,), bool)
 
     def _reset_where(self, mask: jax.Array, env_state: envs.State, key: jax.Array) -> envs.State:

@@ -1,5 +1,6 @@
 """The state of a SAC run (`TrainingState`) and the pieces of an env step the trainer keeps."""
 
+from collections.abc import Callable
 from typing import Any
 
 import flax
@@ -67,15 +68,26 @@ LEARNER = (
 
 
 def transitions(
-    env_state: envs.State, actions: jax.Array, next_env_state: envs.State
+    env_state: envs.State,
+    actions: jax.Array,
+    next_env_state: envs.State,
+    privileged: Callable[[envs.State], jax.Array] | None = None,
 ) -> types.Transition:
-    """The transitions of a vectorised env step, as Brax's SAC stores them."""
+    """The transitions of a vectorised env step, as Brax's SAC stores them; with `privileged`
+    (a batched state's critic inputs: `quadcos.env.privileged`) each observation followed by
+    them."""
+
+    def observed(env_state: envs.State) -> jax.Array:
+        if privileged is None:
+            return env_state.obs
+        return jnp.concatenate([env_state.obs, privileged(env_state)], axis=-1)
+
     return types.Transition(
-        observation=env_state.obs,
+        observation=observed(env_state),
         action=actions,
         reward=next_env_state.reward,
         discount=1 - next_env_state.done,
-        next_observation=next_env_state.obs,
+        next_observation=observed(next_env_state),
         extras={
             "state_extras": {"truncation": next_env_state.info["truncation"]},
             "policy_extras": {},
