@@ -90,6 +90,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert config["sac"].pop("n_step") == 1  # n-step returns: off, Brax's transitions
     assert config["sac"].pop("critic_atoms") == 0  # distributional critics: off, Brax's Q
     assert config["sac"].pop("critic_value_range") == [-250.0, 250.0]
+    assert config["sac"].pop("privileged_critic") is False  # the critics see what the policy sees
     # ... and CAPS's smoothness terms and the anchor, off: Brax's actor loss.
     off = {"temporal": 0.0, "spatial": 0.0, "sigma": 0.05, "anchor": 0.0}
     assert config["sac"].pop("smoothness") == off
@@ -136,6 +137,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
     assert config["sac"].pop("n_step") == 1  # Brax's one-step transitions, as trained
     assert config["sac"].pop("critic_atoms") == 0  # Brax's scalar critics, as trained
     assert config["sac"].pop("critic_value_range") == [-250.0, 250.0]
+    assert config["sac"].pop("privileged_critic") is False  # the critics see what it sees
     assert config["sac"]["gait_search"].pop("max_attitude") == 0.0  # the search as it ran
     assert config["sac"]["gait_search"].pop("track_gaits") == 0  # its best gait, as it ran
     assert config["sac"]["gait_search"].pop("track_attitude") == 0.0  # (scores finalists: none)
