@@ -164,6 +164,9 @@ PRESET_CONDITIONS = ("go1cmd_preset_s0", "go1cmd_preset_s1", "go1cmd_preset_s2",
 # read; Go1's and Go2's four sharing one GPU, then ANYmal C's two
 LATENCY_LEVERS = ("go1cmd_lat40_s0", "go2cmd_lat40_s0", "go1cmd_ends_s0", "go2cmd_ends_s0",
                   "anymalcmd_lat40_s0", "anymalcmd_anchor10cond_s0")
+# the preset with the critics observing what the policy cannot (`priv`: sac.privileged_critic),
+# seed 0 of each robot, the three sharing one GPU
+PRIVILEGED = ("go1cmd_priv_s0", "go2cmd_priv_s0", "anymalcmd_priv_s0")
 # ANYmal C's kept policy against SAC's evaluations (item 4), seed 0 with the preset from nothing
 ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it shared the GPU
     "anymalcmd_s0": "— (two runs sharing one GPU)",

@@ -29,6 +29,7 @@ from run_labels import (
     NO_PRESET,
     PRESET,
     PRESET_CONDITIONS,
+    PRIVILEGED,
     SAC_LEVERS,
     SEARCH_ATTITUDE,
     SEARCH_TRACK_ATTITUDE8,
@@ -468,7 +469,8 @@ def blocks() -> tuple[str, ...]:
         seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
         seeds(SEARCH_TRACK_ATTITUDE16), seeds(SEARCH_TRACK_CONDITIONS16),
         seeds(CONDITIONS16_UPDATES2), seeds(CONDITIONS16_EVAL20), seeds(PRESET_CONDITIONS),
-        seeds(LATENCY_LEVERS), anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
+        seeds(LATENCY_LEVERS), seeds(PRIVILEGED), anymal_sac(), no_preset(), gain(), campaign(),
+        anymal(), sac_levers(),
         sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
     )
 
