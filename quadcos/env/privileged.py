@@ -6,8 +6,11 @@ for the latency's first steps, then, with commands, the drive's state (its gain,
 loop's correction, the low-passed yaw rate). A policy acts on its observation alone, so what it
 learns needs none of this on a robot; the critic that trains it judges each robot as it is.
 
-The trainer appends it to the observations it stores (`config.sac.privileged_critic`)."""
+The trainer appends it to the observations it stores (`config.sac.privileged_critic`). Brax's
+auto-reset keeps `info`, and the env draws a new robot in the step after it: an episode's first
+stored observation carries the previous episode's draw (one transition of an episode's 1000)."""
 
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import jax
@@ -20,10 +23,10 @@ _DRAW = 11  # `_draw`'s length
 
 class Privileged(NamedTuple):
     """A critic's extra inputs for one env: `observe(states)` maps a batched `brax.envs.State`
-    of the env (under any wrappers) to (num_envs, size)."""
+    of the env (under any wrappers) to (num_envs, size); none (size 0) without them."""
 
     size: int
-    observe: Any
+    observe: Callable[[Any], jax.Array] | None
 
 
 def of(env: Any) -> Privileged:
