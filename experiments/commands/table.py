@@ -74,9 +74,7 @@ def _load(name: str) -> dict | None:
 
 
 def _survival(robust: dict | None) -> str:
-    if robust is None:
-        return "—"
-    return _rates(robust["conditions"][c] for c in CONDITIONS)
+    return "—" if robust is None else _rates(robust["conditions"][c] for c in CONDITIONS)
 
 
 def _rates(conditions) -> str:
@@ -470,8 +468,8 @@ def blocks() -> tuple[str, ...]:
         seeds(SEARCH_TRACK_ATTITUDE16), seeds(SEARCH_TRACK_CONDITIONS16),
         seeds(CONDITIONS16_UPDATES2), seeds(CONDITIONS16_EVAL20), seeds(PRESET_CONDITIONS),
         seeds(LATENCY_LEVERS), seeds(PRIVILEGED), anymal_sac(), no_preset(), gain(), campaign(),
-        anymal(), sac_levers(),
-        sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(), engines(), levers(),
+        anymal(), sac_levers(), sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(),
+        engines(), levers(),
     )
 
 
