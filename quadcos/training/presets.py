@@ -248,10 +248,10 @@ PRESETS["command"] = {
         # the shared settings Go2's kept policy pitched 0.112 rad (experiments/commands, "The
         # preset with each condition's group read", "Gaits chosen by their tracking"). Their
         # critics observe what the policy cannot (the robot's draw, the push, the pending action,
-        # the drive's state): with it Go1's and Go2's seed 0 keep policies from training that
-        # beat their gaits in all eight cells and meet every target (10.1 and 12.1 M env steps),
-        # where without it both kept step 0; ANYmal C's kept step 0 either way (experiments/
-        # commands, "A privileged critic"; Go1's seeds 1 and 2 were measured without it).
+        # the drive's state): with it Go1's three seeds and Go2's seeds 0 and 1 (of three) keep
+        # policies from training (6.0-17.1 M env steps) that beat their gaits in all eight cells,
+        # and all six meet every target, where without it Go1's seed 0 and Go2's kept step 0;
+        # ANYmal C's kept step 0 either way (experiments/commands, "A privileged critic").
         "unitree_go1": _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS | _PRIVILEGED,
         "unitree_go2": _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS | _PRIVILEGED,
         # ANYmal C's MJCF servos (kp 100 for 45 kg) sag under an open-loop rhythm: with them no
