@@ -52,7 +52,7 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " 300 s",
     "go1loops_s1": "as `go1loops_s0`, seed 1",
     "go1loops_s2": "as `go1loops_s0`, seed 2",
-    "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command`",
+    "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command` at commit c65e57b",
     "go2loops_s0": "the preset (Go2, seed 0): the drive's loops closed, 300 s",
     "go2loops540_s0": "as `go2loops_s0`, 540 s",
     "go1loops540_s0": "as `go1loops_s0`, 540 s: its best evaluation the searched gait (step 0)",

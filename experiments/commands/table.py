@@ -145,7 +145,7 @@ GAIN_RECORDS = tuple(  # the drive's gain, and with it its heading loop, 1024 ep
 )
 LOOPS_POLICIES = {  # robot -> its run trained with the loops open, that run's JSONs' stem here
     "go1": ("go1_rate_s0", "unitree_go1_no_loops"),
-    "go2": ("go2long_s0", "unitree_go2"),
+    "go2": ("go2long_s0", "unitree_go2_no_loops"),
 }
 
 
