@@ -11,6 +11,7 @@ from quadcos import train, training
 from quadcos.benchmarking.settings import BENCH_PRESETS, searches_gait
 from quadcos.equations import oscillator
 from tests.cli_runs import ROOT, run_in_process
+from tests.test_robot import MENAGERIE, needs_menagerie
 
 
 def test_a_numeric_action_centre_is_the_gait_its_zero_action_commands():
@@ -120,10 +121,12 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert env["period_min"] == 0.15 and env["randomization"]["push_interval_s"] == 2.0
 
 
-def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy():
+@needs_menagerie
+def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy(monkeypatch):
     # experiments/commands, "A privileged critic": the shipped policy's run named the preset, Go1
     # and its seed (and the privileged critic, the preset's value for Go1); what may differ is the
     # seed and what the gait search and the feed-forward's calibration resolved.
+    monkeypatch.setenv("MENAGERIE_ROOT", str(MENAGERIE))  # the config resolves Go1's ranges
     policy = ROOT / "experiments/policies/unitree_go1_command/policy.json"
     recorded = json.loads(policy.read_text())["config"]
     go1 = {"env.robot": "menagerie:unitree_go1"}
