@@ -274,8 +274,8 @@ go1|go1seeds)  # go1: Go1's SAC levers on one fixed start: seed 0 from the searc
     [tauyaw3trackends]="$tau $yaw3 $eval2 $track --config.env.randomization.range_ends=0.33"
     # on the preset as it is (go1seeds): a tenth of the command draws standing (v* = ω* = 0: the
     # Go1 policy of go1cmd_tauyaw3gait_s1 creeps and, under the training solver's iterations in C
-    # MuJoCo and on MJX-JAX, falls where told to stand on slippery ground: docs/decisions.md); the actor
-    # charged for its distance from the searched gait (ANYmal C's evaluations fall below step 0)
+    # MuJoCo and on MJX-JAX, falls where told to stand on slippery ground: docs/decisions.md);
+    # the actor charged for its distance from the searched gait (ANYmal C's evaluations fall below step 0)
     [stand]="--config.env.commands.zero_command_probability=0.1"
     [anchor10]="--config.sac.smoothness.anchor=10" [anchor100]="--config.sac.smoothness.anchor=100"
     # the kept policy chosen only among evaluations within the attitude target (0.10 rad, mean

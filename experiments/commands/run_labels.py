@@ -166,8 +166,8 @@ LATENCY_LEVERS = ("go1cmd_lat40_s0", "go2cmd_lat40_s0", "go1cmd_ends_s0", "go2cm
                   "anymalcmd_lat40_s0", "anymalcmd_anchor10cond_s0")
 # the preset with the critics observing what the policy cannot (`priv`: sac.privileged_critic),
 # three runs sharing one GPU each time: seed 0 of each robot; Go1's seeds 1 and 2 with ANYmal C
-# seed 0 with the actor's learning rate ÷10 as well (`privalr`); Go2's seeds 1 and 2 with ANYmal C
-# seed 0 anchored to its gait (`privanchor10`)
+# seed 0 with the actor's learning rate ÷10 as well; Go2's seeds 1 and 2 with ANYmal C seed 0
+# anchored to its gait (λ 10)
 PRIVILEGED = ("go1cmd_priv_s0", "go1cmd_priv_s1", "go1cmd_priv_s2", "go2cmd_priv_s0",
               "go2cmd_priv_s1", "go2cmd_priv_s2", "anymalcmd_priv_s0", "anymalcmd_privalr_s0",
               "anymalcmd_privanchor10_s0")
