@@ -62,17 +62,13 @@ def of(env: Any) -> Privileged:
 def _draw(physics: randomization.Physics, physics_dt: float) -> jax.Array:
     """(11,) one robot's draw as it acts: the level, the friction drawn, the scales at the level,
     the latency (s), the CoM offset at the level, the seconds left of the push."""
-    level = physics.level
-    scales = jnp.stack(
-        [physics.torso_mass_scale, physics.kp_scale, physics.damping_scale, physics.strength_scale]
-    )
+    names = ("torso_mass_scale", "kp_scale", "damping_scale", "strength_scale")
+    scales = [randomization.scale(physics, name) for name in names]
     latency = randomization.latency_steps(physics) * physics_dt
     return jnp.concatenate(
         [
-            jnp.stack([level, physics.friction]),
-            1.0 + level * (scales - 1.0),
-            latency[None],
-            level * physics.com_offset,
+            jnp.stack([physics.level, physics.friction, *scales, latency]),
+            physics.level * physics.com_offset,
             physics.push_left_s[None],
         ]
     )

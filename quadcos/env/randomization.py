@@ -261,7 +261,7 @@ def _draw(key: jax.Array, low: float, high: float, ends: float) -> jax.Array:
     return jnp.where(pick < ends / 2, low, jnp.where(pick < ends, high, value))
 
 
-def _scale(physics: Physics, name: str) -> jax.Array:
+def scale(physics: Physics, name: str) -> jax.Array:
     """A drawn scale at the draw's level: 1 at level 0, as drawn at level 1."""
     return 1.0 + physics.level * (getattr(physics, name) - 1.0)
 
@@ -270,18 +270,18 @@ def apply(model, physics: Physics, torso_body: int):
     """The MJX model with one robot's draw at its level (under `jax.vmap`, a per-robot model)."""
     gain = model.actuator_gainprm[:, 0]
     servo = model.actuator_biasprm[:, 1] < 0  # a position servo's bias is −kp·q; a motor's 0
-    kp = jnp.where(servo, gain * _scale(physics, "kp_scale"), gain)
+    kp = jnp.where(servo, gain * scale(physics, "kp_scale"), gain)
     bias = jnp.where(servo, -kp, model.actuator_biasprm[:, 1])
     friction = model.geom_friction[:, 0]
     return model.replace(
         geom_friction=model.geom_friction.at[:, 0].set(
             friction + physics.level * (physics.friction - friction)
         ),
-        body_mass=model.body_mass.at[torso_body].multiply(_scale(physics, "torso_mass_scale")),
+        body_mass=model.body_mass.at[torso_body].multiply(scale(physics, "torso_mass_scale")),
         body_ipos=model.body_ipos.at[torso_body].add(physics.level * physics.com_offset),
         actuator_gainprm=model.actuator_gainprm.at[:, 0].set(kp),
         actuator_biasprm=model.actuator_biasprm.at[:, 1].set(bias),
-        dof_damping=model.dof_damping * _scale(physics, "damping_scale"),
+        dof_damping=model.dof_damping * scale(physics, "damping_scale"),
         actuator_forcerange=model.actuator_forcerange * strength(physics),
     )
 
@@ -289,7 +289,7 @@ def apply(model, physics: Physics, torso_body: int):
 def strength(physics: Physics) -> jax.Array:
     """The torque motors' limit scale at the draw's level (the env clips their PD torques; a
     servo's limit is its `actuator_forcerange`, scaled by `apply`)."""
-    return _scale(physics, "strength_scale")
+    return scale(physics, "strength_scale")
 
 
 def latency_steps(physics: Physics) -> jax.Array:
