@@ -174,6 +174,22 @@ def test_the_cpu_presets_rounding_is_stated(caplog):
     assert "training ends at env step 202,496, not num_timesteps=200,000" in caplog.text
 
 
+def test_when_the_actor_starts_is_stated_and_a_run_that_never_reached_it_is_warned(caplog):
+    # ANYmal C's command preset: 2,000 critic-only updates at 2 per step of 4,096 envs.
+    config = train.build_config(
+        train.PRESETS["command"], {"sac.updates_per_step": 2, "sac.min_replay_size": 65_536}
+    ).sac
+    with caplog.at_level(logging.INFO, logger="quadcos"):
+        loop._log_actor_start(config, 0, 65_536)
+        loop._log_actor_start(config, 2_000, 65_536)  # (resumed past the warm-up: nothing said)
+    assert caplog.text.count("the actor learns") == 1
+    assert "the actor learns from env step 4,161,536 on" in caplog.text
+    assert "the critics alone take 2,000 updates first" in caplog.text
+    warning = loop._actor_never_learned(config, 1_536, 3_137_536)
+    assert warning is not None and "ended at env step 3,137,536 after 1,536 of" in warning
+    assert loop._actor_never_learned(config, 2_000, 4_161_536) is None
+
+
 # --- 6: --resume of a finished run ---------------------------------------------------------------
 
 

@@ -196,6 +196,11 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " (`randomization.eval_conditions`) and the actor's learning rate ÷10 (3e-5; two sharing)",
     "anymalcmd_condupd2_s0": "those conditions and 2 updates per env step, not 8"
     " (`sac.updates_per_step`: replay ratio 4, not 16; two sharing)",
+    "anymalcmd_privfw6k_s0": "the privileged critic and w1 ×13 (`reward.forward` 6000; the preset"
+    " with both ANYmal C settings, three runs sharing one GPU)",
+    "anymalcmd_privfw2kyaw40_s0": "the privileged critic, w1 ×4 and w4 ÷3 (`reward.forward` 1800,"
+    " `reward.yaw` 40; three sharing)",
+    "anymalcmd_fw6k_s0": "w1 ×13 (`reward.forward` 6000; three sharing)",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",

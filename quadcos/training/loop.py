@@ -227,6 +227,7 @@ def run_chunks(
     if num_timesteps is not None:
         first_chunk_step = step + prefill * trainer.num_prefill_steps * trainer.config.num_envs
         _log_final_step(trainer.config, num_timesteps, first_chunk_step)
+        _log_actor_start(trainer.config, int(state.gradient_steps), first_chunk_step)
     if prefill:
         state = trainer.prefill(state)
         step += trainer.num_prefill_steps * trainer.config.num_envs
@@ -270,6 +271,37 @@ def _log_final_step(
             config.num_envs,
             config.steps_per_chunk,
         )
+
+
+def _log_actor_start(
+    config: ml_collections.ConfigDict, gradient_steps: int, first_chunk_step: int
+) -> None:
+    """Says from which env step SAC's actor learns, where its critic-only warm-up is still ahead."""
+    left = config.actor_warmup_steps - gradient_steps
+    if left > 0:
+        start = first_chunk_step + -(-left // config.updates_per_step) * config.num_envs
+        logger.info(
+            "the actor learns from env step %s on: the critics alone take %s updates first"
+            " (sac.actor_warmup_steps, %d per step of the %d envs)",
+            f"{start:,}",
+            f"{left:,}",
+            config.updates_per_step,
+            config.num_envs,
+        )
+
+
+def _actor_never_learned(
+    config: ml_collections.ConfigDict, gradient_steps: int, step: int
+) -> str | None:
+    """The warning for a run that ends inside its critic-only warm-up, else None."""
+    if gradient_steps >= config.actor_warmup_steps:
+        return None
+    return (
+        f"the actor never learned: the run ended at env step {step:,} after {gradient_steps:,} of"
+        f" the critics' {config.actor_warmup_steps:,} warm-up updates (sac.actor_warmup_steps),"
+        " so every policy it wrote holds the actor's initial weights (under the observation"
+        " statistics of its data); give it more env steps or time, or fewer warm-up updates"
+    )
 
 
 def _train_loop(
@@ -345,6 +377,8 @@ def _train_loop(
         finished = step >= config.num_timesteps or out_of_time
         if out_of_time:
             logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
+        if finished and (warning := _actor_never_learned(config, int(state.gradient_steps), step)):
+            logger.warning(warning)
         if finished or evaluating:
             record_evaluation(_training_row(trainer, state, step, clock(), window), state)
             window = host.Window()
