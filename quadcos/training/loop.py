@@ -290,18 +290,23 @@ def _log_actor_start(
         )
 
 
-def _actor_never_learned(
-    config: ml_collections.ConfigDict, gradient_steps: int, step: int
-) -> str | None:
-    """The warning for a run that ends inside its critic-only warm-up, else None."""
-    if gradient_steps >= config.actor_warmup_steps:
-        return None
-    return (
-        f"the actor never learned: the run ended at env step {step:,} after {gradient_steps:,} of"
-        f" the critics' {config.actor_warmup_steps:,} warm-up updates (sac.actor_warmup_steps),"
-        " so every policy it wrote holds the actor's initial weights (under the observation"
-        " statistics of its data); give it more env steps or time, or fewer warm-up updates"
-    )
+def _log_the_end(
+    config: ml_collections.ConfigDict, step: int, gradient_steps: int, out_of_time: bool
+) -> None:
+    """Says why training ended at `step` where its time budget ended it, and warns where it
+    ended inside the critics' warm-up, before the actor learned."""
+    if out_of_time:
+        logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
+    if gradient_steps < config.actor_warmup_steps:
+        logger.warning(
+            "the actor never learned: the run ended at env step %s after %s of the critics' %s"
+            " warm-up updates (sac.actor_warmup_steps), so every policy it wrote holds the"
+            " actor's initial weights (under the observation statistics of its data); give it"
+            " more env steps or time, or fewer warm-up updates",
+            f"{step:,}",
+            f"{gradient_steps:,}",
+            f"{config.actor_warmup_steps:,}",
+        )
 
 
 def _train_loop(
@@ -375,10 +380,8 @@ def _train_loop(
             saving_now=saving,
         )
         finished = step >= config.num_timesteps or out_of_time
-        if out_of_time:
-            logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
-        if finished and (warning := _actor_never_learned(config, int(state.gradient_steps), step)):
-            logger.warning(warning)
+        if finished:
+            _log_the_end(config, step, int(state.gradient_steps), out_of_time)
         if finished or evaluating:
             record_evaluation(_training_row(trainer, state, step, clock(), window), state)
             window = host.Window()
