@@ -201,6 +201,10 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalcmd_privfw2kyaw40_s0": "the privileged critic, w1 ×4 and w4 ÷3 (`reward.forward` 1800,"
     " `reward.yaw` 40; three sharing)",
     "anymalcmd_fw6k_s0": "w1 ×13 (`reward.forward` 6000; three sharing)",
+    "anymalcmd_privwarm500_s0": "the privileged critic and the actor's warm-up ÷4 (500 updates,"
+    " `sac.actor_warmup_steps`: the actor learns from env step 1.1 M; two runs sharing one GPU)",
+    "anymalcmd_privwarm500fw6k_s0": "`anymalcmd_privwarm500_s0`'s with w1 ×13 (`reward.forward`"
+    " 6000; two sharing)",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
