@@ -187,9 +187,15 @@ def test_when_the_actor_starts_is_stated_and_a_run_that_never_reached_it_is_warn
     assert "the critics alone take 2,000 updates first" in caplog.text
     caplog.clear()
     with caplog.at_level(logging.INFO, logger="quadcos"):
-        loop._log_the_end(config, 4_161_536, 2_000, out_of_time=True)
-    assert "time budget of 480 s spent at env step 4,161,536" in caplog.text
+        loop._log_the_end(config, 4_165_632, 2_002, out_of_time=True)
+    assert "time budget of 480 s spent at env step 4,165,632" in caplog.text
     assert "never learned" not in caplog.text
+    with caplog.at_level(logging.INFO, logger="quadcos"):  # the warm-up's last update: no actor's
+        loop._log_the_end(config, 4_161_536, 2_000, out_of_time=False)
+    assert "the actor never learned: the run ended at env step 4,161,536 after 2,000 of" in (
+        caplog.text
+    )
+    caplog.clear()
     with caplog.at_level(logging.INFO, logger="quadcos"):
         loop._log_the_end(config, 3_137_536, 1_536, out_of_time=False)
     assert "the actor never learned: the run ended at env step 3,137,536 after 1,536 of" in (

@@ -147,7 +147,7 @@ def time_to_success(
         nonlocal next_eval
         if next_eval is None:  # the first chunk after the prefill
             next_eval = chunk.previous_step
-        actor_learning = int(state.gradient_steps) > config.actor_warmup_steps
+        actor_learning = loop.actor_has_learned(config, int(state.gradient_steps))
         if actor_learning and chunk.step >= next_eval:
             next_eval = chunk.step + eval_interval
             if evaluate_now(state) >= WALK_SUCCESS_RATE:

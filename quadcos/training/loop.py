@@ -290,6 +290,12 @@ def _log_actor_start(
         )
 
 
+def actor_has_learned(config: ml_collections.ConfigDict, gradient_steps: int) -> bool:
+    """Whether any of `gradient_steps` updates taught the actor: the first after the critics'
+    `actor_warmup_steps` alone does (quadcos.training.updates)."""
+    return gradient_steps > config.actor_warmup_steps
+
+
 def _log_the_end(
     config: ml_collections.ConfigDict, step: int, gradient_steps: int, out_of_time: bool
 ) -> None:
@@ -297,7 +303,7 @@ def _log_the_end(
     ended inside the critics' warm-up, before the actor learned."""
     if out_of_time:
         logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
-    if gradient_steps < config.actor_warmup_steps:
+    if not actor_has_learned(config, gradient_steps):
         logger.warning(
             "the actor never learned: the run ended at env step %s after %s of the critics' %s"
             " warm-up updates (sac.actor_warmup_steps), so every policy it wrote holds the"
