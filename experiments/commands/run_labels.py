@@ -205,6 +205,9 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " `sac.actor_warmup_steps`: the actor learns from env step 1.1 M; two runs sharing one GPU)",
     "anymalcmd_privwarm500fw6k_s0": "`anymalcmd_privwarm500_s0`'s with w1 ×13 (`reward.forward`"
     " 6000; two sharing)",
+    "anymalcmd_privwarm500fw6kalone_s0": "`anymalcmd_privwarm500fw6k_s0`'s alone on the GPU",
+    "anymalcmd_presetalone_s0": "— (the preset as it is, with both ANYmal C settings; alone on"
+    " the GPU)",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
