@@ -273,7 +273,7 @@ def test_the_attitude_scored_finalists_are_the_ones_the_commands_page_names(monk
     spec = importlib.util.spec_from_file_location("track_gaits", path)
     track_gaits = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(track_gaits)
-    runs = json.loads((ROOT / "experiments/commands/campaign.json").read_text())["runs"]
+    runs = track_gaits.load_runs(ROOT / "experiments/commands/campaign.json")
     names = [f"go1cmd_tracked_s{seed}" for seed in range(3)]
     chosen = track_gaits.rescore(runs, names, 0.1)
     assert [(row["finalist"], row["ran_with"]) for row in chosen] == [(1, 2), (2, 4), (4, 1)]
@@ -281,3 +281,32 @@ def test_the_attitude_scored_finalists_are_the_ones_the_commands_page_names(monk
     assert chosen[2]["score"] > -1 > chosen[1]["score"] > chosen[0]["score"]  # only seed 2 within
     # without the attitude target the same lines give the finalists the runs kept
     assert [row["finalist"] for row in track_gaits.rescore(runs, names, 0.0)] == [2, 4, 1]
+
+
+def test_the_campaign_record_packs_its_tables_and_loads_them_back_as_rows(monkeypatch, tmp_path):
+    """experiments/commands/campaign.json holds each run's evaluations and conditions as rows under
+    the record's columns; `load_runs` gives them back as dicts, `packed` refuses a key it would
+    lose, and a record written by `--into` from the committed one loads the same runs."""
+    import subprocess
+    import sys
+
+    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
+    import training_summary
+
+    record = ROOT / "experiments/commands/campaign.json"
+    runs = training_summary.load_runs(record)
+    evaluation = runs["anymalcmd_presetalone_s0"]["evaluations"][1]
+    assert evaluation["env_steps"] == 2113536 and evaluation["worst_cell"] == "latency_40_ms/speed"
+    assert "falls_above_step0" not in evaluation  # a null column is no key
+    nominal = runs["anymalcmd_presetalone_s0"]["robustness"]["nominal"]
+    assert nominal["success_rate"] == 1.0 and set(nominal) == set(training_summary.KEYS[:5])
+    run = runs["anymalcmd_presetalone_s0"]
+    assert training_summary.unpacked(training_summary.packed(run)) == run
+    with pytest.raises(ValueError, match="evaluations: \\['novel'\\]"):
+        training_summary.packed({"evaluations": [{"env_steps": 0, "novel": 1.0}]})
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "experiments/commands/training_summary.py"), "--into",
+         str(record)], capture_output=True, text=True, check=True,
+    ).stdout
+    (tmp_path / "again.json").write_text(out)
+    assert training_summary.load_runs(tmp_path / "again.json") == runs

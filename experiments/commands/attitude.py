@@ -13,9 +13,10 @@ the step-0 evaluation's roll (the searched gait under the untrained actor) and t
 change any later evaluation of any run made to it (with that run), and the next largest.
 """
 
-import json
 import sys
 from pathlib import Path
+
+from training_summary import load_runs
 
 CONDITIONS = ("nominal", "pushes 50 N, 0.1 s")
 ANGLES = (("roll", "mean_max_abs_roll"), ("pitch error", "mean_max_abs_pitch_error"))
@@ -75,7 +76,7 @@ def sac_change(runs: dict) -> dict[str, list[tuple[float, float, str]]]:
 
 def main(argv: list[str]) -> int:
     path = Path(argv[0]) if argv else Path(__file__).with_name("campaign.json")
-    runs = json.loads(path.read_text())["runs"]
+    runs = load_runs(path)
     for name, measured_runs in sorted(measured(runs).items()):
         angles = "; ".join(describe(measured_runs, label, key) for label, key in ANGLES)
         print(f"{name}: {len(measured_runs)} runs; {angles}")

@@ -11,12 +11,12 @@ others, each with how many, and the median (range) of their gaits' nominal speed
 far one seed's searches differ on the GPU, where the search does not repeat.
 """
 
-import json
 import sys
 from pathlib import Path
 
 from latency_cells import median
 from table import flag, shortfalls
+from training_summary import load_runs
 
 NOMINAL, KEY = "nominal", "speed_tracking_rms"
 
@@ -66,4 +66,4 @@ def lines(runs: dict) -> list[str]:
 
 if __name__ == "__main__":
     path = Path(sys.argv[1]) if sys.argv[1:] else Path(__file__).with_name("campaign.json")
-    print("\n".join(lines(json.loads(path.read_text())["runs"])))
+    print("\n".join(lines(load_runs(path))))

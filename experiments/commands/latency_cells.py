@@ -10,9 +10,10 @@ policies from training (`robustness`, policy_env_steps > 0), the median (range) 
 their tracking at 40 ms to nominal and how many track worse at 40 ms, speed and yaw rate each.
 """
 
-import json
 import sys
 from pathlib import Path
+
+from training_summary import load_runs
 
 TRACKING = (("speed", "speed_tracking_rms"), ("yaw rate", "yaw_rate_tracking_rms"))
 LATE, NOMINAL = "latency 40 ms", "nominal"
@@ -51,6 +52,6 @@ def trained(runs: dict) -> str:
 
 if __name__ == "__main__":
     path = Path(sys.argv[1]) if sys.argv[1:] else Path(__file__).with_name("campaign.json")
-    runs = json.loads(path.read_text())["runs"]
+    runs = load_runs(path)
     print(gaits(runs))
     print(trained(runs))

@@ -20,6 +20,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from training_summary import load_runs
 
 from quadcos.evaluation import fixed_search, gait_search
 from quadcos.training import presets
@@ -45,7 +46,7 @@ def main() -> None:
     parser.add_argument("--bounds", type=float, nargs="+", default=[0.08, 0.085, 0.09, 0.095, 0.1])
     parser.add_argument("--out")
     args = parser.parse_args()
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = load_runs(HERE / "campaign.json")
     missing = [name for name in args.runs if not (runs.get(name) or {}).get("action_centre")]
     if missing:
         parser.error(f"no run with a searched gait in campaign.json: {', '.join(missing)}")

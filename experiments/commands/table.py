@@ -39,6 +39,7 @@ from run_labels import (
     TRACK_ATTITUDE8,
     TRACKED,
 )
+from training_summary import load_runs
 
 HERE = Path(__file__).parent
 POLICIES = HERE.parent / "policies"
@@ -65,7 +66,7 @@ def _row(label: str, target: str, cells: list[str]) -> str:
 
 def _campaign() -> dict:
     """The campaign's runs by name (campaign.json, training_summary.py)."""
-    return json.loads((HERE / "campaign.json").read_text())["runs"]
+    return load_runs(HERE / "campaign.json")
 
 
 def _load(name: str) -> dict | None:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import ml_collections
 import numpy as np
+from training_summary import load_runs
 
 from quadcos.evaluation import gait_tracking
 from quadcos.training import presets
@@ -94,7 +95,7 @@ def main() -> None:
                         help="walk nothing: print the finalist each run's logged gait tracking"
                         " (`tracked_gaits`) keeps with `sac.gait_search.track_attitude` A rad")
     args = parser.parse_args()
-    runs = json.loads((HERE / "campaign.json").read_text())["runs"]
+    runs = load_runs(HERE / "campaign.json")
     if args.rescore is not None:
         untracked = [name for name in args.runs if not (runs.get(name) or {}).get("tracked_gaits")]
         if untracked:

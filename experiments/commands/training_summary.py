@@ -14,7 +14,8 @@ at the last evaluation, the solver probe's physics (a robot without a preset), t
 measure's finalists (`sac.gait_search.track_gaits`), and the key
 numbers of the kept policy's random-command evaluation and robustness conditions, of its step-0
 gait's conditions and of the last policy's evaluation and conditions (where measured), with the
-physics they ran on where recorded (per-episode data left out).
+physics they ran on where recorded (per-episode data left out). The record holds the rows of
+those tables as lists under its "columns"; `load_runs` reads them back as dicts.
 """
 
 import io
@@ -218,6 +219,62 @@ def rounded(value, digits: int = 6):
     return value
 
 
+# The record's tables: a run's parts that are lists of rows (or rows by condition) hold each row
+# as its values under these columns, the keys written once in the record ("columns"), not in
+# every row; a value a row lacks is null (no part holds a null value).
+COLUMNS = {
+    "evaluations": ("env_steps", "eval_reward", "speed", "fall_rate", "env_steps_per_s",
+                    "speed_rms", "yaw_rate_rms", "actor_loss", "smoothness", "roll", "to_step0",
+                    "worst_cell", "falls_above_step0"),
+    "tracked_gaits": ("fall_percent", "speed_rms", "yaw_rate_rms", "roll", "pitch_error", "kept"),
+    **{key: KEYS[:5] for key in ("robustness", "gait_robustness", "last_robustness")},
+}
+BY_CONDITION = ("robustness", "gait_robustness", "last_robustness")  # {condition: row}
+
+
+def packed(run: dict, columns: dict = COLUMNS) -> dict:
+    """`run` as the record holds it: each table's rows as lists under `columns` (trailing
+    nulls dropped). A key outside its table's columns is refused: it would be lost."""
+    def row(part: str, values: dict) -> list:
+        if unknown := set(values) - set(columns[part]):
+            raise ValueError(f"{part}: {sorted(unknown)} not among the record's columns")
+        out = [values.get(key) for key in columns[part]]
+        while out and out[-1] is None:
+            out.pop()
+        return out
+
+    def table(part: str, value):
+        if value is None or part not in columns:
+            return value
+        if part in BY_CONDITION:
+            return {name: row(part, values) for name, values in value.items()}
+        return [row(part, values) for values in value]
+
+    return {part: table(part, value) for part, value in run.items()}
+
+
+def unpacked(run: dict, columns: dict = COLUMNS) -> dict:
+    """A run of the record with its tables' rows as dicts again (`packed`'s inverse)."""
+    def row(part: str, values: list) -> dict:
+        return {key: v for key, v in zip(columns[part], values) if v is not None}
+
+    def table(part: str, value):
+        if value is None or part not in columns:
+            return value
+        if part in BY_CONDITION:
+            return {name: row(part, values) for name, values in value.items()}
+        return [row(part, values) for values in value]
+
+    return {part: table(part, value) for part, value in run.items()}
+
+
+def load_runs(path: Path = Path(__file__).with_name("campaign.json")) -> dict[str, dict]:
+    """A record's runs by name, each table's rows as dicts (under the record's own columns)."""
+    record = json.loads(Path(path).read_text())
+    columns = record.get("columns", {})
+    return {name: unpacked(run, columns) for name, run in record["runs"].items()}
+
+
 def _part(key: str, value) -> str:
     """One part of a run as the record's line: its floats `rounded`, no spaces inside."""
     return f"   {json.dumps(key)}: {json.dumps(rounded(value), separators=(',', ':'))}"
@@ -235,7 +292,7 @@ if __name__ == "__main__":
     args = sys.argv[1:]
     runs = {}
     if args[:1] == ["--into"]:
-        runs = json.loads(Path(args[1]).read_text())["runs"]
+        runs = load_runs(args[1])
         args = args[2:]
     paths = sorted(
         p for d in args for p in Path(d).iterdir() if p.suffix == ".tgz" or p.is_dir()
@@ -245,8 +302,12 @@ if __name__ == "__main__":
     # One line per run and per part of a run: a small record that diffs run by run.
     parts = ",\n".join(
         f"  {json.dumps(name)}: {{\n"
-        + ",\n".join(_part(key, value) for key, value in run.items())
+        + ",\n".join(_part(key, value) for key, value in packed(run).items())
         + "\n  }"
         for name, run in runs.items()
     )
-    print(f'{{\n "command": {json.dumps(command)},\n "runs": {{\n{parts}\n }}\n}}')
+    columns = json.dumps(COLUMNS, separators=(",", ":"))
+    print(
+        f'{{\n "command": {json.dumps(command)},\n "columns": {columns},\n'
+        f' "runs": {{\n{parts}\n }}\n}}'
+    )
