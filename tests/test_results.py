@@ -266,7 +266,6 @@ def test_the_attitude_scored_finalists_are_the_ones_the_commands_page_names(monk
     `sac.gait_search.track_attitude` 0.10 the logged finalists of Go1's three `tracked` runs
     give way to seed 0's first, seed 1's second and seed 2's fourth."""
     import importlib.util
-    import json
 
     monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
     path = ROOT / "experiments/commands/track_gaits.py"
