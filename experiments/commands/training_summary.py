@@ -232,6 +232,18 @@ COLUMNS = {
 BY_CONDITION = ("robustness", "gait_robustness", "last_robustness")  # {condition: row}
 
 
+def _tables(run: dict, columns: dict, row) -> dict:
+    """`run` with `row(part, values)` applied to each row of each of its tables in `columns`."""
+    def table(part: str, value):
+        if value is None or part not in columns:
+            return value
+        if part in BY_CONDITION:
+            return {name: row(part, values) for name, values in value.items()}
+        return [row(part, values) for values in value]
+
+    return {part: table(part, value) for part, value in run.items()}
+
+
 def packed(run: dict, columns: dict = COLUMNS) -> dict:
     """`run` as the record holds it: each table's rows as lists under `columns` (trailing
     nulls dropped). A key outside its table's columns is refused: it would be lost."""
@@ -243,29 +255,15 @@ def packed(run: dict, columns: dict = COLUMNS) -> dict:
             out.pop()
         return out
 
-    def table(part: str, value):
-        if value is None or part not in columns:
-            return value
-        if part in BY_CONDITION:
-            return {name: row(part, values) for name, values in value.items()}
-        return [row(part, values) for values in value]
-
-    return {part: table(part, value) for part, value in run.items()}
+    return _tables(run, columns, row)
 
 
 def unpacked(run: dict, columns: dict = COLUMNS) -> dict:
     """A run of the record with its tables' rows as dicts again (`packed`'s inverse)."""
-    def row(part: str, values: list) -> dict:
-        return {key: v for key, v in zip(columns[part], values) if v is not None}
-
-    def table(part: str, value):
-        if value is None or part not in columns:
-            return value
-        if part in BY_CONDITION:
-            return {name: row(part, values) for name, values in value.items()}
-        return [row(part, values) for values in value]
-
-    return {part: table(part, value) for part, value in run.items()}
+    return _tables(
+        run, columns,
+        lambda part, values: {k: v for k, v in zip(columns[part], values) if v is not None},
+    )
 
 
 def load_runs(path: Path = Path(__file__).with_name("campaign.json")) -> dict[str, dict]:
