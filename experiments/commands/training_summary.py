@@ -222,14 +222,14 @@ def rounded(value, digits: int = 6):
 # The record's tables: a run's parts that are lists of rows (or rows by condition) hold each row
 # as its values under these columns, the keys written once in the record ("columns"), not in
 # every row; a value a row lacks is null (no part holds a null value).
+BY_CONDITION = ("robustness", "gait_robustness", "last_robustness")  # {condition: row}
 COLUMNS = {
     "evaluations": ("env_steps", "eval_reward", "speed", "fall_rate", "env_steps_per_s",
                     "speed_rms", "yaw_rate_rms", "actor_loss", "smoothness", "roll", "to_step0",
                     "worst_cell", "falls_above_step0"),
     "tracked_gaits": ("fall_percent", "speed_rms", "yaw_rate_rms", "roll", "pitch_error", "kept"),
-    **{key: KEYS[:5] for key in ("robustness", "gait_robustness", "last_robustness")},
+    **{key: KEYS[:5] for key in BY_CONDITION},
 }
-BY_CONDITION = ("robustness", "gait_robustness", "last_robustness")  # {condition: row}
 
 
 def _tables(run: dict, columns: dict, row) -> dict:
