@@ -244,18 +244,18 @@ def _tables(run: dict, columns: dict, row) -> dict:
     return {part: table(part, value) for part, value in run.items()}
 
 
-def packed(run: dict, columns: dict = COLUMNS) -> dict:
-    """`run` as the record holds it: each table's rows as lists under `columns` (trailing
+def packed(run: dict) -> dict:
+    """`run` as the record holds it: each table's rows as lists under `COLUMNS` (trailing
     nulls dropped). A key outside its table's columns is refused: it would be lost."""
     def row(part: str, values: dict) -> list:
-        if unknown := set(values) - set(columns[part]):
+        if unknown := set(values) - set(COLUMNS[part]):
             raise ValueError(f"{part}: {sorted(unknown)} not among the record's columns")
-        out = [values.get(key) for key in columns[part]]
+        out = [values.get(key) for key in COLUMNS[part]]
         while out and out[-1] is None:
             out.pop()
         return out
 
-    return _tables(run, columns, row)
+    return _tables(run, COLUMNS, row)
 
 
 def unpacked(run: dict, columns: dict = COLUMNS) -> dict:
