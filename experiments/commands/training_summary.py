@@ -9,8 +9,8 @@ replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_d
 speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
 rate, the env-steps/s of the window it ends, its tracking RMS where logged, and where its
 evaluations measured the robustness conditions its worst ratio to step 0 as the gait rank reads
-it: `to_step0`, `worst_cell`), the training rate
-at the last evaluation, the solver probe's physics (a robot without a preset), the gait tracking
+it: `to_step0`, `worst_cell`, and per measure `speed_to_step0`, `yaw_rate_to_step0`), the
+training rate at the last evaluation, the solver probe's physics (a robot without a preset), the gait tracking
 measure's finalists (`sac.gait_search.track_gaits`), and the key
 numbers of the kept policy's random-command evaluation and robustness conditions, of its step-0
 gait's conditions and of the last policy's evaluation and conditions (where measured), with the
@@ -177,8 +177,9 @@ def _against_gait(metrics: str) -> dict[int, dict]:
     """{env step: its evaluation against step 0's} of a metrics.jsonl whose evaluations measured
     the robustness conditions (`randomization.eval_conditions`), as `best_policy_by=gait` ranks
     them: the worst ratio of its tracking RMS cells (pooled and per condition, speed and yaw
-    rate) to step 0's, that cell ("condition/measure"), and the conditions where it fell more
-    often than step 0 (where any); none for step 0 itself."""
+    rate) to step 0's, that cell ("condition/measure"), the worst ratio among the speed cells and
+    among the yaw-rate cells alone (`speed_to_step0`, `yaw_rate_to_step0`: what SAC trades), and
+    the conditions where it fell more often than step 0 (where any); none for step 0 itself."""
     from quadcos.training import best_policy
 
     rows = [json.loads(line) for line in metrics.splitlines() if line.strip()]
@@ -203,6 +204,13 @@ def _against_gait(metrics: str) -> dict[int, dict]:
         against[row["step"]] = {
             "to_step0": ratios[worst],
             "worst_cell": worst.removeprefix("eval/").removesuffix("_tracking_rms"),
+            **{
+                f"{measure}_to_step0": max(
+                    ratio for key, ratio in ratios.items()
+                    if key.endswith(f"/{measure}_tracking_rms")
+                )
+                for measure in ("speed", "yaw_rate")
+            },
         } | ({"falls_above_step0": more} if more else {})
     return against
 
@@ -226,7 +234,7 @@ BY_CONDITION = ("robustness", "gait_robustness", "last_robustness")  # {conditio
 COLUMNS = {
     "evaluations": ("env_steps", "eval_reward", "speed", "fall_rate", "env_steps_per_s",
                     "speed_rms", "yaw_rate_rms", "actor_loss", "smoothness", "roll", "to_step0",
-                    "worst_cell", "falls_above_step0"),
+                    "worst_cell", "falls_above_step0", "speed_to_step0", "yaw_rate_to_step0"),
     "tracked_gaits": ("fall_percent", "speed_rms", "yaw_rate_rms", "roll", "pitch_error", "kept"),
     **{key: KEYS[:5] for key in BY_CONDITION},
 }
