@@ -309,3 +309,28 @@ def test_the_campaign_record_packs_its_tables_and_loads_them_back_as_rows(monkey
     ).stdout
     (tmp_path / "again.json").write_text(out)
     assert training_summary.load_runs(tmp_path / "again.json") == runs
+
+
+def test_an_evaluation_against_step_0_names_its_worst_cell_and_each_measure_worst(monkeypatch):
+    """`_against_gait` reads a run's metrics as the gait rank does: the worst ratio of any
+    tracking cell to step 0's, and the worst among the speed cells and among the yaw-rate cells,
+    so that a record shows what SAC traded (speed lost, yaw rate gained)."""
+    import json
+
+    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
+    import training_summary
+
+    def row(step, speed, yaw_rate):
+        cells = {"eval/fall_rate": 0.0, "eval/nominal/fall_rate": 0.0}
+        for condition, scale in (("nominal", 1.0), ("latency_40_ms", 2.0)):
+            cells[f"eval/{condition}/speed_tracking_rms"] = speed * scale
+            cells[f"eval/{condition}/yaw_rate_tracking_rms"] = yaw_rate * scale
+        return {"step": step, **cells}
+
+    metrics = "\n".join(json.dumps(r) for r in (row(0, 0.1, 0.2), row(10, 0.11, 0.1)))
+    against = training_summary._against_gait(metrics)
+    assert list(against) == [10]
+    assert against[10]["to_step0"] == pytest.approx(1.1)
+    assert against[10]["speed_to_step0"] == pytest.approx(1.1)
+    assert against[10]["yaw_rate_to_step0"] == pytest.approx(0.5)
+    assert against[10]["worst_cell"] in ("nominal/speed", "latency_40_ms/speed")
