@@ -10,9 +10,9 @@ speed map), every training-time evaluation of the trainer (env steps, eval rewar
 rate, the env-steps/s of the window it ends, its tracking RMS where logged, and where its
 evaluations measured the robustness conditions its worst ratio to step 0 as the gait rank reads
 it: `to_step0`, `worst_cell`, and per measure `speed_to_step0`, `yaw_rate_to_step0`), the
-training rate at the last evaluation, the solver probe's physics (a robot without a preset), the gait tracking
-measure's finalists (`sac.gait_search.track_gaits`), and the key
-numbers of the kept policy's random-command evaluation and robustness conditions, of its step-0
+training rate at the last evaluation, the solver probe's physics (a robot without a preset), the
+gait tracking measure's finalists (`sac.gait_search.track_gaits`), and the key numbers of the
+kept policy's random-command evaluation and robustness conditions, of its step-0
 gait's conditions and of the last policy's evaluation and conditions (where measured), with the
 physics they ran on where recorded (per-episode data left out). The record holds the rows of
 those tables as lists under its "columns"; `load_runs` reads them back as dicts.
