@@ -205,11 +205,10 @@ def _against_gait(metrics: str) -> dict[int, dict]:
             "to_step0": ratios[worst],
             "worst_cell": worst.removeprefix("eval/").removesuffix("_tracking_rms"),
             **{
-                f"{measure}_to_step0": max(
-                    ratio for key, ratio in ratios.items()
-                    if key.endswith(f"/{measure}_tracking_rms")
+                f"{cell.removesuffix('_tracking_rms')}_to_step0": max(
+                    ratio for key, ratio in ratios.items() if key.endswith(f"/{cell}")
                 )
-                for measure in ("speed", "yaw_rate")
+                for cell in (key.removeprefix("eval/") for key in best_policy.TRACKING)
             },
         } | ({"falls_above_step0": more} if more else {})
     return against
