@@ -334,3 +334,30 @@ def test_an_evaluation_against_step_0_names_its_worst_cell_and_each_measure_wors
     assert against[10]["speed_to_step0"] == pytest.approx(1.1)
     assert against[10]["yaw_rate_to_step0"] == pytest.approx(0.5)
     assert against[10]["worst_cell"] in ("nominal/speed", "latency_40_ms/speed")
+
+
+def test_a_run_that_only_trained_records_the_step_of_its_best_policy(monkeypatch, tmp_path):
+    """A run packed without its evaluation (`run_gpu.sh train wait pack`) still says which policy
+    its training kept: `best_of_run` from policy_best/policy.json, read from the folder and from
+    the pack alike, and ANYmal C's table names it as the training's best, not evaluated."""
+    import json
+    import tarfile
+
+    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
+    import table
+    import training_summary
+
+    run = tmp_path / "runs" / "anymal_only_trained_s0"
+    (run / "policy_best").mkdir(parents=True)
+    (run / "anymal_only_trained_s0.log").write_text("quadcos.train: starting\n")
+    best = {"config": {"best_of_run": {"step": 8052736, "eval/fall_rate": 0.0}}}
+    (run / "policy_best" / "policy.json").write_text(json.dumps(best))
+    with tarfile.open(tmp_path / "anymal_only_trained_s0.tgz", "w:gz") as tar:
+        tar.add(run, arcname=run.name)
+    for path in (run, tmp_path / "anymal_only_trained_s0.tgz"):
+        summary = training_summary.summary(path)
+        assert summary["best_of_run"] == 8052736 and summary["kept"] is None
+    assert table._kept_steps(summary) == "8.1 M (training's best, not evaluated)"
+    assert table._kept_steps({"kept": {"policy_env_steps": 0}}) == "0.0 M"
+    (run / "policy_best" / "policy.json").unlink()  # a run that saved no best policy
+    assert "best_of_run" not in training_summary.summary(run)

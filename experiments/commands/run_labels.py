@@ -208,6 +208,8 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalcmd_privwarm500fw6kalone_s0": "`anymalcmd_privwarm500fw6k_s0`'s alone on the GPU",
     "anymalcmd_presetalone_s0": "— (the preset as it is, with both ANYmal C settings; alone on"
     " the GPU)",
+    "anymalcmd_yaw40alone420_s0": "w4 ÷3 (`reward.yaw` 40, the preset 120); alone on the GPU for"
+    " 420 s, not 480, training only",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",

@@ -369,8 +369,8 @@ def anymal() -> str:
 def anymal_sac() -> str:
     """The rows of ANYmal C's SAC table: each run's rate and SAC's env steps, its step-0
     evaluation's tracking (speed, yaw rate) and its training evaluations' best of each (with
-    their env steps), and the kept policy's env steps: step 0 stays where no evaluation beats
-    it in both."""
+    their env steps), and the kept policy's env steps (`_kept_steps`): step 0 stays where no
+    evaluation beats it in both."""
     runs = _campaign()
     rows = []
     for name, change in ANYMAL_SAC.items():
@@ -383,9 +383,16 @@ def anymal_sac() -> str:
             f" {run['env_steps_per_s'] / 1e3:.1f} k, {trained[-1]['env_steps'] / 1e6:.1f} M |"
             f" {first['speed_rms']:.3f}, {first['yaw_rate_rms']:.3f} | "
             + ", ".join(f"{e[key]:.3f} ({e['env_steps'] / 1e6:.1f} M)" for key, e in best.items())
-            + f" | {run['kept']['policy_env_steps'] / 1e6:.1f} M |"
+            + f" | {_kept_steps(run)} |"
         )
     return "\n".join(rows)
+
+
+def _kept_steps(run: dict) -> str:
+    """The env steps behind a run's kept policy (a run that only trained: its training's best)."""
+    if run["kept"]:
+        return f"{run['kept']['policy_env_steps'] / 1e6:.1f} M"
+    return f"{run['best_of_run'] / 1e6:.1f} M (training's best, not evaluated)"
 
 
 def no_preset() -> str:

@@ -59,13 +59,21 @@ KEYS = (
 
 def _files(path: Path) -> dict[str, str]:
     """The run's text files by name (the train log as "train.log": a failed first launch's,
-    `run_gpu.sh wait`'s NAME.failed.log, then its relaunch's)."""
+    `run_gpu.sh wait`'s NAME.failed.log, then its relaunch's; its best policy's description
+    as "policy_best.json")."""
+    best = "policy_best/policy.json"
     if path.suffix == ".tgz":
         with tarfile.open(path) as tar:
-            members = [m for m in tar.getmembers() if m.isfile() and "/policy" not in m.name]
-            texts = {Path(m.name).name: tar.extractfile(m).read().decode() for m in members}
+            members = [m for m in tar.getmembers() if m.isfile()]
+            texts = {
+                "policy_best.json" if m.name.endswith(best) else Path(m.name).name:
+                tar.extractfile(m).read().decode()
+                for m in members if "/policy" not in m.name or m.name.endswith(best)
+            }
     else:
         texts = {p.name: p.read_text() for p in path.iterdir() if p.is_file()}
+        if (path / best).is_file():
+            texts["policy_best.json"] = (path / best).read_text()
     name = path.name.removesuffix(".tgz")
     texts["train.log"] = texts.get(f"{name}.failed.log", "") + texts.get(f"{name}.log", "")
     return texts
@@ -98,6 +106,7 @@ def summary(path: Path) -> dict:
     smoothness, against_gait = _smoothness(metrics), _against_gait(metrics)
     argv = config.get("run_info", {}).get("argv")
     centre = config.get("run_info", {}).get("env", {}).get("action_centre")
+    best = json.loads(files.get("policy_best.json", "{}")).get("config", {}).get("best_of_run")
     return {
         **({"argv": [a for a in argv if a.startswith("--") and not a.startswith(DROPPED)]}
            if argv else {}),
@@ -151,6 +160,9 @@ def summary(path: Path) -> dict:
         ]} if TRACKED.search(log) else {}),
         "stopped": stopped[1] if stopped else None,
         "kept": _evaluation(files.get("eval.json")),
+        # the env step of the policy its training evaluations kept (runs that packed policy_best;
+        # the same as "kept"'s where that was evaluated)
+        **({"best_of_run": best["step"]} if best else {}),
         "last": _evaluation(files.get("last_eval.json")),
         "robustness": _conditions(files.get("robustness.json")),
         # its step-0 gait's and its last policy's conditions (runs evaluated with them)
