@@ -379,7 +379,8 @@ def test_warp_steps_randomised_robots_as_jax_does():
 def test_nominal_pins_every_range_at_the_nominal_robot():
     """NOMINAL (a single perturbation's base) leaves no range drawn: each fixed at one value, the
     scales at 1, no latency, pushes, noise or centre-of-mass offset; what it leaves unset is no
-    range (a push's size, the training ramp, the share of draws at the ends)."""
+    range (a push's size, the training ramp, the share of draws at the ends, whether the drive
+    is late with the action)."""
     pinned = {key.removeprefix("randomization."): v for key, v in randomization.NOMINAL.items()}
     for name in randomization.RANGES:
         low, high = pinned[name]
@@ -388,7 +389,39 @@ def test_nominal_pins_every_range_at_the_nominal_robot():
     assert pinned["enabled"] and pinned["com_offset_m"] == 0
     assert pinned["push_interval_s"] == 0 and pinned["obs_noise"] == 0
     unset = set(randomization.default_config()) - set(pinned)
-    assert unset == {"push_force_n", "push_duration_s", "ramp_s", "range_ends", "eval_conditions"}
+    assert unset == {"push_force_n", "push_duration_s", "ramp_s", "range_ends", "eval_conditions",
+                     "delay_drive"}
     assert pinned["conditions"] == ""  # the ranges, also for a policy trained on conditions
     config = apply_overrides(quadcos.env.default_config(), randomization.NOMINAL)
     randomization.validate(config.randomization)  # a config the env accepts
+
+
+@pytest.mark.slow
+def test_delay_drive_makes_the_latency_delay_the_commanded_drive_as_it_does_the_action():
+    """Without `delay_drive` only the action is late: a gait (zero actions) walks the same at
+    40 ms of latency as without it. With it the drive's scales are the previous step's for the
+    latency's substeps: the same walk without latency, another with it (the drive's gain and
+    heading loops change its scales every step)."""
+    overrides = {
+        "commands.spec": "0.2,0@0.1;0.6,0.4@2",
+        "commands.feed_forward": True,
+        "commands.speed_gain_rate": 1.0,
+        "commands.heading_gain": 2.0,
+        "randomization.enabled": True,
+        "randomization.push_interval_s": 0.0,
+    }
+    qpos = {}
+    for delay in (False, True):
+        env = quadcos.make_env("flat", **overrides, **{"randomization.delay_drive": delay})
+        reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
+        state = reset(jnp.stack([jax.random.PRNGKey(0)] * 2))  # two robots of one draw
+        late = jnp.array([0, round(0.04 / env.config.physics_dt)], jnp.int32)  # 0 and 40 ms
+        physics = state.info["physics"]._replace(latency_steps=late, level=jnp.ones(2))
+        state = state.replace(info={**state.info, "physics": physics})
+        action = jnp.zeros((2, env.action_size))
+        for _ in range(20):
+            state = step(state, action)
+        qpos[delay] = np.asarray(state.pipeline_state.qpos)
+    np.testing.assert_allclose(qpos[False][1], qpos[False][0], atol=1e-6)
+    np.testing.assert_allclose(qpos[True][0], qpos[False][0], atol=1e-6)
+    assert np.abs(qpos[True][1] - qpos[True][0]).max() > 1e-3

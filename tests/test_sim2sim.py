@@ -391,6 +391,27 @@ def test_a_latency_of_one_control_step_walks_one_step_behind():
     np.testing.assert_array_equal(late, on_time)
 
 
+def test_delay_drive_makes_the_latency_delay_the_drive_in_c_mujoco_as_in_the_env():
+    """The env's `randomization.delay_drive` (tests/test_randomization.py) on the host: without
+    it a gait (zero actions) walks the same at 40 ms as without latency; with it the same
+    without latency and another walk at 40 ms."""
+    overrides = {"commands.spec": "0.2,0@0.1;0.6,0.4@2", "commands.feed_forward": True,
+                 "commands.speed_gain_rate": 1.0, "commands.heading_gain": 2.0}
+
+    def walk(latency_s: float, delay: bool) -> np.ndarray:
+        config = evaluation.env_config({**overrides, "randomization.delay_drive": delay})
+        host = host_robot.HostRobot("flat", config, latency_s=latency_s)
+        host.reset(3)
+        for _ in range(20):
+            host.step(np.zeros(host.action_size))
+        return host.data.qpos.copy()
+
+    plain = walk(0.0, False)
+    np.testing.assert_array_equal(walk(0.04, False), plain)
+    np.testing.assert_array_equal(walk(0.0, True), plain)
+    assert np.abs(walk(0.04, True) - plain).max() > 1e-3
+
+
 # --- play ----------------------------------------------------------------------------------------
 
 

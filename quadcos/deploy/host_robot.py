@@ -16,7 +16,8 @@ value the policy sees; the episode's own stream, seeded by its reset seed) and c
 episode moves towards the action computed at the control step that began L physics steps
 earlier, zero before the first. For L below a control step this is the MJX env's randomised
 `latency_steps`: the previous action for the first L substeps of each control step, then the
-new one; a latency of one control step acts each action one step late).
+new one; a latency of one control step acts each action one step late; with the env's
+`randomization.delay_drive` the drive's scales are as late as the action, as in the env).
 
 The constraint solver: `physics="reference"` (the default) runs the MJCF's own solver iterations
 (MuJoCo's default: 100 Newton iterations, 50 line-search) at the training step, cone and
@@ -189,6 +190,9 @@ class HostRobot:
         self._torso = self.model.body(self.robot.description.root_body).id
         self.phase, self.command, self.mean_speed = 0.0, np.zeros(self.action_size), 0.0
         self._pending = [np.zeros(self.action_size)] * self._queue_length
+        # the drive as late as the action (the env's `randomization.delay_drive`)
+        self._late_drive = self.commands is not None and config.commands.feed_forward
+        self._late_drive &= bool(config.randomization.delay_drive)
 
     def reset(self, seed: int | Sequence[int], x: float = 0.0, y: float = 0.0) -> np.ndarray:
         """`QuadrupedEnv.reset_at`: standing at (x, y), pitched with the ground, joints perturbed
@@ -211,6 +215,7 @@ class HostRobot:
         self._pending = [np.zeros(self.action_size)] * self._queue_length
         if self.commands is not None:
             self.commands.start(seed)
+            self._pending_driven = [self.commands.driven()] * self._queue_length
         return self._observe()[0]
 
     def rhythm_parameters(self) -> oscillator.RhythmParameters | None:
@@ -232,17 +237,21 @@ class HostRobot:
         time_before = self.data.time
         yaw_before = twins.attitude(self.layout.orientation(self.data)).yaw
         actions = [*self._pending, np.clip(np.asarray(action, np.float64), -1.0, 1.0)]
+        late = [*self._pending_driven, self.commands.driven()] if self._late_drive else None
         previous = self.command
         period = oscillator.FIXED_TROT.period
         for index in range(self.substeps):
-            target = actions[self._queue_length + (index - self.latency_steps) // self.substeps]
-            self.command = self.command + self._blend * (target - self.command)
+            due = self._queue_length + (index - self.latency_steps) // self.substeps
+            self.command = self.command + self._blend * (actions[due] - self.command)
             params = self.rhythm_parameters()
-            self.data.ctrl[:] = self.layout.controls(self._joint_targets(params), self.data)
+            targets = self._joint_targets(params, late[due] if late else None)
+            self.data.ctrl[:] = self.layout.controls(targets, self.data)
             mujoco.mj_step(self.model, self.data)
             period = period if params is None else params.period
             self.phase = twins.advance_phase(self.phase, period, self.config.physics_dt)
         self._pending = actions[len(actions) - self._queue_length :]
+        if late:
+            self._pending_driven = late[len(late) - self._queue_length :]
         if self.config.oscillator_form == "literal":
             self.phase = math.fmod(oscillator.TWO_PI * self.data.time / period, oscillator.TWO_PI)
         tracking = {}
@@ -288,8 +297,11 @@ class HostRobot:
             min_speed = min(min_speed, 0.5 * tracking["commanded_progress"] / self.dt)
         return mean_speed >= min_speed
 
-    def _joint_targets(self, params: oscillator.RhythmParameters | None) -> np.ndarray:
-        """`QuadrupedEnv.joint_targets` of the current command and phase."""
+    def _joint_targets(
+        self, params: oscillator.RhythmParameters | None, driven: np.ndarray | None = None
+    ) -> np.ndarray:
+        """`QuadrupedEnv.joint_targets` of the current command and phase; the drive asked for
+        `driven` (v, ω) where given, else the commands' current."""
         if params is None:
             return self.layout.home + env_lib.JOINT_TARGET_BOUND * np.clip(self.command, -1.0, 1.0)
         phase = self.phase
@@ -304,7 +316,7 @@ class HostRobot:
         if self.commands is not None and config.commands.feed_forward:
             drive = config.commands
             scales = twins.drive_scales(
-                self.commands.driven(),
+                self.commands.driven() if driven is None else driven,
                 env_commands.speed_map(drive),
                 drive.half_track,
                 drive.scale_max,

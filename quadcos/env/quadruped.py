@@ -95,6 +95,9 @@ class QuadrupedEnv(base.Env):
         # action map around the centre and the feed-forward's speed map and half track.
         self.action_map = oscillator.action_map(config.period_min, self.action_centre)
         self.drive_map = commands.drive_map(config.commands) if self.commanded else None
+        # the drive late by the latency as the action is (`randomization.delay_drive`)
+        self._late_drive = self.randomized and self.commanded and config.commands.feed_forward
+        self._late_drive &= bool(config.randomization.delay_drive)
         self.layout = Layout.of(self.robot.description, self.mj_model)
         self._torso_body = self.mj_model.body(self.robot.description.root_body).id
 
@@ -165,6 +168,8 @@ class QuadrupedEnv(base.Env):
                 draw_key, self.config.randomization, self.config.physics_dt
             )
             info |= {"physics": physics, "rng": rng, "action": jnp.zeros(self.action_size)}
+            if self._late_drive:  # the drive that acts during the first step's latency
+                info["driven"] = info["velocity_command"].driven()
             info["fresh_draw"] = jnp.ones((), bool)  # the draw it steps with: `_perturb`
             if self.conditioned:  # which robustness condition the robot takes
                 drawn_from = self.config.randomization
@@ -205,6 +210,9 @@ class QuadrupedEnv(base.Env):
         info = self._perturb(state.info, just_reset)
         if self.commanded:
             info["velocity_command"] = self.commands.restart(info["velocity_command"], just_reset)
+            if self._late_drive:  # a new episode has no earlier drive
+                driven = info["velocity_command"].driven()
+                info["driven"] = jnp.where(just_reset, driven, info["driven"])
         if self.randomized:
             push = randomization.push_force(info["physics"])
             torso_force = before.xfrc_applied.at[self._torso_body, :3].set(push)
@@ -213,6 +221,8 @@ class QuadrupedEnv(base.Env):
         data, phase, command = self._actuate(before, phase, command, action, info)
         if self.randomized:
             info["action"] = jnp.clip(action, -1.0, 1.0)
+        if self._late_drive:  # the drive this step asked for (`_track` then corrects it)
+            info["driven"] = info["velocity_command"].driven()
         observed = self._observe(data, phase, command)
         position = data.qpos[self.layout.position]
         slope_truth = self.terrain.slope_at(position[0], position[1])
@@ -351,7 +361,8 @@ class QuadrupedEnv(base.Env):
         info: dict[str, Any],
     ) -> tuple[mjx.Data, jax.Array, jax.Array]:
         """`substeps` physics steps; the command (the filtered action) moves towards `action`
-        (towards the previous action for a randomised robot's first `latency_steps`)."""
+        (towards the previous action for a randomised robot's first `latency_steps`, and with
+        `randomization.delay_drive` the drive's scales are the previous step's meanwhile)."""
         dt = self.config.physics_dt
         tau = self.config.action_filter_tau
         blend = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0
@@ -363,16 +374,19 @@ class QuadrupedEnv(base.Env):
             # behind a barrier they are built once a control step (docs/benchmarks.md).
             model = jax.lax.optimization_barrier(model)
         drive = self.drive_for(info["velocity_command"].driven()) if self.commanded else None
+        late_drive = self.drive_for(info["driven"]) if self._late_drive else drive
         strength = randomization.strength(info["physics"]) if self.randomized else 1.0
 
         def substep(carry, index):
             data, phase, command = carry
-            target = action
+            target, scales = action, drive
             if self.randomized:  # the previous action acts for the first latency_steps
                 late = index < randomization.latency_steps(info["physics"])
                 target = jnp.where(late, info["action"], action)
+                if self._late_drive:
+                    scales = jnp.where(late, late_drive, drive)
             command = command + blend * (target - command)
-            targets = self.joint_targets(command, phase, data.time, drive)
+            targets = self.joint_targets(command, phase, data.time, scales)
             data = data.replace(ctrl=self.layout.controls(targets, data, strength))
             data = backends.step(model, data)
             period = controller.period(self.config, self.action_map, command)
@@ -489,12 +503,7 @@ class QuadrupedEnv(base.Env):
 GAIT_KEY = "gait"  # state.info: the gait's maps (`QuadrupedEnv.gait`) a trainer passes as data
 _SPAWN_CLEARANCE = 0.002  # m: feet start just above the ground
 _SPAWN_MARGIN = 1.0  # m: the least ground ahead of a random spawn (a robot is 0.8 m long)
-_STEP_METRICS = (  # besides the reward's terms; the last two: the body's attitude off the slope
-    "forward_speed",
-    "slope_estimate",
-    "slope_truth",
-    "slope_error",
-    "abs_roll",
-    "abs_pitch_error",
-)
+# besides the reward's terms; the last two: the body's attitude off the slope
+_STEP_METRICS = ("forward_speed", "slope_estimate", "slope_truth", "slope_error", "abs_roll",
+                 "abs_pitch_error")  # fmt: skip
 

@@ -20,7 +20,7 @@ friction U(0.4, 1.0), body masses ×U(0.9, 1.1), base mass ±1 kg, joint frictio
   the joints' damping (×);
 - motor strength: the torque limit (×) of the servos and of the torque motors' PD;
 - control latency: a new action reaches the command filter this many seconds late (whole physics
-  steps; the previous action acts meanwhile);
+  steps; the previous action acts meanwhile); with `delay_drive` the command's drive as well;
 - pushes: a force of `push_force_n` in a random horizontal direction on the torso for
   `push_duration_s`, starting on average every `push_interval_s`;
 - observation noise: N(0, `obs_noise`²) on each value of the observation the policy sees (the
@@ -69,6 +69,10 @@ def default_config() -> ml_collections.ConfigDict:
     config.damping_scale = (0.8, 1.2)
     config.strength_scale = (0.75, 1.1)
     config.latency_s = (0.0, 0.04)
+    # With commands and the feed-forward: the drive's scales late by the latency as the action
+    # is (the previous control step's meanwhile), its loops' feedback on yaw and speed with them;
+    # False: the drive acts at once, and a gait (zero actions) is untouched by latency.
+    config.delay_drive = False
     config.push_force_n = 50.0
     config.push_duration_s = 0.1
     config.push_interval_s = 5.0  # mean time between pushes; 0: no pushes
