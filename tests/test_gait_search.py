@@ -113,6 +113,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     assert env.pop("observe_angular_velocity") is False  # the gyro, added since: not observed
     assert env["reward"].pop("action_rate") == 0.0  # the action-rate term, added since: off
     assert env["randomization"].pop("range_ends") == 0.0  # draws at the ranges' ends: off
+    assert env["randomization"].pop("delay_drive") is False  # the drive late too, added since
     # robots in the robustness conditions, added since: none, in training or its evaluations
     conditions = env["randomization"].pop("conditions"), env["randomization"].pop("eval_conditions")
     assert conditions == ("", "")
@@ -137,6 +138,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy(monk
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
     assert env["randomization"]["eval_conditions"] == "robustness"
+    assert env["randomization"].pop("delay_drive") is False  # the drive late too: added since
     assert env.pop("action_centre") == "search" and trained.pop("action_centre") != "search"
     for resolved in ("reference_speed", "half_track", "speed_map"):  # the calibration's
         assert not env["commands"].pop(resolved) and trained["commands"].pop(resolved)
