@@ -25,7 +25,8 @@
 # and the policies (LAST=0: not the last policy's two; GAIT=0: not gait_robustness.json);
 # pack tars NAME/ with the run's logs, its gait search's gait_search.json and its policies as
 # NAME.tgz. MEM (default 0.9): the share of each GPU's memory the call's processes take
-# together, less where another call's runs share the GPUs.
+# together, less where another call's runs share the GPUs. IMPL_JAX=1: train without warp-lang
+# (`train` refuses to otherwise).
 set -uo pipefail
 verb=${1:?usage: run_gpu.sh train|wait|evaluate RUN...}; shift
 export MENAGERIE_ROOT=${MENAGERIE_ROOT:-$PWD/.menagerie}
@@ -55,6 +56,11 @@ loops_open="--config.env.commands.speed_gain_rate=0 --config.env.commands.headin
 
 case $verb in
 train)
+  # the campaign's robots step on MJX-Warp; without warp-lang they would fall back to MJX-JAX,
+  # slower by several times, and a 480-s run may end before its actor learns
+  python3 -c "import warp" 2> /dev/null || [ "${IMPL_JAX:-0}" = 1 ] || {
+    echo "warp-lang is not importable: install it (quadcos[warp]), or IMPL_JAX=1 to train" \
+      "on MJX-JAX" >&2; exit 2; }
   rm -rf /tmp/qc && mkdir -p /tmp/qc && cp -r quadcos pyproject.toml .menagerie /tmp/qc/ 2>/dev/null
   i=0
   for spec in "$@"; do
