@@ -319,38 +319,19 @@ class QuadrupedEnv(base.Env):
         return randomization.apply(self.model, info["physics"], self._torso_body)
 
     def _perturb(self, info: dict[str, Any], just_reset: jax.Array) -> dict[str, Any]:
-        """A randomised robot's physics for this step: drawn anew after Brax's auto-reset (which
-        keeps the finished episode's `info`), kept after `reset` (which drew it: an evaluation
-        groups its robots by that draw's condition), then the push process advanced."""
+        """A randomised robot's `info` for this step: `randomization.step_info`."""
         if not self.randomized:
             return dict(info)  # the step writes into it: not into the caller's state
-        config = self.config.randomization
-        redraw = just_reset & ~info["fresh_draw"]
-        rng, draw_key, push_key = jax.random.split(info["rng"], 3)
-        fresh = randomization.sample(draw_key, config, self.config.physics_dt)
-        fresh = fresh._replace(level=info["physics"].level)  # a level is the trainer's to set
-        physics = jax.tree.map(lambda a, b: jnp.where(redraw, a, b), fresh, info["physics"])
-        perturbed = {**info, "rng": rng, "fresh_draw": jnp.zeros((), bool)}
-        if self.conditioned:
-            fresh_condition = randomization.condition_index(draw_key, config)
-            perturbed["condition"] = jnp.where(redraw, fresh_condition, info["condition"])
-        condition = perturbed.get("condition")
-        perturbed["physics"] = randomization.next_push(
-            push_key, physics, config, self.dt, condition
-        )
-        perturbed["action"] = jnp.where(just_reset, 0.0, info["action"])  # acts during latency
-        return perturbed
+        return randomization.step_info(
+            info, just_reset, self.config.randomization, self.config.physics_dt, self.dt,
+            self.conditioned,
+        )  # fmt: skip
 
     def _seen(self, obs: jax.Array, info: dict[str, Any]) -> tuple[jax.Array, dict[str, Any]]:
         """The observation as the policy sees it: with a randomised robot's observation noise."""
-        config = self.config.randomization
-        if not self.randomized or not randomization.has_obs_noise(config):
+        if not self.randomized:
             return obs, info
-        rng, noise_key = jax.random.split(info["rng"])
-        return randomization.observed(noise_key, obs, config, info.get("condition")), {
-            **info,
-            "rng": rng,
-        }
+        return randomization.seen(obs, info, self.config.randomization)
 
     def _actuate(
         self,

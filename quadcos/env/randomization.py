@@ -366,3 +366,38 @@ def observed(
     `condition` where the env draws `conditions`)."""
     (noise,) = _settings(config, condition, ("obs_noise",))
     return obs + noise * jax.random.normal(rng, obs.shape, obs.dtype)
+
+
+def step_info(
+    info: dict,
+    just_reset: jax.Array,
+    config: ml_collections.ConfigDict,
+    physics_dt: float,
+    dt: float,
+    conditioned: bool,
+) -> dict:
+    """A randomised robot's env `info` for its next control step (of `dt` s): its physics drawn
+    anew after Brax's auto-reset (which keeps the finished episode's `info`), kept after `reset`
+    (which drew it, `fresh_draw`: an evaluation groups its robots by that draw's condition), then
+    the push process advanced (`next_push`); the previous action zeroed after a reset."""
+    redraw = just_reset & ~info["fresh_draw"]
+    rng, draw_key, push_key = jax.random.split(info["rng"], 3)
+    fresh = sample(draw_key, config, physics_dt)
+    fresh = fresh._replace(level=info["physics"].level)  # a level is the trainer's to set
+    physics = jax.tree.map(lambda a, b: jnp.where(redraw, a, b), fresh, info["physics"])
+    stepped = {**info, "rng": rng, "fresh_draw": jnp.zeros((), bool)}
+    if conditioned:
+        fresh_condition = condition_index(draw_key, config)
+        stepped["condition"] = jnp.where(redraw, fresh_condition, info["condition"])
+    stepped["physics"] = next_push(push_key, physics, config, dt, stepped.get("condition"))
+    stepped["action"] = jnp.where(just_reset, 0.0, info["action"])  # acts during latency
+    return stepped
+
+
+def seen(obs: jax.Array, info: dict, config: ml_collections.ConfigDict) -> tuple[jax.Array, dict]:
+    """(`obs` as a randomised robot's policy sees it, `info` with its rng advanced): `observed`
+    where the config has observation noise, else `obs` and `info` as they are."""
+    if not has_obs_noise(config):
+        return obs, info
+    rng, noise_key = jax.random.split(info["rng"])
+    return observed(noise_key, obs, config, info.get("condition")), {**info, "rng": rng}
