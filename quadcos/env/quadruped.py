@@ -322,10 +322,9 @@ class QuadrupedEnv(base.Env):
         """A randomised robot's `info` for this step: `randomization.step_info`."""
         if not self.randomized:
             return dict(info)  # the step writes into it: not into the caller's state
-        return randomization.step_info(
-            info, just_reset, self.config.randomization, self.config.physics_dt, self.dt,
-            self.conditioned,
-        )  # fmt: skip
+        config = self.config
+        return randomization.step_info(info, just_reset, config.randomization, config.physics_dt,
+                                       self.dt)  # fmt: skip
 
     def _seen(self, obs: jax.Array, info: dict[str, Any]) -> tuple[jax.Array, dict[str, Any]]:
         """The observation as the policy sees it: with a randomised robot's observation noise."""

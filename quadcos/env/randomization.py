@@ -374,19 +374,19 @@ def step_info(
     config: ml_collections.ConfigDict,
     physics_dt: float,
     dt: float,
-    conditioned: bool,
 ) -> dict:
     """A randomised robot's env `info` for its next control step (of `dt` s): its physics drawn
     anew after Brax's auto-reset (which keeps the finished episode's `info`), kept after `reset`
     (which drew it, `fresh_draw`: an evaluation groups its robots by that draw's condition), then
-    the push process advanced (`next_push`); the previous action zeroed after a reset."""
+    the push process advanced (`next_push`); the previous action zeroed after a reset. With
+    `conditions` the robot's condition is drawn anew with its physics."""
     redraw = just_reset & ~info["fresh_draw"]
     rng, draw_key, push_key = jax.random.split(info["rng"], 3)
     fresh = sample(draw_key, config, physics_dt)
     fresh = fresh._replace(level=info["physics"].level)  # a level is the trainer's to set
     physics = jax.tree.map(lambda a, b: jnp.where(redraw, a, b), fresh, info["physics"])
     stepped = {**info, "rng": rng, "fresh_draw": jnp.zeros((), bool)}
-    if conditioned:
+    if condition_names(config.conditions):
         fresh_condition = condition_index(draw_key, config)
         stepped["condition"] = jnp.where(redraw, fresh_condition, info["condition"])
     stepped["physics"] = next_push(push_key, physics, config, dt, stepped.get("condition"))
