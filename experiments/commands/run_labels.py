@@ -210,6 +210,12 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " the GPU)",
     "anymalcmd_yaw40alone420_s0": "w4 ÷3 (`reward.yaw` 40, the preset 120); alone on the GPU for"
     " 420 s, not 480, training only",
+    "anymalcmd_gain3_s0": "the drive's speed loop 3× faster (`commands.speed_gain_rate` 3, the"
+    " preset 1; two runs sharing one GPU)",
+    "anymalcmd_gain3filt5_s0": "the same and the action filter's τ 0.5 s (`env.action_filter_tau`,"
+    " the preset 0.25 s; two sharing)",
+    "anymalcmd_gain3alone440_s0": "the speed loop 3× faster alone on the GPU for 440 s, training"
+    " only",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
