@@ -52,7 +52,8 @@ CAMPAIGN = {  # run in campaign.json -> its drive (docs/env.md, "Feed-forward")
     " 300 s",
     "go1loops_s1": "as `go1loops_s0`, seed 1",
     "go1loops_s2": "as `go1loops_s0`, seed 2",
-    "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s: `../policies/unitree_go2_command` at commit c65e57b",
+    "go2long_s0": "the preset, loops open (Go2, seed 0), 540 s:"
+    " `../policies/unitree_go2_command` at commit c65e57b",
     "go2loops_s0": "the preset (Go2, seed 0): the drive's loops closed, 300 s",
     "go2loops540_s0": "as `go2loops_s0`, 540 s",
     "go1loops540_s0": "as `go1loops_s0`, 540 s: its best evaluation the searched gait (step 0)",
@@ -111,7 +112,8 @@ NO_PRESET = {  # run in campaign.json -> what it loads: Go1's MJCF by its path a
 # step 0 every 2 M env steps), 480 s from nothing: Go1's three seeds and Go2's sharing one GPU,
 # ANYmal C's two another
 PRESET = ("go1cmd_tauyaw3gait_s0", "go1cmd_tauyaw3gait_s1", "go1cmd_tauyaw3gait_s2",
-          "go2cmd_tauyaw3gait_s0", "go1cmd_base_s0", "go1cmd_base_s2", "anymalcmd_s0", "anymalcmd_s1")
+          "go2cmd_tauyaw3gait_s0", "go1cmd_base_s0", "go1cmd_base_s2", "anymalcmd_s0",
+          "anymalcmd_s1")
 # the preset with the kept policy chosen among evaluations within 0.10 rad of roll and pitch
 # error (`sac.best_policy_max_attitude`, lever `att`): Go1's three seeds two sharing one GPU,
 # Go2's sharing another with Go1 seed 2 and ANYmal C's `anymalcmd_nstep3_s0`
@@ -177,7 +179,8 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalfw900_s0": "w1 ×2 (`reward.forward` 900, the preset 450; two runs sharing one GPU)",
     "anymalyaw40_s0": "w4 ÷3 (`reward.yaw` 40, the preset 120; two runs sharing one GPU)",
     "anymalalone_s0": "— (alone on the GPU)",
-    "anymalcmd_anchor10_s0": "λ‖μ(s)‖² in the actor's loss, λ 10 (`sac.smoothness.anchor`; two sharing)",
+    "anymalcmd_anchor10_s0": "λ‖μ(s)‖² in the actor's loss, λ 10 (`sac.smoothness.anchor`; two"
+    " sharing)",
     "anymalcmd_anchor100_s0": "the same, λ 100 (two sharing)",
     "anymalcmd_nstep3_s0": "n-step returns, n 3 (`sac.n_step`; three sharing)",
     "anymalcmd_fw2250_s0": "w1 ×5 (`reward.forward` 2250; two sharing)",
@@ -216,6 +219,12 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " the preset 0.25 s; two sharing)",
     "anymalcmd_gain3alone440_s0": "the speed loop 3× faster alone on the GPU for 440 s, training"
     " only",
+    "anymalcmd_presetalone_s2": "— (the preset as it is, seed 2; alone on the GPU, training"
+    " only)",
+    "anymalcmd_presetalone_s3": "— (the preset as it is, seed 3; alone on the GPU, training"
+    " only)",
+    "anymalcmd_filt5alone420_s0": "the action filter's τ 0.5 s (`env.action_filter_tau`, the preset"
+    " 0.25 s); alone on the GPU for 420 s, training only",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
