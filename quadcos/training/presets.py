@@ -282,7 +282,8 @@ PRESETS["command"] = {
             # 2 updates per env step, not 8 (replay ratio 4, not 16: Raffin's low replay ratio for
             # SAC on massively parallel envs), the training evaluations in the four robustness
             # conditions: seeds 0 and 1 keep their searched gaits, within every target (SAC's
-            # evaluations trail step 0 in a condition, by 1.37-1.99 from 6 M env steps on). With
+            # evaluations trail step 0 in a condition, by 1.37-1.99 from 6 M env steps on), and
+            # so do seeds 0, 2 and 3 alone on a GPU (1.03-2.87 over 23-26 M env steps). With
             # each condition's group mixing all four, seed 0 kept a policy from 8.1 M env steps,
             # no worse than its gait in any of the 12 (condition, measure) cells (the shipped
             # one); with 8 updates none of fifteen runs of other levers did (experiments/commands,
