@@ -297,6 +297,8 @@ def test_the_campaign_record_packs_its_tables_and_loads_them_back_as_rows(monkey
     evaluation = runs["anymalcmd_presetalone_s0"]["evaluations"][1]
     assert evaluation["env_steps"] == 2113536 and evaluation["worst_cell"] == "latency_40_ms/speed"
     assert "falls_above_step0" not in evaluation  # a null column is no key
+    assert evaluation["critic_loss"] > 0 and evaluation["alpha"] > 0  # the learner's chunk
+    assert "critic_loss" not in runs["anymalcmd_presetalone_s0"]["evaluations"][0]  # step 0: none
     nominal = runs["anymalcmd_presetalone_s0"]["robustness"]["nominal"]
     assert nominal["success_rate"] == 1.0 and set(nominal) == set(training_summary.KEYS[:5])
     run = runs["anymalcmd_presetalone_s0"]

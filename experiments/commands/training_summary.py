@@ -5,18 +5,18 @@
 
 `--into` keeps the runs of an earlier record (e.g. experiments/commands/campaign.json) and adds or
 replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
---no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b,
-speed map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall
-rate, the env-steps/s of the window it ends, its tracking RMS where logged, and where its
-evaluations measured the robustness conditions its worst ratio to step 0 as the gait rank reads
-it: `to_step0`, `worst_cell`, and per measure `speed_to_step0`, `yaw_rate_to_step0`), the
-training rate at the last evaluation, the solver probe's physics (a robot without a preset), the
-gait tracking measure's finalists (`sac.gait_search.track_gaits`), and the key numbers of the
-kept policy's random-command evaluation and robustness conditions, of its step-0
-gait's conditions and of the last policy's evaluation and conditions (where measured), with the
-physics they ran on where recorded (per-episode data left out). The record holds the rows of
-those tables as lists under its "columns"; `load_runs` reads them back as dicts.
-"""
+--no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b, speed
+map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall rate, the
+env-steps/s of the window it ends, its tracking RMS where logged, and where its evaluations measured
+the robustness conditions its worst ratio to step 0 as the gait rank reads it: `to_step0`,
+`worst_cell`, and per measure `speed_to_step0`, `yaw_rate_to_step0`; and the learner's chunk it
+ends: `train_reward`, `critic_loss`, `alpha`, where packed), the training rate at the last
+evaluation, the solver probe's physics (a robot without a preset), the gait tracking measure's
+finalists (`sac.gait_search.track_gaits`), and the key numbers of the kept policy's random-command
+evaluation and robustness conditions, of its step-0 gait's conditions and of the last policy's
+evaluation and conditions (where measured), with the physics they ran on where recorded (per-episode
+data left out). The record holds the rows of those tables as lists under its "columns"; `load_runs`
+reads them back as dicts."""
 
 import io
 import json
@@ -104,6 +104,7 @@ def summary(path: Path) -> dict:
     config = json.loads(files.get("config.json", "{}"))
     metrics = files.get("metrics.jsonl", "")
     smoothness, against_gait = _smoothness(metrics), _against_gait(metrics)
+    learner = _learner(metrics)
     argv = config.get("run_info", {}).get("argv")
     centre = config.get("run_info", {}).get("env", {}).get("action_centre")
     best = json.loads(files.get("policy_best.json", "{}")).get("config", {}).get("best_of_run")
@@ -136,6 +137,8 @@ def summary(path: Path) -> dict:
                 # against step 0 in each condition's tracking (runs whose evaluations measured
                 # the robustness conditions: `_against_gait`)
                 **against_gait.get(int(steps.replace(",", "")), {}),
+                # the learner over the chunk the evaluation ends (runs that packed metrics.jsonl)
+                **learner.get(int(steps.replace(",", "")), {}),
             }
             for steps, rate, reward, speed, falls, speed_rms, yaw_rms, roll in rows
         ],
@@ -182,6 +185,21 @@ def _smoothness(metrics: str) -> dict[int, dict]:
         row["step"]: {"actor_loss": row["train/actor_loss"], "smoothness": row["train/smoothness"]}
         for row in rows
         if "train/smoothness" in row
+    }
+
+
+def _learner(metrics: str) -> dict[int, dict]:
+    """{env step: its chunk's mean reward per stored transition (the exploring policy's, unscaled),
+    critic loss and temperature α} of a metrics.jsonl's rows after the learner's first chunk."""
+    rows = (json.loads(line) for line in metrics.splitlines() if line.strip())
+    return {
+        row["step"]: {
+            "train_reward": row["train/reward"],
+            "critic_loss": row["train/critic_loss"],
+            "alpha": row["train/alpha"],
+        }
+        for row in rows
+        if "train/critic_loss" in row
     }
 
 
@@ -245,7 +263,8 @@ BY_CONDITION = ("robustness", "gait_robustness", "last_robustness")  # {conditio
 COLUMNS = {
     "evaluations": ("env_steps", "eval_reward", "speed", "fall_rate", "env_steps_per_s",
                     "speed_rms", "yaw_rate_rms", "actor_loss", "smoothness", "roll", "to_step0",
-                    "worst_cell", "falls_above_step0", "speed_to_step0", "yaw_rate_to_step0"),
+                    "worst_cell", "falls_above_step0", "speed_to_step0", "yaw_rate_to_step0",
+                    "train_reward", "critic_loss", "alpha"),
     "tracked_gaits": ("fall_percent", "speed_rms", "yaw_rate_rms", "roll", "pitch_error", "kept"),
     **{key: KEYS[:5] for key in BY_CONDITION},
 }
