@@ -50,6 +50,7 @@ if __name__ == "__main__":
     names = sys.argv[1:] or list(ENGINE_RUNS)
     unknown = [name for name in names if name not in ENGINE_RUNS]
     if unknown:
-        sys.exit(f"engines_record.py: unknown {', '.join(unknown)}; known: {', '.join(ENGINE_RUNS)}")
+        known = ", ".join(ENGINE_RUNS)
+        sys.exit(f"engines_record.py: unknown {', '.join(unknown)}; known: {known}")
     for record_name in names:
         measure_engines(record_name)

@@ -71,7 +71,8 @@ def main() -> None:
     for label, s in summaries.items():
         print(f"{label}: {s['success_rate'] * s['num_episodes']:.0f} / {s['num_episodes']},"
               f" {s['speed_tracking_rms']:.3f} m/s, {s['yaw_rate_tracking_rms']:.3f} rad/s,"
-              f" pitch error {s['mean_max_abs_pitch_error']:.3f}, roll {s['mean_max_abs_roll']:.3f}")
+              f" pitch error {s['mean_max_abs_pitch_error']:.3f},"
+              f" roll {s['mean_max_abs_roll']:.3f}")
 
 
 if __name__ == "__main__":

@@ -16,29 +16,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from run_labels import (
-    ANYMAL,
-    ANYMAL_SAC,
-    ATTITUDE,
-    CAMPAIGN,
-    CONDITIONS16_EVAL20,
-    CONDITIONS16_UPDATES2,
-    GO1_LEVERS,
-    LATENCY_LEVERS,
-    LEVERS,
-    NO_PRESET,
-    PRESET,
-    PRESET_CONDITIONS,
-    PRIVILEGED,
-    SAC_LEVERS,
-    SEARCH_ATTITUDE,
-    SEARCH_TRACK_ATTITUDE8,
-    SEARCH_TRACK_ATTITUDE16,
-    SEARCH_TRACK_CONDITIONS16,
-    TRACK_ATTITUDE,
-    TRACK_ATTITUDE8,
-    TRACKED,
-)
+import run_labels as labels
 from training_summary import load_runs
 
 HERE = Path(__file__).parent
@@ -100,14 +78,17 @@ def table() -> str:
             if c.get("feed_forward") else "off"
             for c in commands.values()
         ]),
-        _row("`policy_env_steps`", "", [f"{e['setup']['policy_env_steps']:,}" for e in evals.values()]),
+        _row("`policy_env_steps`", "",
+             [f"{e['setup']['policy_env_steps']:,}" for e in evals.values()]),
         _row("survival, 1024 episodes: " + " / ".join(CONDITIONS), TARGETS["survival"],
              [_survival(robust[r]) for r in RUNS]),
         _row("survival, random commands (episodes)", "",
              [f"{e['success_rate']:.3f} ({e['num_episodes']})" for e in evals.values()]),
-        _row("mean forward speed, m/s", "", [f"{e['mean_forward_speed']:.2f}" for e in evals.values()]),
+        _row("mean forward speed, m/s", "",
+             [f"{e['mean_forward_speed']:.2f}" for e in evals.values()]),
     ]
-    for key in ("speed_tracking_rms", "yaw_rate_tracking_rms", "mean_max_abs_pitch_error", "mean_max_abs_roll"):
+    for key in ("speed_tracking_rms", "yaw_rate_tracking_rms", "mean_max_abs_pitch_error",
+                "mean_max_abs_roll"):
         lines.append(_row(f"`{key}`", TARGETS[key], [f"{e[key]:.3f}" for e in evals.values()]))
     for key in ("cost_of_transport", "peak_joint_torque_ratio"):
         cells = ["—" if e[key] is None else f"{e[key]:.2f}" for e in evals.values()]
@@ -129,7 +110,7 @@ def levers() -> str:
     """The rows of the levers table: each run's last evaluation in training."""
     runs = json.loads((HERE / "training_feed_forward.json").read_text())["runs"]
     rows = []
-    for name, change in LEVERS.items():
+    for name, change in labels.LEVERS.items():
         e = runs[name]["last_evaluation"]
         rows.append(
             f"| `{name}` | {change} | {e['env_steps'] / 1e6:.1f} M | {e['eval_reward']:.0f} |"
@@ -208,7 +189,7 @@ def seeds(names: tuple[str, ...]) -> str:
     return "\n".join(rows)
 
 
-def sac_levers(levers: dict[str, str] = SAC_LEVERS, gait: bool = False) -> str:
+def sac_levers(levers: dict[str, str] = labels.SAC_LEVERS, gait: bool = False) -> str:
     """The rows of a SAC levers table: the trainer's reward from the start to its last
     evaluation, the kept policy, and its survival and tracking (speed, yaw rate) in each
     condition; with `gait`, a first row of the runs' common start (step-0 gait) and where each
@@ -314,17 +295,19 @@ def against_gait() -> str:
     runs = _campaign()
     rows = []
     for name, run in runs.items():
-        if "gait_robustness" not in run or name in GO1_LEVERS:  # those: in their levers table
+        if "gait_robustness" not in run or name in labels.GO1_LEVERS:  # in their levers' table
             continue
         gait = run["gait_robustness"]
         policies = [("step-0 gait", 0, gait)]
         if run["kept"]["policy_env_steps"]:  # a kept step 0 is the gait under the untrained actor
             policies.append(("kept policy", run["kept"]["policy_env_steps"], run["robustness"]))
         if run["last"] and run.get("last_robustness"):
-            policies.append(("last policy", run["last"]["policy_env_steps"], run["last_robustness"]))
+            last = run["last"]["policy_env_steps"]
+            policies.append(("last policy", last, run["last_robustness"]))
         for label, steps, conditions in policies:
             verdict = "; ".join(shortfalls(conditions, gait)) or "no worse anywhere"
-            rows.append(_policy_row(name, label, steps, conditions) + f" | {verdict if steps else '—'} |")
+            verdict = verdict if steps else "—"
+            rows.append(_policy_row(name, label, steps, conditions) + f" | {verdict} |")
     return "\n".join(rows)
 
 
@@ -332,7 +315,7 @@ def campaign() -> str:
     """The rows of the campaign table: each run's feed-forward, kept and last policy."""
     runs = _campaign()
     rows = []
-    for name, drive in CAMPAIGN.items():
+    for name, drive in labels.CAMPAIGN.items():
         run, kept, last = runs[name], runs[name]["kept"], runs[name]["last"]
         survival = _rates((run["robustness"] or {}).values()) or "not measured"
         rows.append(
@@ -351,7 +334,7 @@ def anymal() -> str:
     (nominal) and its tracking under random commands with the training randomisation."""
     runs = _campaign()
     rows = []
-    for name, change in ANYMAL.items():
+    for name, change in labels.ANYMAL.items():
         run, kept = runs[name], runs[name]["kept"]
         conditions = run["robustness"] or {}
         period = float(run["action_centre"].split(",")[2])
@@ -373,7 +356,7 @@ def anymal_sac() -> str:
     evaluation beats it in both."""
     runs = _campaign()
     rows = []
-    for name, change in ANYMAL_SAC.items():
+    for name, change in labels.ANYMAL_SAC.items():
         run = runs[name]
         first, *trained = run["evaluations"]
         best = {key: min(trained, key=lambda e: e[key]) for key in ("speed_rms", "yaw_rate_rms")}
@@ -400,7 +383,7 @@ def no_preset() -> str:
     of evaluations and the whole run) and, where evaluated, its kept policy."""
     runs = _campaign()
     rows = []
-    for name, loads in NO_PRESET.items():
+    for name, loads in labels.NO_PRESET.items():
         run, kept = runs[name], runs[name]["kept"]
         physics = run.get("solver_probe", "the preset's")
         first = run["evaluations"][1]["env_steps_per_s"] / 1e3
@@ -411,7 +394,8 @@ def no_preset() -> str:
                 f" {_tracking(kept)}"
             )
         whole = run["env_steps_per_s"] / 1e3
-        rows.append(f"| `{name}` | {loads} | {physics} | {first:.1f} k / {whole:.1f} k | {policy} |")
+        rate = f"{first:.1f} k / {whole:.1f} k"
+        rows.append(f"| `{name}` | {loads} | {physics} | {rate} | {policy} |")
     return "\n".join(rows)
 
 
@@ -471,12 +455,14 @@ def figure() -> None:
 def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
-        table(), seeds(PRESET), seeds(ATTITUDE), seeds(SEARCH_ATTITUDE), seeds(TRACKED),
-        seeds(TRACK_ATTITUDE), seeds(TRACK_ATTITUDE8), seeds(SEARCH_TRACK_ATTITUDE8),
-        seeds(SEARCH_TRACK_ATTITUDE16), seeds(SEARCH_TRACK_CONDITIONS16),
-        seeds(CONDITIONS16_UPDATES2), seeds(CONDITIONS16_EVAL20), seeds(PRESET_CONDITIONS),
-        seeds(LATENCY_LEVERS), seeds(PRIVILEGED), anymal_sac(), no_preset(), gain(), campaign(),
-        anymal(), sac_levers(), sac_levers(GO1_LEVERS, gait=True), versus_gait(), against_gait(),
+        table(),
+        *(seeds(getattr(labels, name)) for name in (
+            "PRESET", "ATTITUDE", "SEARCH_ATTITUDE", "TRACKED", "TRACK_ATTITUDE", "TRACK_ATTITUDE8",
+            "SEARCH_TRACK_ATTITUDE8", "SEARCH_TRACK_ATTITUDE16", "SEARCH_TRACK_CONDITIONS16",
+            "CONDITIONS16_UPDATES2", "CONDITIONS16_EVAL20", "PRESET_CONDITIONS", "LATENCY_LEVERS",
+            "PRIVILEGED")),
+        anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
+        sac_levers(labels.GO1_LEVERS, gait=True), versus_gait(), against_gait(),
         engines(), levers(),
     )
 

@@ -227,7 +227,8 @@ def main() -> None:
     parser.add_argument(
         "--speed_gain_rate",
         type=float,
-        help="the drive's speed-gain rate (1/s, env.commands.speed_gain_rate); default: the policy's",
+        help="the drive's speed-gain rate (1/s, env.commands.speed_gain_rate); default: the"
+        " policy's",
     )
     parser.add_argument(
         "--heading_gain",

@@ -51,7 +51,8 @@ def _run_and_policy(text: str) -> tuple[str, str]:
 
 def dumps(record: dict) -> str:
     """`record` as JSON with one line per condition: a small record that diffs run by run."""
-    lines = ["{"] + [f" {json.dumps(k)}: {json.dumps(v)}," for k, v in record.items() if k != "runs"]
+    lines = ["{"]
+    lines += [f" {json.dumps(k)}: {json.dumps(v)}," for k, v in record.items() if k != "runs"]
     runs = []
     for run, entry in record["runs"].items():
         parts = []
