@@ -3,6 +3,7 @@
 differs from its record; a record written by `record` renders back its sources' numbers."""
 
 import json
+import os
 import pathlib
 import shutil
 
@@ -363,3 +364,25 @@ def test_a_run_that_only_trained_records_the_step_of_its_best_policy(monkeypatch
     assert table._kept_steps({"kept": {"policy_env_steps": 0}}) == "0.0 M"
     (run / "policy_best" / "policy.json").unlink()  # a run that saved no best policy
     assert "best_of_run" not in training_summary.summary(run)
+
+
+def test_kept_only_skips_the_evaluation_of_a_run_that_kept_its_gait(tmp_path):
+    """`KEPT_ONLY=1 run_gpu.sh evaluate` evaluates nothing of a run whose training kept its
+    step-0 gait (best_of_run step 0: its training evaluations already say how it does) and
+    writes nothing for it; a bad RUN is still refused with exit 2."""
+    import subprocess
+
+    policy = tmp_path / "runs" / "anymal_gait_s0" / "policy_best"
+    policy.mkdir(parents=True)
+    (policy / "policy.json").write_text(json.dumps({"config": {"best_of_run": {"step": 0}}}))
+    env = {**os.environ, "RUNS": str(tmp_path / "runs"), "OUT": str(tmp_path / "out"),
+           "KEPT_ONLY": "1"}
+    script = str(ROOT / "experiments/commands/run_gpu.sh")
+    done = subprocess.run(["bash", script, "evaluate", "anymal_gait_s0@menagerie:x@0"],
+                          env=env, capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "anymal_gait_s0 kept its step-0 gait: not evaluated" in done.stdout
+    assert list((tmp_path / "out").iterdir()) == []
+    bad = subprocess.run(["bash", script, "evaluate", "no_robot"], env=env, capture_output=True,
+                         text=True, cwd=tmp_path)
+    assert bad.returncode == 2 and "bad RUN 'no_robot'" in bad.stderr

@@ -22,7 +22,8 @@
 # summaries go to $OUT (default /tmp/qc_out): NAME_train.log's last lines; evaluate writes
 # NAME/eval.json, NAME/last_eval.json (the last policy), NAME/robustness.json (the kept policy's
 # four conditions), NAME/gait_robustness.json (its step-0 gait's), NAME/last_robustness.json
-# and the policies (LAST=0: not the last policy's two; GAIT=0: not gait_robustness.json);
+# and the policies (LAST=0: not the last policy's two; GAIT=0: not gait_robustness.json;
+# KEPT_ONLY=1: none for a run whose training kept its step-0 gait);
 # pack tars NAME/ with the run's logs, its gait search's gait_search.json and its policies as
 # NAME.tgz. MEM (default 0.9): the share of each GPU's memory the call's processes take
 # together, less where another call's runs share the GPUs. IMPL_JAX=1: train without warp-lang
@@ -107,6 +108,11 @@ evaluate)
   for spec in "$@"; do
     split_run "$spec"
     kept=$runs/$NAME/policy_best; [ -d "$kept" ] || kept=$runs/$NAME/policy
+    if [ "${KEPT_ONLY:-0}" = 1 ] && [ "$(python3 -c 'import json, sys
+print(json.load(open(sys.argv[1]))["config"]["best_of_run"]["step"])' "$kept/policy.json" \
+        2>/dev/null)" = 0 ]; then  # its training kept its step-0 gait: its evaluations say it
+      echo "$(date +%T) $NAME kept its step-0 gait: not evaluated (KEPT_ONLY=1)"; continue
+    fi
     mkdir -p "$OUT/$NAME"
     for p in policy policy_best; do
       [ -d "$runs/$NAME/$p" ] && cp -r "$runs/$NAME/$p" "$OUT/$NAME/"
