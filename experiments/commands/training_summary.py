@@ -103,8 +103,8 @@ def summary(path: Path) -> dict:
     rounds, found = SEARCH_ROUND.findall(log), SEARCH_END.search(log)
     config = json.loads(files.get("config.json", "{}"))
     metrics = files.get("metrics.jsonl", "")
-    smoothness, against_gait = _smoothness(metrics), _against_gait(metrics)
-    learner = _learner(metrics)
+    smoothness, learner = _chunks(metrics, SMOOTHNESS), _chunks(metrics, LEARNER)
+    against_gait = _against_gait(metrics)
     argv = config.get("run_info", {}).get("argv")
     centre = config.get("run_info", {}).get("env", {}).get("action_centre")
     best = json.loads(files.get("policy_best.json", "{}")).get("config", {}).get("best_of_run")
@@ -131,14 +131,13 @@ def summary(path: Path) -> dict:
                    if speed_rms else {}),
                 # the mean of its episodes' peak roll, rad (runs that logged it)
                 **({"roll": float(roll)} if roll else {}),
-                # the actor's loss and its CAPS term over the chunk the evaluation ends (runs
-                # with `sac.smoothness` on)
+                # the learner over the chunk the evaluation ends (SMOOTHNESS, LEARNER: runs
+                # that logged them)
                 **smoothness.get(int(steps.replace(",", "")), {}),
+                **learner.get(int(steps.replace(",", "")), {}),
                 # against step 0 in each condition's tracking (runs whose evaluations measured
                 # the robustness conditions: `_against_gait`)
                 **against_gait.get(int(steps.replace(",", "")), {}),
-                # the learner over the chunk the evaluation ends (runs that packed metrics.jsonl)
-                **learner.get(int(steps.replace(",", "")), {}),
             }
             for steps, rate, reward, speed, falls, speed_rms, yaw_rms, roll in rows
         ],
@@ -177,29 +176,23 @@ def summary(path: Path) -> dict:
     }
 
 
-def _smoothness(metrics: str) -> dict[int, dict]:
-    """{env step: its chunk's actor loss and smoothness term} of a metrics.jsonl's rows that
-    hold the term."""
-    rows = (json.loads(line) for line in metrics.splitlines() if line.strip())
-    return {
-        row["step"]: {"actor_loss": row["train/actor_loss"], "smoothness": row["train/smoothness"]}
-        for row in rows
-        if "train/smoothness" in row
-    }
+# the learner's values over the chunk an evaluation ends, by column: the actor's loss and its CAPS
+# term (runs with `sac.smoothness` on); the exploring policy's mean reward per stored transition
+# (unscaled), the critic's loss and the temperature α
+SMOOTHNESS = {"actor_loss": "train/actor_loss", "smoothness": "train/smoothness"}
+LEARNER = {
+    "train_reward": "train/reward", "critic_loss": "train/critic_loss", "alpha": "train/alpha",
+}
 
 
-def _learner(metrics: str) -> dict[int, dict]:
-    """{env step: its chunk's mean reward per stored transition (the exploring policy's, unscaled),
-    critic loss and temperature α} of a metrics.jsonl's rows after the learner's first chunk."""
+def _chunks(metrics: str, columns: dict[str, str]) -> dict[int, dict]:
+    """{env step: {column: its metric}} of a metrics.jsonl's rows that hold every metric of
+    `columns`."""
     rows = (json.loads(line) for line in metrics.splitlines() if line.strip())
     return {
-        row["step"]: {
-            "train_reward": row["train/reward"],
-            "critic_loss": row["train/critic_loss"],
-            "alpha": row["train/alpha"],
-        }
+        row["step"]: {column: row[key] for column, key in columns.items()}
         for row in rows
-        if "train/critic_loss" in row
+        if all(key in row for key in columns.values())
     }
 
 
