@@ -91,6 +91,12 @@ def _parser() -> argparse.ArgumentParser:
         help="time budget from the process's start, s: the run then ends as at --num_timesteps"
         " (evaluation, checkpoint, policy/, policy_best/)",
     )
+    parser.add_argument(
+        "--gait_from",
+        metavar="DIR",
+        help="start from the gait of DIR (a run or policy directory): its action centre and"
+        " feed-forward, so no gait search; e.g. to compare SAC settings from one gait",
+    )
     parser.add_argument("--output_dir", help="run directory (config, metrics, checkpoints, policy)")
     parser.add_argument(
         "--numbered",
@@ -193,7 +199,23 @@ def resolve(argv: Sequence[str]) -> tuple[argparse.Namespace, dict[str, Any]]:
         if key in flags:
             raise UsageError(f"--{flags[key]} and --config.{key} set the same value: give one")
         overrides[key] = parse_value(text)
+    if args.gait_from:
+        gait = _gait_from(args.gait_from)
+        if given := sorted(set(gait) & set(overrides)):
+            raise UsageError(f"--gait_from and --config.{given[0]} set the same value: give one")
+        overrides |= gait
     return args, overrides
+
+
+def _gait_from(path: str) -> dict[str, Any]:
+    """`--gait_from`'s env overrides: the gait (action centre, feed-forward) of the run or policy
+    directory at `path`. Raises UsageError naming it where it holds none."""
+    from quadcos.training import run_config as runs
+
+    try:
+        return runs.gait_of(path)
+    except (FileNotFoundError, ValueError) as error:
+        raise UsageError(f"--gait_from: {error}") from None
 
 
 def main(argv: Sequence[str] | None = None, trainers: reuse.Trainers | None = None) -> int:

@@ -1,6 +1,7 @@
 """`python -m quadcos.train`: a smoke run end to end, resume, and one-line errors for bad input."""
 
 import json
+import pathlib
 import shutil
 
 import numpy as np
@@ -10,6 +11,8 @@ import quadcos
 from quadcos import train
 from quadcos._util import caches
 from tests.cli_runs import run_in_process
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.slow
@@ -120,6 +123,7 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
         ),
         (["--config.env.randomization.eval_conditions=ice"], "unknown condition 'ice'"),
         ([], "--output_dir is required"),
+        (["--gait_from=no_such_run"], "--gait_from: no_such_run: no such run or policy directory"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):
@@ -178,6 +182,31 @@ def test_print_config_resolves_presets_and_overrides(capsys):
     config = json.loads(capsys.readouterr().out)
     assert config["sac"]["batch_size"] == 1024 and config["sac"]["num_envs"] == 4096
     assert config["env"]["terrain"] == "s4"
+
+
+def test_gait_from_starts_from_a_run_or_policy_directorys_gait(tmp_path, capsys):
+    """`--gait_from=DIR` sets the gait fields (action centre, feed-forward) of DIR's run, so the
+    command preset searches none; from a policy directory as from a run directory, refused where
+    a value given beside it or no gait found would be lost."""
+    policy = ROOT / "experiments/policies/unitree_go1_command"
+    saved = json.loads((policy / "policy.json").read_text())["config"]
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "config.json").write_text(json.dumps(saved))
+    gait = saved["run_info"]["env"]
+    for source in (policy, run_dir):
+        assert train.main(["--preset=command", f"--gait_from={source}", "--print_config"]) == 0
+        env = json.loads(capsys.readouterr().out)["env"]
+        assert env["action_centre"] == gait["action_centre"] != "search"
+        assert env["commands"]["speed_map"] == gait["commands"]["speed_map"]
+        assert env["commands"]["reference_speed"] == gait["commands"]["reference_speed"]
+    given = [f"--gait_from={run_dir}", "--config.env.commands.half_track=0.4", "--print_config"]
+    assert train.main(given) == 2
+    assert "--gait_from and --config.env.commands.half_track" in capsys.readouterr().err
+    saved["run_info"]["env"]["action_centre"] = "search"  # a run stopped before its search ended
+    (run_dir / "config.json").write_text(json.dumps(saved))
+    assert train.main([f"--gait_from={run_dir}", "--print_config"]) == 2
+    assert "its run never found a gait" in capsys.readouterr().err
 
 
 def test_booleans_read_in_any_case(capsys):

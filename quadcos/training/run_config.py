@@ -112,3 +112,31 @@ def env_overrides(run_config: Mapping[str, Any]) -> dict[str, Any]:
         for key, value in run_config.items()
         if key.startswith("env.")
     }
+
+
+def gait_of(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The gait a run started from, as env overrides (dotted, "env." included): its action
+    centre and feed-forward (`QuadrupedEnv.gait_fields`: the fields a gait search sets), read
+    from a run directory's config.json or a policy directory's policy.json.
+
+    Raises:
+      FileNotFoundError: neither file there.
+      ValueError: not a quadcos run config, or one whose gait was never found ("search").
+    """
+    path = pathlib.Path(path)
+    if not path.is_dir():
+        raise FileNotFoundError(f"{path}: no such run or policy directory")
+    if (path / "policy.json").is_file() and not (path / "config.json").is_file():
+        try:
+            saved = json.loads((path / "policy.json").read_text())["config"]
+            config = migrate(saved)
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            raise ValueError(f"{path}/policy.json holds no quadcos run config ({error})") from None
+    else:
+        config = load_run_config(path)
+    keys = (f"env.{field}" for field in env_lib.QuadrupedEnv.gait_fields)
+    gait = {key: config[key] for key in keys if key in config}  # (others: their defaults)
+    if gait["env.action_centre"] == "search":
+        raise ValueError(f"{path}: its run never found a gait (action_centre is still 'search')")
+    return gait
+
