@@ -91,12 +91,8 @@ def _parser() -> argparse.ArgumentParser:
         help="time budget from the process's start, s: the run then ends as at --num_timesteps"
         " (evaluation, checkpoint, policy/, policy_best/)",
     )
-    parser.add_argument(
-        "--gait_from",
-        metavar="DIR",
-        help="start from the gait of DIR (a run or policy directory): its action centre and"
-        " feed-forward, so no gait search; e.g. to compare SAC settings from one gait",
-    )
+    parser.add_argument("--gait_from", metavar="DIR", help="start from the gait of DIR, a run or"
+                        " policy directory (its action centre and feed-forward): no gait search")
     parser.add_argument("--output_dir", help="run directory (config, metrics, checkpoints, policy)")
     parser.add_argument(
         "--numbered",
