@@ -163,6 +163,7 @@ def test_help_documents_every_flag(capsys):
         "--num_timesteps",
         "--seed",
         "--output_dir",
+        "--gait_from",
         "--resume",
         "--reward",
         "--controller",
