@@ -456,11 +456,13 @@ def blocks() -> tuple[str, ...]:
     """Every table's rows, in README.md's order."""
     return (
         table(),
-        *(seeds(getattr(labels, name)) for name in (
-            "PRESET", "ATTITUDE", "SEARCH_ATTITUDE", "TRACKED", "TRACK_ATTITUDE", "TRACK_ATTITUDE8",
-            "SEARCH_TRACK_ATTITUDE8", "SEARCH_TRACK_ATTITUDE16", "SEARCH_TRACK_CONDITIONS16",
-            "CONDITIONS16_UPDATES2", "CONDITIONS16_EVAL20", "PRESET_CONDITIONS", "LATENCY_LEVERS",
-            "PRIVILEGED")),
+        *map(seeds, (
+            labels.PRESET, labels.ATTITUDE, labels.SEARCH_ATTITUDE, labels.TRACKED,
+            labels.TRACK_ATTITUDE, labels.TRACK_ATTITUDE8, labels.SEARCH_TRACK_ATTITUDE8,
+            labels.SEARCH_TRACK_ATTITUDE16, labels.SEARCH_TRACK_CONDITIONS16,
+            labels.CONDITIONS16_UPDATES2, labels.CONDITIONS16_EVAL20, labels.PRESET_CONDITIONS,
+            labels.LATENCY_LEVERS, labels.PRIVILEGED,
+        )),
         anymal_sac(), no_preset(), gain(), campaign(), anymal(), sac_levers(),
         sac_levers(labels.GO1_LEVERS, gait=True), versus_gait(), against_gait(),
         engines(), levers(),
