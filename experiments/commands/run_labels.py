@@ -225,6 +225,21 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " only)",
     "anymalcmd_filt5alone420_s0": "the action filter's τ 0.5 s (`env.action_filter_tau`, the preset"
     " 0.25 s); alone on the GPU for 420 s, training only",
+    "anymalgait_base_s0": "— (`anymalcmd_presetalone_s0`'s gait given; three runs sharing one"
+    " GPU, training only)",
+    "anymalgait_clr_s0": "the critics' learning rate ÷3.3 (`sac.learning_rate.critic` 3e-4, the"
+    " preset 1e-3), the same gait given; three sharing",
+    "anymalgait_afix_s0": "α held at 0.01 (`sac.learning_rate.alpha` 1e-9), the same gait; three"
+    " sharing",
+    "anymalgait_clip_s0": "gradients clipped at norm 1 (`sac.max_grad_norm`), the same gait; three"
+    " sharing",
+    "anymalgait_tent_s0": "the target entropy −12 (`sac.target_entropy`; Brax's −0.5·dim(A), −3, by"
+    " default), the same gait; three sharing",
+    "anymalgait_alr_s0": "the actor's learning rate ÷10 (`sac.learning_rate.actor` 3e-5), the same"
+    " gait; three sharing",
+    "anymalgait_all_s0": "the five above together, the same gait; two runs sharing one GPU",
+    "anymalgait_allslow_s0": "the five and the target critics 5× slower (`sac.tau` 0.001), the"
+    " same gait; two sharing",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
