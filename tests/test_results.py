@@ -7,6 +7,7 @@ import os
 import pathlib
 import shutil
 
+import numpy as np
 import pytest
 
 from quadcos import results
@@ -312,6 +313,35 @@ def test_the_campaign_record_packs_its_tables_and_loads_them_back_as_rows(monkey
     ).stdout
     (tmp_path / "again.json").write_text(out)
     assert training_summary.load_runs(tmp_path / "again.json") == runs
+
+
+def test_the_figure_of_sac_against_its_gait_plots_the_recorded_ratios(tmp_path):
+    """`training_summary.py --figure PNG RUN...` plots each named run's recorded worst-cell ratio
+    to step 0 and its critic's loss against env steps (the step-0 row, which has neither, left
+    out); a run campaign.json lacks is refused by name, with nothing written."""
+    import subprocess
+    import sys
+
+    from quadcos.viz import plots
+
+    rows = [
+        {"env_steps": 0},
+        {"env_steps": 2_000_000, "to_step0": 1.02, "critic_loss": 0.7},
+        {"env_steps": 4_000_000, "to_step0": 0.97, "critic_loss": 1.5},
+    ]
+    figure = plots.plot_against_gait({"a": rows, "b": rows[:2]}, path=tmp_path / "f.png")
+    ratio_ax, critic_ax = figure.axes
+    np.testing.assert_allclose(ratio_ax.lines[0].get_xdata(), [2.0, 4.0])
+    np.testing.assert_allclose(ratio_ax.lines[0].get_ydata(), [1.02, 0.97])
+    np.testing.assert_allclose(critic_ax.lines[1].get_ydata(), [0.7])
+    assert (tmp_path / "f.png").stat().st_size > 1000
+    script = str(ROOT / "experiments/commands/training_summary.py")
+    refused = subprocess.run(
+        [sys.executable, script, "--figure", str(tmp_path / "g.png"), "no_such_run"],
+        capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    assert refused.returncode == 1 and "no_such_run" in refused.stderr
+    assert not (tmp_path / "g.png").exists()
 
 
 def test_an_evaluation_against_step_0_names_its_worst_cell_and_each_measure_worst(monkeypatch):

@@ -2,21 +2,25 @@
 (NAME.tgz, or NAME/ unpacked), into a JSON beside this file:
 
     python experiments/commands/training_summary.py [--into RECORD] OUT_DIR... > NEW_RECORD
+    python experiments/commands/training_summary.py --figure PNG RUN...  # from campaign.json
 
 `--into` keeps the runs of an earlier record (e.g. experiments/commands/campaign.json) and adds or
-replaces those of OUT_DIR. Each run: its train flags (`argv`: all but --output_dir and
---no_progress, where the run recorded them), the feed-forward measured on its gait (v_ref, b, speed
-map), every training-time evaluation of the trainer (env steps, eval reward, speed, fall rate, the
-env-steps/s of the window it ends, its tracking RMS where logged, and where its evaluations measured
-the robustness conditions its worst ratio to step 0 as the gait rank reads it: `to_step0`,
-`worst_cell`, and per measure `speed_to_step0`, `yaw_rate_to_step0`; and the learner's chunk it
-ends: `train_reward`, `critic_loss`, `alpha`, where packed), the training rate at the last
-evaluation, the solver probe's physics (a robot without a preset), the gait tracking measure's
-finalists (`sac.gait_search.track_gaits`), and the key numbers of the kept policy's random-command
-evaluation and robustness conditions, of its step-0 gait's conditions and of the last policy's
-evaluation and conditions (where measured), with the physics they ran on where recorded (per-episode
-data left out). The record holds the rows of those tables as lists under its "columns"; `load_runs`
-reads them back as dicts."""
+replaces those of OUT_DIR. `--figure` plots the named runs' training evaluations against their
+step-0 gaits and their critics' loss (`quadcos.viz.plots.plot_against_gait`).
+
+Each run: its train flags (`argv`: all but --output_dir and --no_progress, where the run recorded
+them), the feed-forward measured on its gait (v_ref, b, speed map), every training-time evaluation
+of the trainer (env steps, eval reward, speed, fall rate, the env-steps/s of the window it ends, its
+tracking RMS where logged, and where its evaluations measured the robustness conditions its worst
+ratio to step 0 as the gait rank reads it: `to_step0`, `worst_cell`, and per measure
+`speed_to_step0`, `yaw_rate_to_step0`; and the learner's chunk it ends: `train_reward`,
+`critic_loss`, `alpha`, where packed), the training rate at the last evaluation, the solver probe's
+physics (a robot without a preset), the gait tracking measure's finalists
+(`sac.gait_search.track_gaits`), and the key numbers of the kept policy's random-command evaluation
+and robustness conditions, of its step-0 gait's conditions and of the last policy's evaluation and
+conditions (where measured), with the physics they ran on where recorded (per-episode data left
+out). The record holds the rows of those tables as lists under its "columns"; `load_runs` reads them
+back as dicts."""
 
 import io
 import json
@@ -319,6 +323,17 @@ def _conditions(text: str | None) -> dict | None:
 
 if __name__ == "__main__":
     args = sys.argv[1:]
+    if args[:1] == ["--figure"]:
+        from quadcos.viz import plots
+
+        recorded = load_runs()
+        unknown = [name for name in args[2:] if name not in recorded]
+        if len(args) < 3 or unknown:
+            sys.exit(f"--figure PNG RUN...: runs of campaign.json; not there: {unknown}")
+        plots.plot_against_gait(
+            {name: recorded[name]["evaluations"] for name in args[2:]}, path=args[1]
+        )
+        sys.exit()
     runs = {}
     if args[:1] == ["--into"]:
         runs = load_runs(args[1])

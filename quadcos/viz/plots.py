@@ -11,6 +11,7 @@ display needed: saving uses Agg) and, given `path`, also writes it as a PNG.
 | Figs. 14, 19 | the eight rhythm-controller outputs | `plot_controller` |
 | — | the five rhythm parameters the policy sets | `plot_parameters` |
 | Figs. 10, 16 | a course's ground profile | `plot_course` |
+| — | SAC's training evaluations against the step-0 gait, the critic's loss | `plot_against_gait` |
 
 Axes: quadcos walks along +x, the paper along its Y; labels say "forward (x)" and "lateral (y)".
 """
@@ -394,4 +395,32 @@ def plot_command_tracking(
         axes[0, column].set_title(label)
         axes[-1, column].set_xlabel("time (s)")
     axes[0, 0].legend(fontsize="small")
+    return _finish(figure, path)
+
+
+def plot_against_gait(
+    runs: Mapping[str, Sequence[Mapping[str, Any]]],
+    *,
+    path: str | os.PathLike[str] | None = None,
+) -> Figure:
+    """SAC against the gait it starts from, {label: a run's training evaluations} (rows with
+    `env_steps` and, where measured, `to_step0`: the worst cell's tracking RMS over step 0's, and
+    `critic_loss`): the ratio above (below 1 beats the gait in every cell), the critic's loss
+    below, both against env steps."""
+    figure = Figure(figsize=(7, 6))
+    ratio_ax, critic_ax = figure.subplots(2, 1, sharex=True)
+    for index, (label, rows) in enumerate(runs.items()):
+        line_style = _LINE_STYLES[index // 10 % len(_LINE_STYLES)]  # 10 colours, then a new style
+        style = dict(label=label, linestyle=line_style, marker=".")
+        for ax, key in ((ratio_ax, "to_step0"), (critic_ax, "critic_loss")):
+            points = [(row["env_steps"] / 1e6, row[key]) for row in rows if key in row]
+            if points:
+                ax.plot(*zip(*points), **style)
+    ratio_ax.axhline(1.0, color="black", linewidth=1, label="step 0's gait")
+    ratio_ax.set_ylabel("worst cell's RMS / step 0's")
+    critic_ax.set_ylabel("critic loss")
+    critic_ax.set_xlabel("env steps (M)")
+    for ax in (ratio_ax, critic_ax):
+        ax.grid(alpha=0.3)
+    ratio_ax.legend(fontsize="x-small", ncol=2)
     return _finish(figure, path)
