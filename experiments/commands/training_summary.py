@@ -329,7 +329,7 @@ if __name__ == "__main__":
         recorded = load_runs()
         unknown = [name for name in args[2:] if name not in recorded]
         if len(args) < 3 or unknown:
-            sys.exit(f"--figure PNG RUN...: runs of campaign.json; not there: {unknown}")
+            sys.exit(f"usage: --figure PNG RUN... (runs of campaign.json); not there: {unknown}")
         plots.plot_against_gait(
             {name: recorded[name]["evaluations"] for name in args[2:]}, path=args[1]
         )

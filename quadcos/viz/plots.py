@@ -411,7 +411,7 @@ def plot_against_gait(
     ratio_ax, critic_ax = figure.subplots(2, 1, sharex=True)
     for index, (label, rows) in enumerate(runs.items()):
         line_style = _LINE_STYLES[index // 10 % len(_LINE_STYLES)]  # 10 colours, then a new style
-        style = dict(label=label, linestyle=line_style, marker=".")
+        style = dict(label=label, color=f"C{index % 10}", linestyle=line_style, marker=".")
         for ax, key in ((ratio_ax, "to_step0"), (critic_ax, "critic_loss")):
             points = [(row["env_steps"] / 1e6, row[key]) for row in rows if key in row]
             if points:
