@@ -396,6 +396,30 @@ def test_a_run_that_only_trained_records_the_step_of_its_best_policy(monkeypatch
     assert "best_of_run" not in training_summary.summary(run)
 
 
+def test_a_resumed_run_records_the_flags_of_each_resume(monkeypatch, tmp_path):
+    """A lever forked from another run's checkpoint (`--resume` in a copy of its folder) records
+    the first command's flags and then each resume's, so that its lever shows in `argv`;
+    --output_dir and --no_progress are left out."""
+    import json
+
+    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
+    import training_summary
+
+    run = tmp_path / "anymalfork_tent_s0"
+    run.mkdir()
+    (run / "anymalfork_tent_s0.log").write_text("quadcos.train: starting\n")
+    first = ["--output_dir=/r/fork", "--seed=0", "--save_replay"]
+    resume = ["--output_dir=/r/tent", "--no_progress", "--resume"]
+    resume += ["--config.sac.target_entropy=-12"]
+    info = {"argv": first, "resumed_argv": [resume]}
+    (run / "config.json").write_text(json.dumps({"run_info": info}))
+    assert training_summary.summary(run)["argv"] == [
+        "--seed=0", "--save_replay", "--resume", "--config.sac.target_entropy=-12"
+    ]
+    (run / "config.json").write_text(json.dumps({"run_info": {"argv": first}}))
+    assert training_summary.summary(run)["argv"] == ["--seed=0", "--save_replay"]
+
+
 def test_kept_only_skips_the_evaluation_of_a_run_that_kept_its_gait(tmp_path):
     """`KEPT_ONLY=1 run_gpu.sh evaluate` evaluates nothing of a run whose training kept its
     step-0 gait (best_of_run step 0: its training evaluations already say how it does) and
@@ -416,3 +440,19 @@ def test_kept_only_skips_the_evaluation_of_a_run_that_kept_its_gait(tmp_path):
     bad = subprocess.run(["bash", script, "evaluate", "no_robot"], env=env, capture_output=True,
                          text=True, cwd=tmp_path)
     assert bad.returncode == 2 and "bad RUN 'no_robot'" in bad.stderr
+
+
+def test_a_fork_refuses_a_lever_of_another_robot_or_seed_before_it_trains(tmp_path):
+    """`run_gpu.sh fork FORK LEVER...` goes on from the fork's state, so each lever must be the
+    fork's robot and seed: a lever of another seed is refused by name with exit 2, before the
+    fork trains or anything is copied."""
+    import subprocess
+
+    env = {**os.environ, "RUNS": str(tmp_path / "runs"), "OUT": str(tmp_path / "out")}
+    script = str(ROOT / "experiments/commands/run_gpu.sh")
+    fork, lever = "f_s0@menagerie:x@0", "f_tent_s0@menagerie:x@1@--config.sac.target_entropy=-12"
+    done = subprocess.run(["bash", script, "fork", fork, lever], env=env, capture_output=True,
+                          text=True, cwd=tmp_path)
+    assert done.returncode == 2
+    assert "lever f_tent_s0: menagerie:x seed 1, not the fork's menagerie:x seed 0" in done.stderr
+    assert list((tmp_path / "runs").iterdir()) == []

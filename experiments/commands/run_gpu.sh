@@ -2,6 +2,9 @@
 # The commanded-gait campaign (experiments/commands/README.md) on a host of one or more GPUs, one
 # training run per GPU, from the repository root:
 #   bash experiments/commands/run_gpu.sh train RUN...     # start runs in the background, return
+#   [MAX_SECONDS=S] bash experiments/commands/run_gpu.sh fork FORK LEVER...  # FORK trains to the
+#                                                         # actor's start, each LEVER (a RUN) goes
+#                                                         # on from a copy in the background (below)
 #   bash experiments/commands/run_gpu.sh wait  RUN...     # until they have ended (their policies;
 #                                                         # a run that fails starts once more)
 #   bash experiments/commands/run_gpu.sh evaluate RUN...  # random commands + robustness, one per GPU
@@ -50,19 +53,21 @@ launch() {  # NAME GPU FLAGS...: quadcos.train in the background from /tmp/qc, i
   (cd /tmp/qc && CUDA_VISIBLE_DEVICES=$gpu \
     XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round($mem / $share, 2))") \
     setsid nohup python3 -m quadcos.train --output_dir="$runs/$name" --no_progress "$@" \
-    > "$runs/$name.log" 2>&1 < /dev/null &)
+    >> "$runs/$name.log" 2>&1 < /dev/null &)
+}
+warp_or_jax() {  # the campaign's robots step on MJX-Warp; without warp-lang they would fall back
+  # to MJX-JAX, slower by several times, and a 480-s run may end before its actor learns
+  python3 -c "import warp" 2> /dev/null || [ "${IMPL_JAX:-0}" = 1 ] || {
+    echo "warp-lang is not importable: install it (quadcos[warp]), or IMPL_JAX=1 to train" \
+      "on MJX-JAX" >&2; exit 2; }
+  rm -rf /tmp/qc && mkdir -p /tmp/qc && cp -r quadcos models pyproject.toml .menagerie /tmp/qc/ 2>/dev/null
 }
 # the levers were measured with the drive's loops open (the command preset closes them)
 loops_open="--config.env.commands.speed_gain_rate=0 --config.env.commands.heading_gain=0"
 
 case $verb in
 train)
-  # the campaign's robots step on MJX-Warp; without warp-lang they would fall back to MJX-JAX,
-  # slower by several times, and a 480-s run may end before its actor learns
-  python3 -c "import warp" 2> /dev/null || [ "${IMPL_JAX:-0}" = 1 ] || {
-    echo "warp-lang is not importable: install it (quadcos[warp]), or IMPL_JAX=1 to train" \
-      "on MJX-JAX" >&2; exit 2; }
-  rm -rf /tmp/qc && mkdir -p /tmp/qc && cp -r quadcos pyproject.toml .menagerie /tmp/qc/ 2>/dev/null
+  warp_or_jax
   i=0
   for spec in "$@"; do
     split_run "$spec"
@@ -74,6 +79,50 @@ train)
     echo "$(date +%T) $NAME on GPU $((i % gpus)): $ROBOT seed $SEED ${extra[*]}"
     i=$((i + 1))
   done ;;
+fork)  # FORK (a RUN) trains alone to env step FORK_AT (default 4,161,536: the command preset's
+  # 2,000 critic warm-up updates on 4,096 robots, the actor untrained) and checkpoints all its
+  # state, the replay too (--save_replay); each LEVER (a RUN of the fork's robot and seed, its
+  # flags the lever's) then goes on from a copy of it (--resume with its flags, MAX_SECONDS of its
+  # own, default 420), so that every lever spends its budget on the actor from the same critics
+  # and replay. A fork trained before (its policy in RUNS) serves again. Then wait, evaluate,
+  # pack the LEVERs as trained runs.
+  split_run "$1"; fork=$NAME fork_robot=$ROBOT fork_seed=$SEED
+  extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
+  shift; share=$(( ($# + gpus - 1) / gpus ))
+  for spec in "$@"; do
+    split_run "$spec"
+    [ "$ROBOT@$SEED" = "$fork_robot@$fork_seed" ] || {
+      echo "lever $NAME: $ROBOT seed $SEED, not the fork's $fork_robot seed $fork_seed" >&2; exit 2; }
+  done
+  warp_or_jax
+  if [ ! -f "$runs/$fork/policy/policy.json" ]; then
+    rm -rf "${runs:?}/$fork" "$runs/$fork".*
+    (cd /tmp/qc && python3 -m quadcos.train --output_dir="$runs/$fork" --no_progress \
+      --preset=command --robot="$fork_robot" --seed="$fork_seed" "${extra[@]}" --save_replay \
+      --num_timesteps="${FORK_AT:-4161536}" > "$runs/$fork.log" 2>&1) || {
+      echo "$fork failed: $(tail -n 1 "$runs/$fork.log")" >&2; exit 1; }
+  fi
+  echo "$(date +%T) $fork: $(grep -c '^step ' "$runs/$fork.log") evaluations, forked"
+  i=0
+  for spec in "$@"; do
+    split_run "$spec"
+    rm -rf "${runs:?}/$NAME" "$runs/$NAME".*
+    # the fork's files but its last policy; its checkpoints (GBs with the replay) hard-linked: a
+    # run writes its checkpoints beside them and unlinks old ones, never writes into one
+    mkdir -p "$runs/$NAME" && cp -al "$runs/$fork/checkpoints" "$runs/$NAME/"
+    for f in "$runs/$fork"/*; do
+      case ${f##*/} in checkpoints|policy) ;; *) cp -r "$f" "$runs/$NAME/" ;; esac
+    done
+    extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
+    flags=(--preset=command --robot="$ROBOT" --seed="$SEED" "${extra[@]}" --num_timesteps=400000000
+           --config.sac.max_seconds="${MAX_SECONDS:-420}" --config.sac.save_replay=false)
+    printf '%s\n' "${flags[@]}" > "$runs/$NAME.flags"  # for `wait`'s relaunch
+    cp "$runs/$fork.log" "$runs/$NAME.log"  # the fork's evaluations (step 0 on) head the log
+    launch "$NAME" $((i % gpus)) --resume "${flags[@]}"
+    echo "$(date +%T) $NAME on GPU $((i % gpus)): from $fork ${extra[*]}"
+    i=$((i + 1))
+  done
+  sleep 5 ;;  # (`wait` takes a run whose log has lines and no process for one that failed)
 wait)  # until every run has ended; a run that died without its policy (e.g. a fault in Warp's
   # graph capture where runs share a GPU) starts once more at once, on from its run folder where
   # it has one (its config holds the searched gait; its newest checkpoint), else afresh

@@ -9,18 +9,18 @@ replaces those of OUT_DIR. `--figure` plots the named runs' training evaluations
 step-0 gaits and their critics' loss (`quadcos.viz.plots.plot_against_gait`).
 
 Each run: its train flags (`argv`: all but --output_dir and --no_progress, where the run recorded
-them), the feed-forward measured on its gait (v_ref, b, speed map), every training-time evaluation
-of the trainer (env steps, eval reward, speed, fall rate, the env-steps/s of the window it ends, its
-tracking RMS where logged, and where its evaluations measured the robustness conditions its worst
-ratio to step 0 as the gait rank reads it: `to_step0`, `worst_cell`, and per measure
-`speed_to_step0`, `yaw_rate_to_step0`; and the learner's chunk it ends: `train_reward`,
-`critic_loss`, `alpha`, where packed), the training rate at the last evaluation, the solver probe's
-physics (a robot without a preset), the gait tracking measure's finalists
-(`sac.gait_search.track_gaits`), and the key numbers of the kept policy's random-command evaluation
-and robustness conditions, of its step-0 gait's conditions and of the last policy's evaluation and
-conditions (where measured), with the physics they ran on where recorded (per-episode data left
-out). The record holds the rows of those tables as lists under its "columns"; `load_runs` reads them
-back as dicts."""
+them; a resumed run's first command's and then each resume's), the feed-forward measured on its gait
+(v_ref, b, speed map), every training-time evaluation of the trainer (env steps, eval reward, speed,
+fall rate, the env-steps/s of the window it ends, its tracking RMS where logged, and where its
+evaluations measured the robustness conditions its worst ratio to step 0 as the gait rank reads it:
+`to_step0`, `worst_cell`, and per measure `speed_to_step0`, `yaw_rate_to_step0`; and the learner's
+chunk it ends: `train_reward`, `critic_loss`, `alpha`, where packed), the training rate at the last
+evaluation, the solver probe's physics (a robot without a preset), the gait tracking measure's
+finalists (`sac.gait_search.track_gaits`), and the key numbers of the kept policy's random-command
+evaluation and robustness conditions, of its step-0 gait's conditions and of the last policy's
+evaluation and conditions (where measured), with the physics they ran on where recorded (per-episode
+data left out). The record holds the rows of those tables as lists under its "columns"; `load_runs`
+reads them back as dicts."""
 
 import io
 import json
@@ -109,8 +109,11 @@ def summary(path: Path) -> dict:
     metrics = files.get("metrics.jsonl", "")
     smoothness, learner = _chunks(metrics, SMOOTHNESS), _chunks(metrics, LEARNER)
     against_gait = _against_gait(metrics)
-    argv = config.get("run_info", {}).get("argv")
-    centre = config.get("run_info", {}).get("env", {}).get("action_centre")
+    info = config.get("run_info", {})
+    # a resumed run's flags: its first command's, then each resume's (a lever forked from a run)
+    resumed = [flag for resume in info.get("resumed_argv", []) for flag in resume]
+    argv = info.get("argv") and [*info["argv"], *resumed]
+    centre = info.get("env", {}).get("action_centre")
     best = json.loads(files.get("policy_best.json", "{}")).get("config", {}).get("best_of_run")
     return {
         **({"argv": [a for a in argv if a.startswith("--") and not a.startswith(DROPPED)]}
