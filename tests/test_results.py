@@ -37,7 +37,8 @@ def test_the_pages_agree_with_their_records(capsys):
 def _commands_table(monkeypatch):
     import importlib.util
 
-    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))  # its run_labels.py, as a script
+    # its run_labels.py, as a script
+    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
     spec = importlib.util.spec_from_file_location("table", ROOT / "experiments/commands/table.py")
     table = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(table)
@@ -63,7 +64,9 @@ def test_the_page_check_names_missing_and_stray_rows(monkeypatch, tmp_path):
 def test_every_table_marker_in_the_pages_has_a_record():
     layout = results.load_layout(ROOT)
     names = {
-        match["name"] for page in results.pages(ROOT) for match in results.MARKER.finditer(page.read_text())
+        match["name"]
+        for page in results.pages(ROOT)
+        for match in results.MARKER.finditer(page.read_text())
     }
     assert {"readme", "paper", "bench_h100"} <= names
     assert names == set(layout), set(layout) ^ names
@@ -134,11 +137,14 @@ def test_a_record_round_trips_from_its_sources(tmp_path, capsys):
         results.render({"text": "{toy:min *.missing}"}, records)
 
 
+_RECORD = ["--claim", "c", "--command", "c", "--device", "d", "--commit", "x"]
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["record", "--name", "bad name", "--claim", "c", "--command", "c", "--device", "d", "--commit", "x", "a.json"], "record name"),
-        (["record", "--name", "n", "--claim", "c", "--command", "c", "--device", "d", "--commit", "x", "missing.json"], "not a readable JSON"),
+        (["record", "--name", "bad name", *_RECORD, "a.json"], "record name"),
+        (["record", "--name", "n", *_RECORD, "missing.json"], "not a readable JSON"),
         (["record", "--name", "n"], "required"),
     ],
 )
@@ -187,7 +193,8 @@ def test_kept_values_rebuild_and_a_changed_source_fails_the_check(tmp_path, caps
         evaluation = {"success_rate": rate, "mean_forward_speed": 0.9, "setup": {"num_envs": 4}}
         (tmp_path / folder / "eval.json").write_text(json.dumps(evaluation))
     argv = ["--root", str(tmp_path), "record", "--name", "toy", "--claim", "c", "--command", "c"]
-    argv += ["--device", "CPU", "--commit", "0" * 40, "--keep", "success_rate", "--", "a/eval.json", "b/eval.json"]
+    argv += ["--device", "CPU", "--commit", "0" * 40, "--keep", "success_rate", "--"]
+    argv += ["a/eval.json", "b/eval.json"]
     assert results.main(argv) == 0
     record = json.loads((tmp_path / "results" / "toy.json").read_text())
     assert record["numbers"] == {"a/eval.success_rate": 0.5, "b/eval.success_rate": 0.75}
