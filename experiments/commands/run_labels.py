@@ -240,6 +240,24 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalgait_all_s0": "the five above together, the same gait; two runs sharing one GPU",
     "anymalgait_allslow_s0": "the five and the target critics 5× slower (`sac.tau` 0.001), the"
     " same gait; two sharing",
+    "anymalfork_caps10_s0": "CAPS's smoothness terms 10 and 10 (`sac.smoothness.temporal`,"
+    " `spatial`), the same gait, resumed from one run at the actor's start; 400 s, three sharing",
+    "anymalfork_allcaps_s0": "the five (`anymalgait_all_s0`'s) and CAPS 10, 10, from the same"
+    " start; 400 s, three sharing",
+    "anymalfork_allrate_s0": "the five and the action-rate term 300 (`reward.action_rate`), from"
+    " the same start; 400 s, three sharing",
+    "anymalfork_allcaps30_s0": "the five and CAPS 30, 30, from the same start; 400 s, three"
+    " sharing",
+    "anymalfork_allcapsrate_s0": "the five, CAPS 10, 10 and the action-rate term 300, from the same"
+    " start; 400 s, three sharing",
+    "anymalfork_alldel_s0": "the five and the actor updated every second step (`sac.policy_delay`"
+    " 2), from the same start; 400 s, three sharing",
+    "anymalfork_allhhip_s0": "the five and the hip amplitude held at the gait's (`env.held_rhythm`"
+    " amplitude_hip), from the same start; 350 s, three sharing",
+    "anymalfork_allhamp_s0": "the five and both amplitudes held (amplitude_knee,amplitude_hip),"
+    " from the same start; 350 s, three sharing",
+    "anymalfork_allslow5_s0": "the five with the actor's learning rate 1e-5 (not 3e-5), from the"
+    " same start; 350 s, three sharing",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
