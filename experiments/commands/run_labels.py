@@ -250,8 +250,8 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " sharing",
     "anymalfork_allcapsrate_s0": "the five, CAPS 10, 10 and the action-rate term 300, from the same"
     " start; 400 s, three sharing",
-    "anymalfork_alldel_s0": "the five and the actor updated every second step (`sac.policy_delay`"
-    " 2), from the same start; 400 s, three sharing",
+    "anymalfork_alldel_s0": "the five alone, from the same start (its `sac.policy_delay` 2 is the"
+    " preset's own); 400 s, three sharing",
     "anymalfork_allhhip_s0": "the five and the hip amplitude held at the gait's (`env.held_rhythm`"
     " amplitude_hip), from the same start; 350 s, three sharing",
     "anymalfork_allhamp_s0": "the five and both amplitudes held (amplitude_knee,amplitude_hip),"
