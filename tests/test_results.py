@@ -34,15 +34,19 @@ def test_the_pages_agree_with_their_records(capsys):
     assert results.main(["--root", str(ROOT), "--check"]) == 0, capsys.readouterr().out
 
 
-def _commands_table(monkeypatch):
+def _commands_script(monkeypatch, name: str):
+    """experiments/commands/NAME.py as a module, the scripts beside it importable (as when run)."""
     import importlib.util
 
-    # its run_labels.py, as a script
     monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
-    spec = importlib.util.spec_from_file_location("table", ROOT / "experiments/commands/table.py")
-    table = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(table)
-    return table
+    spec = importlib.util.spec_from_file_location(name, ROOT / f"experiments/commands/{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _commands_table(monkeypatch):
+    return _commands_script(monkeypatch, "table")
 
 
 def test_the_commanded_gait_page_agrees_with_its_records(monkeypatch):
@@ -274,13 +278,7 @@ def test_the_attitude_scored_finalists_are_the_ones_the_commands_page_names(monk
     """experiments/commands/README.md ("Gaits chosen by their tracking"): with
     `sac.gait_search.track_attitude` 0.10 the logged finalists of Go1's three `tracked` runs
     give way to seed 0's first, seed 1's second and seed 2's fourth."""
-    import importlib.util
-
-    monkeypatch.syspath_prepend(str(ROOT / "experiments/commands"))
-    path = ROOT / "experiments/commands/track_gaits.py"
-    spec = importlib.util.spec_from_file_location("track_gaits", path)
-    track_gaits = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(track_gaits)
+    track_gaits = _commands_script(monkeypatch, "track_gaits")
     runs = track_gaits.load_runs(ROOT / "experiments/commands/campaign.json")
     names = [f"go1cmd_tracked_s{seed}" for seed in range(3)]
     chosen = track_gaits.rescore(runs, names, 0.1)
@@ -463,3 +461,24 @@ def test_a_fork_refuses_a_lever_of_another_robot_or_seed_before_it_trains(tmp_pa
     assert done.returncode == 2
     assert "lever f_tent_s0: menagerie:x seed 1, not the fork's menagerie:x seed 0" in done.stderr
     assert list((tmp_path / "runs").iterdir()) == []
+
+
+def test_phase_share_tells_a_value_that_follows_the_stride_from_one_that_does_not(monkeypatch):
+    """tracking_windows.phase_share: ~1 for an action value repeating each stride, ~0 for one
+    that drifts across strides or holds still."""
+    tracking_windows = _commands_script(monkeypatch, "tracking_windows")
+    steps = np.arange(2_000)
+    phases = np.mod(steps * 0.7, 2 * np.pi)  # ~9 control steps a stride
+    rng = np.random.default_rng(0)
+    actions = np.stack(
+        [
+            0.4 * np.cos(phases) - 0.2 * np.sin(2 * phases) + 0.01 * rng.normal(size=steps.size),
+            np.sin(steps / 300.0),  # slow, across strides
+            np.full(steps.size, 0.3),  # constant
+        ],
+        axis=1,
+    )
+    share = tracking_windows.phase_share(actions, phases)
+    assert share[0] > 0.99
+    assert share[1] < 0.05
+    assert share[2] == 0.0

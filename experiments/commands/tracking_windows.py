@@ -25,7 +25,9 @@ policy's steady bias there, the RMS about it what varies.
 policy with that value held at the zero action's (the gait's, each value in turn), and the zero
 action with only that value the policy's, on the same episodes. `action_stats`: each action
 value's mean, spread and RMS change from one control step to the next over the policy's steps (in
-the action's [−1, 1]).
+the action's [−1, 1]), and `phase_share`: the share of its variance that the oscillator's phase ψ
+at the step explains (`phase_share`), what the policy does within each stride rather than across
+strides.
 """
 
 import argparse
@@ -48,6 +50,7 @@ BIN = 0.2  # m/s, rad/s: the width of the commanded-speed and yaw-rate bins
 RHYTHM = tuple(oscillator.RhythmParameters._fields)
 POSTURE = ("posture_front", "posture_hind")
 SPEED, YAW_RATE = 0, 1  # the two tracked quantities, as in a command (v*, ω*)
+HARMONICS = 3  # `phase_share`'s fit: a constant and cos kψ, sin kψ for k = 1..HARMONICS
 
 
 class Window(NamedTuple):
@@ -150,32 +153,52 @@ def action_names(config: ml_collections.ConfigDict) -> tuple[str, ...]:
     return RHYTHM + posture + (("turn",) if config.turn_mode != "none" else ())
 
 
-class Recorder:
-    """An actor that keeps each episode's actions (`start` before each episode)."""
+def phase_share(actions: np.ndarray, phases: np.ndarray) -> np.ndarray:
+    """Per column of `actions` (steps × values), the share of its variance that the phases ψ
+    (rad, one a step) explain: 1 − the residual's variance over the column's after a least-squares
+    fit of a constant and cos kψ, sin kψ (k = 1..HARMONICS). 1: the value repeats each stride; 0:
+    nothing of it follows the stride (a constant value too)."""
+    basis = [np.ones_like(phases)]
+    for k in range(1, HARMONICS + 1):
+        basis += [np.cos(k * phases), np.sin(k * phases)]
+    basis = np.stack(basis, axis=1)
+    fit, *_ = np.linalg.lstsq(basis, actions, rcond=None)
+    spread, left = actions.var(axis=0), (actions - basis @ fit).var(axis=0)
+    moves = spread > 1e-12  # (a held value's variance is rounding: actions lie in [−1, 1])
+    return np.where(moves, 1.0 - left / np.where(moves, spread, 1.0), 0.0)
 
-    def __init__(self, act):
-        self.act, self.episodes = act, []
+
+class Recorder:
+    """An actor that keeps each episode's actions and the `robot`'s oscillator phase at each
+    (`start` before each episode)."""
+
+    def __init__(self, act, robot: host_robot.HostRobot):
+        self.act, self.robot, self.episodes, self.phases = act, robot, [], []
 
     def start(self) -> None:
         self.episodes.append([])
+        self.phases.append([])
 
     def __call__(self, obs):
         action = np.asarray(self.act(obs))
         self.episodes[-1].append(action)
+        self.phases[-1].append(self.robot.phase)
         return action
 
     def stats(self, names: tuple[str, ...]) -> dict:
-        """Per action value: its mean and spread over the steps, and the RMS of its change from
-        one control step to the next (in the action's [−1, 1])."""
+        """Per action value: its mean and spread over the steps, the RMS of its change from one
+        control step to the next (in the action's [−1, 1]) and its `phase_share`."""
         actions = np.concatenate(self.episodes)
         changes = np.concatenate(
             [np.diff(np.array(e), axis=0) for e in self.episodes if len(e) > 1]
         )
+        within = phase_share(actions, np.concatenate(self.phases))
         return {
             name: {
                 "mean": float(actions[:, i].mean()),
                 "std": float(actions[:, i].std()),
                 "rms_step_change": float(np.sqrt(np.mean(changes[:, i] ** 2))),
+                "phase_share": float(within[i]),
             }
             for i, name in enumerate(names)
         }
@@ -250,7 +273,7 @@ def main() -> None:
         config = ml_collections.ConfigDict(config.to_dict())
         config.commands.update({k: value for k, value in loops.items() if value is not None})
     robot = host_robot.HostRobot("flat", config, physics="training", commands="random")
-    act, recorder = pilot.actor(), Recorder(pilot.actor())
+    act, recorder = pilot.actor(), Recorder(pilot.actor(), robot)
     windows = []
     for seed in range(args.episodes):
         recorder.start()
@@ -314,6 +337,11 @@ def _print(record: dict, count: int) -> None:
                 f" ({row['windows']} windows); the feed-forward alone"
                 f" {alone.get(row['commanded_from'], math.nan):+.3f}"
             )
+    for name, stats in record["action_stats"].items():
+        print(
+            f"  action {name}: mean {stats['mean']:+.3f}, spread {stats['std']:.3f}, change a step"
+            f" {stats['rms_step_change']:.3f}, the phase's share {stats['phase_share']:.2f}"
+        )
 
 
 if __name__ == "__main__":
