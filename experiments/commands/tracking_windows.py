@@ -26,8 +26,7 @@ policy with that value held at the zero action's (the gait's, each value in turn
 action with only that value the policy's, on the same episodes. `action_stats`: each action
 value's mean, spread and RMS change from one control step to the next over the policy's steps (in
 the action's [−1, 1]), and `phase_share`: the share of its variance that the oscillator's phase ψ
-at the step explains (`phase_share`), what the policy does within each stride rather than across
-strides.
+at the step explains: what the policy does within each stride rather than across strides.
 """
 
 import argparse
