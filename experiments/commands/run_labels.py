@@ -261,8 +261,8 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalfork_allcaps30fw1600_s0": "the five, CAPS 30, 30 and w1 1600 (`reward.forward`, the"
     " preset 450: a speed error of 0.10 m/s costs 8 a control step, not 2.25; the yaw term 18 for"
     " 0.15 rad/s), from the same start; 400 s, three sharing",
-    "anymalfork_allcaps30g95_s0": "the five, CAPS 30, 30 and the discount 0.95 (`sac.discount`, the"
-    " preset 0.99), from the same start; 400 s, three sharing",
+    "anymalfork_allcaps30g95_s0": "the five, CAPS 30, 30 and the discount 0.95 (`sac.discount`, by"
+    " default 0.99), from the same start; 400 s, three sharing",
     "anymalfork_allg95_s0": "the five and the discount 0.95, from the same start; 400 s, three"
     " sharing",
     "anymalcmd_capsfw_s0": "`anymalfork_allcaps30fw1600_s0`'s settings from nothing (its own gait"
