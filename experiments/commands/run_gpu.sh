@@ -41,8 +41,10 @@ envs=${EVAL_ENVS:-1024}  # episodes of each evaluation
 share=$(( ($# + gpus - 1) / gpus ))  # runs on one GPU
 mem=${MEM:-0.9}
 
-split_run() {  # a RUN's fields; a word that is not NAME@ROBOT@SEED[@...] stops the script
+split_run() {  # a RUN's fields (its flags also as the array extra); a word that is not
+  # NAME@ROBOT@SEED[@...] stops the script
   IFS=@ read -r NAME ROBOT SEED EXTRA <<< "$1"
+  extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
   [[ $NAME =~ ^[A-Za-z0-9_.-]+$ && -n $ROBOT && $SEED =~ ^[0-9]+$ ]] || {
     echo "bad RUN '$1': NAME@ROBOT@SEED[@flags] (quote a RUN with several flags)" >&2; exit 2; }
 }
@@ -71,7 +73,6 @@ train)
   i=0
   for spec in "$@"; do
     split_run "$spec"
-    extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
     rm -rf "$runs/$NAME" "$runs/$NAME".*  # a stale log would end `wait` at once
     flags=(--preset=command --robot="$ROBOT" --seed="$SEED" "${extra[@]}")
     printf '%s\n' "${flags[@]}" > "$runs/$NAME.flags"  # for `wait`'s relaunch
@@ -86,8 +87,7 @@ fork)  # FORK (a RUN) trains alone to env step FORK_AT (default 4,161,536: the c
   # own, default 420), so that every lever spends its budget on the actor from the same critics
   # and replay. A fork trained before (its policy in RUNS) serves again. Then wait, evaluate,
   # pack the LEVERs as trained runs.
-  split_run "$1"; fork=$NAME fork_robot=$ROBOT fork_seed=$SEED
-  extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
+  split_run "$1"; fork=$NAME fork_robot=$ROBOT fork_seed=$SEED fork_extra=("${extra[@]}")
   shift; share=$(( ($# + gpus - 1) / gpus ))
   for spec in "$@"; do
     split_run "$spec"
@@ -98,7 +98,7 @@ fork)  # FORK (a RUN) trains alone to env step FORK_AT (default 4,161,536: the c
   if [ ! -f "$runs/$fork/policy/policy.json" ]; then
     rm -rf "${runs:?}/$fork" "$runs/$fork".*
     (cd /tmp/qc && python3 -m quadcos.train --output_dir="$runs/$fork" --no_progress \
-      --preset=command --robot="$fork_robot" --seed="$fork_seed" "${extra[@]}" --save_replay \
+      --preset=command --robot="$fork_robot" --seed="$fork_seed" "${fork_extra[@]}" --save_replay \
       --num_timesteps="${FORK_AT:-4161536}" > "$runs/$fork.log" 2>&1) || {
       echo "$fork failed: $(tail -n 1 "$runs/$fork.log")" >&2; exit 1; }
   fi
@@ -113,7 +113,6 @@ fork)  # FORK (a RUN) trains alone to env step FORK_AT (default 4,161,536: the c
     for f in "$runs/$fork"/*; do
       case ${f##*/} in checkpoints|policy) ;; *) cp -r "$f" "$runs/$NAME/" ;; esac
     done
-    extra=(); [ -n "${EXTRA:-}" ] && read -r -a extra <<< "$EXTRA"
     flags=(--preset=command --robot="$ROBOT" --seed="$SEED" "${extra[@]}" --num_timesteps=400000000
            --config.sac.max_seconds="${MAX_SECONDS:-420}" --config.sac.save_replay=false)
     printf '%s\n' "${flags[@]}" > "$runs/$NAME.flags"  # for `wait`'s relaunch
