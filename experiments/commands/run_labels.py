@@ -267,6 +267,9 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " sharing",
     "anymalcmd_capsfw_s0": "`anymalfork_allcaps30fw1600_s0`'s settings from nothing (its own gait"
     " search, its actor from env step 4.16 M); alone on the GPU for 380 s",
+    "anymalcmd_capsfw3600ev1_s0": "`anymalcmd_capsfw_s0`'s with w1 3600 (a speed error of 0.10 m/s"
+    " costs 18 a control step, as the yaw term's 0.15 rad/s), evaluated every 1 M env steps; alone"
+    " on the GPU for 270 s",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",
