@@ -339,6 +339,7 @@ def test_the_figure_of_sac_against_its_gait_plots_the_recorded_ratios(tmp_path):
     np.testing.assert_allclose(ratio_ax.lines[0].get_xdata(), [2.0, 4.0])
     np.testing.assert_allclose(ratio_ax.lines[0].get_ydata(), [1.02, 0.97])
     np.testing.assert_allclose(critic_ax.lines[1].get_ydata(), [0.7])
+    assert ratio_ax.get_yscale() == "log" and critic_ax.get_yscale() == "linear"
     assert (tmp_path / "f.png").stat().st_size > 1000
     script = str(ROOT / "experiments/commands/training_summary.py")
     refused = subprocess.run(

@@ -25,6 +25,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from matplotlib import ticker
 from matplotlib.figure import Figure
 
 from quadcos.robot import constants
@@ -417,10 +418,14 @@ def plot_against_gait(
             if points:
                 ax.plot(*zip(*points), **style)
     ratio_ax.axhline(1.0, color="black", linewidth=1, label="step 0's gait")
+    ratio_ax.set_yscale("log")  # a ratio: 2x worse as far from 1 as 2x better
+    ratio_ax.yaxis.set_major_locator(ticker.FixedLocator([0.5, 0.75, 1, 1.5, 2, 3, 4, 6, 8]))
+    ratio_ax.yaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
+    ratio_ax.yaxis.set_minor_locator(ticker.NullLocator())
     ratio_ax.set_ylabel("worst cell's RMS / step 0's")
     critic_ax.set_ylabel("critic loss")
     critic_ax.set_xlabel("env steps (M)")
     for ax in (ratio_ax, critic_ax):
         ax.grid(alpha=0.3)
-    ratio_ax.legend(fontsize="x-small", ncol=2)
+    ratio_ax.legend(fontsize="x-small", loc="upper right")
     return _finish(figure, path)
