@@ -203,6 +203,33 @@ def test_when_the_actor_starts_is_stated_and_a_run_that_never_reached_it_is_warn
     )
 
 
+def test_a_budget_that_ends_inside_the_warm_up_is_warned_while_the_run_goes_on(caplog):
+    # ANYmal C at 1.1 M env steps: the actor starts at 4,161,536, 65 s on at 47 k env steps/s
+    # (two runs sharing a GPU), 154 s on at 20 k.
+    config = train.build_config(
+        train.PRESETS["command"],
+        {"sac.updates_per_step": 2, "sac.min_replay_size": 65_536, "sac.max_seconds": 400},
+    ).sac
+    step, gradient_steps = 1_089_536, 2_000 - 1_500
+    assert host.actor_start_step(config, gradient_steps, step) == 4_161_536
+    assert host.actor_start_step(config, 2_000, step) is None  # (learning: nothing to say)
+    with caplog.at_level(logging.INFO, logger="quadcos"):
+        warned = [
+            host.warn_if_the_actor_starts_too_late(
+                config, gradient_steps, step, pace, time.monotonic() + left
+            )
+            for left, pace in ((100.0, 47_000.0), (100.0, 20_000.0), (50.0, 47_000.0))
+        ]
+        assert not host.warn_if_the_actor_starts_too_late(config, 2_000, step, 1.0, 0.0)
+        assert not host.warn_if_the_actor_starts_too_late(config, gradient_steps, step, 1.0, None)
+    assert warned == [False, True, True]
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 2, warnings
+    assert warnings[0].startswith("at 20,000 env steps/s the actor learns from env step")
+    assert "4,161,536, in about 154 s, past the time budget (sac.max_seconds 400)" in warnings[0]
+    assert re.search(r"in about 65 s, past .* that ends in (49|50) s", warnings[1]), warnings[1]
+
+
 # --- 6: --resume of a finished run ---------------------------------------------------------------
 
 

@@ -448,6 +448,26 @@ def test_a_spent_time_budget_ends_the_run_as_its_last_step_would(tmp_path):
     assert (tmp_path / "policy" / "policy.json").is_file()
 
 
+@pytest.mark.parametrize("warmup, warned", [(10**8, True), (0, False)])
+def test_a_warm_up_that_outlasts_the_time_budget_is_warned_as_the_run_goes_on(
+    warmup, warned, caplog
+):
+    """10⁸ critic-only updates cannot end within a minute at the toy's pace: said once, after the
+    second chunk, while the run trains on to its end; an actor learning says nothing."""
+    with caplog.at_level(logging.WARNING, logger="quadcos"):
+        result = training.train(
+            PointEnv(),
+            toy_config(actor_warmup_steps=warmup, max_seconds=60.0, num_timesteps=4 * CHUNK),
+            progress=False,
+        )
+    late = [r.getMessage() for r in caplog.records if "past the time budget" in r.getMessage()]
+    assert len(late) == int(warned), late
+    assert result.env_steps >= 4 * CHUNK
+    if warned:
+        assert "(sac.max_seconds 60) that ends in" in late[0]
+        assert "give it more time or fewer warm-up updates (sac.actor_warmup_steps)" in late[0]
+
+
 def test_a_time_budget_keeps_room_for_what_is_due_another_chunk_and_the_final_evaluation():
     # a budget ending at 100 s; a chunk takes 1 s, an evaluation 2 s, a checkpoint 0.5 s
     def spent(now, evaluating_now=False, saving_now=False, deadline=100.0):

@@ -10,6 +10,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import Any, TextIO
 
 from quadcos._util import compile_clock, files
@@ -64,6 +65,64 @@ def deadline(max_seconds: float, started_at: float | None) -> float | None:
     if not max_seconds:
         return None
     return (time.monotonic() if started_at is None else started_at) + max_seconds
+
+
+def actor_start_step(config: Any, gradient_steps: int, step: int) -> int | None:
+    """The env step from which SAC's actor learns (trainer `config`: its `actor_warmup_steps`,
+    `updates_per_step`, `num_envs`), the next chunk starting at `step` after `gradient_steps`
+    updates; None where the critics' warm-up is behind it."""
+    left = config.actor_warmup_steps - gradient_steps
+    if left <= 0:
+        return None
+    return step + -(-left // config.updates_per_step) * config.num_envs
+
+
+def warn_if_the_actor_starts_too_late(
+    config: Any, gradient_steps: int, step: int, env_steps_per_s: float, deadline: float | None
+) -> bool:
+    """Warns, and says so, where at `env_steps_per_s` the critics' warm-up outlasts the time
+    budget ending at `deadline` (`time.monotonic()`), so that no policy of the run would learn."""
+    start = actor_start_step(config, gradient_steps, step)
+    if deadline is None or start is None or env_steps_per_s <= 0:
+        return False
+    needed, left = (start - step) / env_steps_per_s, deadline - time.monotonic()
+    if needed > left:
+        logger.warning(
+            "at %s env steps/s the actor learns from env step %s, in about %.0f s, past the time"
+            " budget (sac.max_seconds %g) that ends in %.0f s: every policy would hold the"
+            " actor's initial weights; give it more time or fewer warm-up updates"
+            " (sac.actor_warmup_steps)",
+            f"{env_steps_per_s:,.0f}",
+            f"{start:,}",
+            needed,
+            config.max_seconds,
+            max(left, 0.0),
+        )
+    return needed > left
+
+
+class WarmUpWatch:
+    """Until SAC's actor learns, and once: warns where at the wall pace from the first chunk's end
+    (evaluations and checkpoints included) the critics' warm-up outlasts the time budget ending
+    at `deadline` (None: no budget, nothing to watch)."""
+
+    def __init__(self, config: Any, deadline: float | None):
+        self._config, self._deadline = config, deadline
+        self._watching = deadline is not None
+        self._first: tuple[int, float] | None = None  # (env step, time) at the first chunk's end
+
+    def after_chunk(self, step: int, gradient_steps: Callable[[], int]) -> None:
+        """After the chunk that ended at env step `step`; `gradient_steps` reads the state's."""
+        if not self._watching:
+            return
+        now = time.monotonic()
+        if self._first is None:
+            self._first = (step, now)
+            return
+        updates = gradient_steps()
+        pace = (step - self._first[0]) / (now - self._first[1])
+        late = warn_if_the_actor_starts_too_late(self._config, updates, step, pace, self._deadline)
+        self._watching = not late and actor_start_step(self._config, updates, step) is not None
 
 
 def budget_spent(

@@ -277,9 +277,9 @@ def _log_actor_start(
     config: ml_collections.ConfigDict, gradient_steps: int, first_chunk_step: int
 ) -> None:
     """Says from which env step SAC's actor learns, where its critic-only warm-up is still ahead."""
-    left = config.actor_warmup_steps - gradient_steps
-    if left > 0:
-        start = first_chunk_step + -(-left // config.updates_per_step) * config.num_envs
+    start = host.actor_start_step(config, gradient_steps, first_chunk_step)
+    if start is not None:
+        left = config.actor_warmup_steps - gradient_steps
         logger.info(
             "the actor learns from env step %s on: the critics alone take %s updates first"
             " (sac.actor_warmup_steps, %d per step of the %d envs)",
@@ -331,7 +331,7 @@ def _train_loop(
     (`time.monotonic()`) or a signal."""
     config = trainer.config
     history = list(log.rows) if log is not None else []
-    window = host.Window()
+    window, warm_up = host.Window(), host.WarmUpWatch(config, deadline)
 
     # The last evaluation's wall time with its row and `policy_best` written (the first one's
     # includes compiling), and the last checkpoint's: what the time budget keeps room for.
@@ -368,6 +368,7 @@ def _train_loop(
 
     def on_chunk(state: sac.TrainingState, chunk: Chunk) -> bool:
         nonlocal window
+        warm_up.after_chunk(chunk.step, lambda: int(state.gradient_steps))
         previous_step, step = chunk.previous_step, chunk.step
         window.add(chunk.metrics, step - previous_step, chunk.seconds)
         _raise_if_non_finite(chunk.metrics, step, store)
