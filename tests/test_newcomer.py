@@ -203,7 +203,7 @@ def test_when_the_actor_starts_is_stated_and_a_run_that_never_reached_it_is_warn
     )
 
 
-def test_a_budget_that_ends_inside_the_warm_up_is_warned_while_the_run_goes_on(caplog):
+def test_a_budget_that_ends_inside_the_warm_up_is_warned_at_the_pace_given(caplog):
     # ANYmal C at 1.1 M env steps: the actor starts at 4,161,536, 65 s on at 47 k env steps/s
     # (two runs sharing a GPU), 154 s on at 20 k.
     config = train.build_config(

@@ -120,7 +120,7 @@ class WarmUpWatch:
             self._first = (step, now)
             return
         updates = gradient_steps()
-        pace = (step - self._first[0]) / (now - self._first[1])
+        pace = (step - self._first[0]) / max(now - self._first[1], 1e-9)
         late = warn_if_the_actor_starts_too_late(self._config, updates, step, pace, self._deadline)
         self._watching = not late and actor_start_step(self._config, updates, step) is not None
 
