@@ -122,6 +122,18 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
             "eval_conditions needs config.env.randomization.enabled",
         ),
         (["--config.env.randomization.eval_conditions=ice"], "unknown condition 'ice'"),
+        (
+            ["--config.sac.actor_warmup_steps=9", "--config.sac.at_actor_start=sac.num_envs=8"],
+            "'sac.num_envs' cannot change while a run trains",
+        ),
+        (
+            ["--config.sac.actor_warmup_steps=9", "--config.sac.at_actor_start=sac.tau=2.0"],
+            "config.sac.tau",
+        ),
+        (
+            ["--config.sac.actor_warmup_steps=0", "--config.sac.at_actor_start=env.reward.forward=9"],
+            "at_actor_start needs config.sac.actor_warmup_steps > 0",
+        ),
         ([], "--output_dir is required"),
         (["--gait_from=no_such_run"], "--gait_from: no_such_run: no such run or policy directory"),
     ],

@@ -21,6 +21,7 @@ HOST_FIELDS = frozenset(
         "best_policy_by",
         "best_policy_tracking_targets",
         "best_policy_max_attitude",
+        "at_actor_start",
     }
 )
 
@@ -86,6 +87,10 @@ def _sac(config: ml_collections.ConfigDict) -> None:
     # Gradient updates (after the prefill) in which only the critics learn; the actor and the
     # temperature start afterwards.
     config.actor_warmup_steps = 0
+    # Run-config overrides (KEY=VALUE words: "env.reward.forward=1600 sac.max_grad_norm=1.0") that
+    # take effect as the actor starts learning, the critics having warmed up under the others;
+    # rewards and learning settings only (quadcos.training.phases). "": none.
+    config.at_actor_start = ""
     # The actor and the temperature learn in one gradient update of every `policy_delay` (TD3's
     # delayed policy update); the critics in every one.
     config.policy_delay = 1

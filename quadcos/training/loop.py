@@ -10,6 +10,7 @@ Run directory layout:
   policy/         the final policy (see `quadcos.training.policy`)
 """
 
+import copy
 import dataclasses
 import json
 import logging
@@ -93,6 +94,8 @@ def train(
     started_at: float | None = None,
     startup: host.StartUp | None = None,
     trainer: sac.SACTrainer | None = None,
+    state: sac.TrainingState | None = None,
+    until: int | None = None,
 ) -> TrainResult:
     """Trains a SAC policy on `env`.
 
@@ -117,6 +120,8 @@ def train(
         and writes them to `run_dir/startup.json`.
       trainer: the `SACTrainer` of `env`, `eval_env` and `config`, already built (by an
         earlier run of the same programs: `quadcos.training.reuse`); None builds one.
+      state, until: a second phase's start, its first's state (`run_dir` continued as on
+        `resume`); a first phase's end, an env step (`quadcos.training.phases`). None: as usual.
 
     Returns:
       The final policy, state and metrics.
@@ -137,20 +142,16 @@ def train(
     if trainer is None:
         trainer = sac.SACTrainer(env, config, eval_env=eval_env)
     startup.mark("trainer_built")
+    trainer = _trainer_until(trainer, until)
     check_memory(trainer)
     spec = run_files.policy_spec(trainer)
     run_info = _run_info(config, extra_run_info)
-    if not resume and config.num_timesteps > 0 and trainer.layout.mesh is None:
-        # the programs compile while Warp's modules do (`warp_preload.deferred`: quadcos.train)
-        trainer.compile_ahead(trainer.state_shapes, prefill=config.min_replay_size > 0)
-        startup.mark("programs_traced")
-    warp_preload.wait()  # before the first Warp launch
-    state = jax.block_until_ready(trainer.init())
-    startup.mark("state_initialised")
+    given = state is not None
+    state = state if given else _initial_state(trainer, resume, startup)
     run = run_files.RunFiles(state=state)
     if run_dir is not None:
         run_dir = Path(run_dir)
-        run = run_files.open_run_dir(run_dir, config, state, resume, run_info, spec, startup)
+        run = run_files.open_run_dir(run_dir, config, state, resume, run_info, spec, startup, given)
     startup.mark("run_dir_ready")
     writer = parallel.is_writer()  # of several processes (hosts), only process 0 writes files
     deadline = host.deadline(config.max_seconds, started_at)
@@ -180,6 +181,32 @@ def train(
         chunk_traces=trainer.chunk_traces,
         trainer=trainer,
     )
+
+
+def _trainer_until(trainer: sac.SACTrainer, until: int | None) -> sac.SACTrainer:
+    """`trainer`, or where `until` comes before its config's num_timesteps a shallow copy (its
+    programs shared: they read no num_timesteps) whose run ends there."""
+    if until is None or until >= trainer.config.num_timesteps:
+        return trainer
+    trainer = copy.copy(trainer)
+    trainer.config = trainer.config.copy_and_resolve_references()
+    trainer.config.num_timesteps = until
+    return trainer
+
+
+def _initial_state(
+    trainer: sac.SACTrainer, resume: bool, startup: host.StartUp
+) -> sac.TrainingState:
+    """The trainer's initial state (a resumed run's template), a fresh run's programs compiled
+    first (while Warp's modules do: `warp_preload.deferred`, quadcos.train)."""
+    config = trainer.config
+    if not resume and config.num_timesteps > 0 and trainer.layout.mesh is None:
+        trainer.compile_ahead(trainer.state_shapes, prefill=config.min_replay_size > 0)
+        startup.mark("programs_traced")
+    warp_preload.wait()  # before the first Warp launch
+    state = jax.block_until_ready(trainer.init())
+    startup.mark("state_initialised")
+    return state
 
 
 @dataclasses.dataclass(frozen=True)
@@ -226,7 +253,8 @@ def run_chunks(
     finish_start = on_start(state) if step == 0 else None
     if num_timesteps is not None:
         first_chunk_step = step + prefill * trainer.num_prefill_steps * trainer.config.num_envs
-        _log_final_step(trainer.config, num_timesteps, first_chunk_step)
+        if not trainer.config.at_actor_start.strip():  # (a first phase: its second says)
+            _log_final_step(trainer.config, num_timesteps, first_chunk_step)
         _log_actor_start(trainer.config, int(state.gradient_steps), first_chunk_step)
     if prefill:
         state = trainer.prefill(state)
@@ -303,7 +331,8 @@ def _log_the_end(
     ended inside the critics' warm-up, before the actor learned."""
     if out_of_time:
         logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
-    if not actor_has_learned(config, gradient_steps):
+    first_phase = config.at_actor_start.strip() and not out_of_time  # a second one follows
+    if not actor_has_learned(config, gradient_steps) and not first_phase:
         logger.warning(
             "the actor never learned: the run ended at env step %s after %s of the critics' %s"
             " warm-up updates (sac.actor_warmup_steps), so every policy it wrote holds the"

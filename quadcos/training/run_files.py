@@ -42,8 +42,10 @@ def open_run_dir(
     run_info: dict[str, Any],
     spec: policy_lib.PolicySpec,
     startup: host.StartUp,
+    given: bool = False,
 ) -> RunFiles:
-    """Opens `run_dir`'s checkpoints (restoring the newest when resuming) and, in the writing
+    """Opens `run_dir`'s checkpoints (restoring the newest when resuming; where `state` is
+    `given`, a run's second phase, going on from it as from a restored one) and, in the writing
     process, writes config.json and opens the metrics log and `policy_best`."""
     run_dir.mkdir(parents=True, exist_ok=True)
     store = checkpoint.CheckpointStore(run_dir / "checkpoints", keep=config.keep_checkpoints)
@@ -52,7 +54,9 @@ def open_run_dir(
     # Over several processes (hosts) only process 0 writes config, metrics and policy; the
     # checkpoints are orbax's, written together (each process its shards of the envs).
     writer = parallel.is_writer()
-    if resume:
+    if given:  # the same process's run, its clock going on from its start
+        keep_rows_up_to = int(state.env_steps)
+    elif resume:
         try:
             restored = store.restore_latest(state)
         except checkpoint.ShapeMismatchError as error:
@@ -72,7 +76,8 @@ def open_run_dir(
         )
     if writer:
         files.atomic_write_text(run_dir / "config.json", json.dumps(run_info, indent=2) + "\n")
-        startup.path = run_dir / host.StartUp.FILE
+        if not given:  # (a second phase's start-up is not the run's)
+            startup.path = run_dir / host.StartUp.FILE
         run.log = metrics_log.MetricsLog(run_dir, keep_rows_up_to)
         if config.keep_best_policy:
             run.best = best_policy.BestPolicy(

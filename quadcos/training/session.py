@@ -7,6 +7,7 @@ from-scratch run (`env.action_centre="search"`), the envs built, the run trained
 run of the same programs.
 """
 
+import functools
 import json
 import logging
 import os
@@ -21,7 +22,7 @@ from quadcos import env as env_lib
 from quadcos._util import files
 from quadcos.env import solver_probe, warp_preload
 from quadcos.equations import oscillator
-from quadcos.training import ahead, host, loop, reuse
+from quadcos.training import ahead, host, loop, phases, reuse, sac
 from quadcos.training.checks import ConfigError
 
 SEARCH_FILE = "gait_search.json"
@@ -112,25 +113,62 @@ def run(
             env, eval_env = _envs(config.env)
         trainer = None
     startup.mark("envs_built")
-    result = loop.train(
-        env,
-        config.sac,
-        run_dir,
-        eval_env=eval_env,
-        resume=resume,
-        progress=progress,
-        progress_bar=progress_bar,
-        extra_run_info={
-            "env": config.env.to_dict(),
-            **(extra_run_info or {}),
-            "impl": env.impl,
-            "robot": env.robot.provenance(),
-            **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
-            **({"solver_probe": probed} if probed else {}),
-        },
+    run_info = {
+        **(extra_run_info or {}),
+        "impl": env.impl,
+        "robot": env.robot.provenance(),
+        **({"gait_search_s": search["setup"]["wall_time_s"]} if search else {}),
+        **({"solver_probe": probed} if probed else {}),
+    }
+    # two phases: the first ends as the actor starts
+    switch = phases.switch_step(config.sac) if config.sac.at_actor_start.strip() else None
+    train = functools.partial(
+        loop.train, run_dir=run_dir, progress=progress, progress_bar=progress_bar,
         started_at=started_at,
-        startup=startup,
-        trainer=trainer,
+    )
+    result = train(
+        env, config.sac, eval_env=eval_env, resume=resume, startup=startup, trainer=trainer,
+        until=switch, extra_run_info={"env": config.env.to_dict(), **run_info},
+    )
+    if trainers is not None:
+        trainers.keep(key, env, eval_env, result.trainer)
+    if switch is None or result.stopped_by_signal or result.env_steps < switch:
+        return result  # one phase, or stopped before the switch (by a signal, or out of time)
+    if result.env_steps >= config.sac.num_timesteps:
+        return result
+    return _second_phase(config, result, train, trainers, run_info)
+
+
+def _second_phase(
+    config: ml_collections.ConfigDict,
+    first: loop.TrainResult,
+    train: Callable[..., loop.TrainResult],
+    trainers: reuse.Trainers | None,
+    run_info: dict[str, Any],
+) -> loop.TrainResult:
+    """Trains the run `config` (whose `sac.at_actor_start` is set) on from its first phase's
+    result `first` under the second phase's settings (`phases.second`), in envs and a trainer
+    of those (kept in `trainers`)."""
+    second = phases.second(config)
+    logger.info(
+        "env step %s: the actor starts; from now on %s", f"{first.env_steps:,}",
+        config.sac.at_actor_start.strip(),
+    )
+    key = reuse.program_key(second.env, second.sac)
+    kept = trainers.get(key, second.sac) if trainers is not None else None
+    if kept is not None:
+        env, eval_env, trainer = reuse.with_gait(*kept, second.env)
+    else:
+        env, eval_env = _envs(second.env)
+        trainer = sac.SACTrainer(env, second.sac, eval_env=eval_env)
+    result = train(
+        env, second.sac, eval_env=eval_env, trainer=trainer,
+        state=phases.carried(first.state, trainer.state_shapes),
+        extra_run_info={
+            "env": second.env.to_dict(),
+            **run_info,
+            "first_phase": {"until_step": first.env_steps, **phases.first_settings(config)},
+        },
     )
     if trainers is not None:
         trainers.keep(key, env, eval_env, result.trainer)
