@@ -131,7 +131,10 @@ def test_resume_extends_a_finished_run(smoke_run, tmp_path):
             "config.sac.tau",
         ),
         (
-            ["--config.sac.actor_warmup_steps=0", "--config.sac.at_actor_start=env.reward.forward=9"],
+            [
+                "--config.sac.actor_warmup_steps=0",
+                "--config.sac.at_actor_start=env.reward.forward=9",
+            ],
             "at_actor_start needs config.sac.actor_warmup_steps > 0",
         ),
         ([], "--output_dir is required"),

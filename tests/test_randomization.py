@@ -173,7 +173,7 @@ def test_a_draw_acts_at_its_level_from_the_nominal_robot():
 def test_the_ramp_raises_each_training_robots_level_with_its_steps_and_keeps_it_at_reset():
     from brax import envs
 
-    from quadcos.training import randomization_ramp
+    from quadcos.training import curriculum
 
     physics = randomization.sample(jax.random.PRNGKey(0), _config(), 0.005)
     physics = jax.tree.map(lambda value: jnp.stack([value, value]), physics)  # two envs
@@ -189,7 +189,7 @@ def test_the_ramp_raises_each_training_robots_level_with_its_steps_and_keeps_it_
         observation_size = action_size = 1
         backend = "mjx"
 
-    ramp = randomization_ramp.RandomizationRamp(Inner(), dt=0.05, ramp_s=0.1)
+    ramp = curriculum.RandomizationRamp(Inner(), dt=0.05, ramp_s=0.1)
     state = ramp.reset(jax.random.split(jax.random.PRNGKey(1), 2))
     np.testing.assert_array_equal(state.info["physics"].level, [0.0, 0.0])
     seen = []

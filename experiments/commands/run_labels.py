@@ -270,6 +270,11 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     "anymalcmd_capsfw3600ev1_s0": "`anymalcmd_capsfw_s0`'s with w1 3600 (a speed error of 0.10 m/s"
     " costs 18 a control step, as the yaw term's 0.15 rad/s), evaluated every 1 M env steps; alone"
     " on the GPU for 270 s",
+    "anymalcmd_switch_s0": "`anymalfork_allcaps30fw1600_s0`'s fork in one process from nothing:"
+    " the preset with `sac.at_actor_start` set to its settings (the five, CAPS 30, 30, w1 1600),"
+    " switched at env step 4.16 M; alone on the GPU for 480 s",
+    "anymalcmd_switchrs028_s0": "`anymalcmd_switch_s0`'s with `sac.reward_scaling` 0.028 from the"
+    " switch too (w1 1600's rewards on w1 450's scale); alone on the GPU for 480 s",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",

@@ -39,7 +39,8 @@ one perturbation (`quadcos.evaluate --env.randomization.enabled=True
 A draw acts at its `level` (1, the default: fully): at level ℓ each drawn value is the nominal
 robot's moved a share ℓ of the way towards the draw (friction from each geom's own, scales from 1,
 CoM offset, latency and push force from 0). Training can ramp ℓ from 0 to 1 over each robot's
-first `ramp_s` seconds (`quadcos.training.randomization_ramp`); evaluations draw at level 1.
+first `ramp_s` seconds (`quadcos.training.curriculum.RandomizationRamp`); evaluations draw at
+level 1.
 """
 
 from typing import NamedTuple

@@ -1,5 +1,6 @@
-"""The course curriculum of a lane terrain (`quadcos.courses`): robots move up the lanes as they
-succeed and down as they fail.
+"""What grows harder as a run trains: the course curriculum of a lane terrain
+(`quadcos.courses`), whose robots move up the lanes as they succeed and down as they fail, and
+the randomisation ramp.
 
 Brax's `AutoResetWrapper` restarts every finished episode from that env's first state, so a robot
 would stay on one lane (and one spawn point) for the whole run. `CourseCurriculum` takes its place
@@ -14,6 +15,15 @@ in order of slope), and an env whose episode ends restarts on the lane its new l
 
 Its cost is a fresh reset of every env in each step where some episode ended (one MJX forward
 beside `substeps` MJX steps), selected where an episode ended.
+
+The randomisation ramp (`RandomizationRamp`): a training robot's physics perturbations grow from
+none to the full ranges over its first `env.randomization.ramp_s` seconds.
+
+A randomised robot's draw acts at a level (`quadcos.randomization`: 0 is the nominal robot, 1 the
+draw). `RandomizationRamp` counts each env's control steps across its episodes and, before every
+step, sets its draw's level to min(1, steps · dt / ramp_s): a policy first learns on the nominal
+robot and meets friction, mass, gains, latency and pushes as they grow. Only training is ramped:
+evaluations draw at level 1.
 """
 
 from typing import Any
@@ -23,8 +33,6 @@ import jax.numpy as jnp
 import ml_collections
 from brax import envs
 from brax.envs.wrappers import training as training_wrappers
-
-from quadcos.training import randomization_ramp
 
 
 def wrap(env: envs.Env, episode_length: int, config: ml_collections.ConfigDict) -> envs.Env:
@@ -40,7 +48,7 @@ def wrap(env: envs.Env, episode_length: int, config: ml_collections.ConfigDict) 
         )
         wrapped = CourseCurriculum(batched, env, config)
     if getattr(env, "randomized", False) and env.config.randomization.ramp_s > 0:
-        return randomization_ramp.RandomizationRamp(
+        return RandomizationRamp(
             wrapped, env.dt, env.config.randomization.ramp_s
         )
     return wrapped
@@ -147,3 +155,29 @@ class CourseCurriculum(envs.Wrapper):
         )
         state.info["course_key"] = keys[:, 2]
         return state.replace(pipeline_state=pipeline_state, obs=where_done(fresh_obs, state.obs))
+
+
+class RandomizationRamp(envs.Wrapper):
+    """The level ramp over the batched, auto-resetting training env `env` (see the module doc);
+    `dt` is the control period (s). The state's info holds per env "ramp_steps" (int32)."""
+
+    def __init__(self, env: envs.Env, dt: float, ramp_s: float):
+        super().__init__(env)
+        self._dt = float(dt)
+        self._ramp_s = float(ramp_s)
+
+    def level(self, steps: jax.Array) -> jax.Array:
+        return jnp.minimum(1.0, steps * (self._dt / self._ramp_s))
+
+    def _at_level(self, state: envs.State, steps: jax.Array) -> envs.State:
+        physics = state.info["physics"]._replace(level=self.level(steps))
+        return state.replace(info={**state.info, "physics": physics, "ramp_steps": steps})
+
+    def reset(self, rng: jax.Array) -> envs.State:
+        state = self.env.reset(rng)
+        return self._at_level(state, jnp.zeros(state.done.shape, jnp.int32))
+
+    def step(self, state: envs.State, action: jax.Array) -> envs.State:
+        steps = state.info["ramp_steps"]
+        state = self.env.step(self._at_level(state, steps), action)
+        return state.replace(info={**state.info, "ramp_steps": steps + 1})

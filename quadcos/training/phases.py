@@ -1,9 +1,10 @@
 """A run in two phases: settings that change when SAC's actor starts learning.
 
 `sac.at_actor_start` names run-config overrides (`KEY=VALUE` words apart by spaces or commas, as
-the CLI's `--config.KEY=VALUE`) that take effect at the first chunk boundary at or past the actor's first update
-(`host.actor_start_step`): the critics warm up on the replay of the first settings, and the actor
-learns under the second, from the same state and replay (`quadcos.training.session` runs both).
+the CLI's `--config.KEY=VALUE`) that take effect at the first chunk boundary at or past the
+actor's first update (`host.actor_start_step`): the critics warm up on the replay of the first
+settings, and the actor learns under the second, from the same state and replay
+(`quadcos.training.session` runs both).
 Only what leaves the training state's shapes alone may change: the reward's weights and SAC's
 learning settings (`SWITCHABLE`).
 """

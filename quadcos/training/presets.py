@@ -206,11 +206,6 @@ _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS = {
     "env.randomization.eval_conditions": "robustness",
 }
 _PRIVILEGED = {"sac.privileged_critic": True}
-_ACTOR_SETTINGS = (
-    "sac.learning_rate.critic=3e-4 sac.learning_rate.alpha=1e-9 sac.learning_rate.actor=3e-5"
-    " sac.max_grad_norm=1.0 sac.target_entropy=-12 sac.smoothness.temporal=30"
-    " sac.smoothness.spatial=30 env.reward.forward=1600"
-)
 PRESETS["command"] = {
     **PRESETS["scratch"],
     "env.terrain": "flat",
@@ -295,13 +290,6 @@ PRESETS["command"] = {
             # "ANYmal C: SAC against its searched gait").
             "sac.updates_per_step": 2,
             "env.randomization.eval_conditions": "robustness",
-            # From the actor's start: the five SAC settings of "ANYmal C: SAC against its searched
-            # gait", CAPS's smoothness at 30 and 30 and w1 1600, the critics having warmed up
-            # under the settings above: so resumed from one run's state at the actor's start, a
-            # run kept a policy from 8.1 M env steps ahead of its gait in all eight cells; with
-            # them from step 0 SAC left the gait (experiments/commands, "From one state at the
-            # actor's start").
-            "sac.at_actor_start": _ACTOR_SETTINGS,
         },
     },
 }
@@ -353,7 +341,9 @@ def build_config(base: dict[str, Any], overrides: dict[str, Any]) -> ml_collecti
         _check_sac(config.sac)
         if config.sac.at_actor_start.strip():
             if not config.sac.actor_warmup_steps:
-                raise ValueError("config.sac.at_actor_start needs config.sac.actor_warmup_steps > 0")
+                raise ValueError(
+                    "config.sac.at_actor_start needs config.sac.actor_warmup_steps > 0"
+                )
             second = phases.second(config)
             env_lib.validate_config(second.env)
             _check_sac(second.sac)
