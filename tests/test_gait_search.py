@@ -75,6 +75,7 @@ def test_the_robust_preset_is_the_config_of_the_measured_robust_runs():
     config = json.loads(json.dumps(train.build_config(train.PRESETS["robust"], {}).to_dict()))
     # Trainer options added since, at the defaults that train as the runs did.
     assert config["sac"].pop("overlap_updates") is False
+    assert config["sac"].pop("at_actor_start") == ""  # settings switched at the actor's start: none
     # ... and the delayed actor and LayerNorm critics, off: Brax's SAC.
     assert (config["sac"].pop("policy_delay"), config["sac"].pop("critic_layer_norm")) == (1, False)
     # ... and the trainer compiled during the search: a start-up option, not the runs' learning.
@@ -135,6 +136,7 @@ def test_the_command_preset_is_the_config_of_the_shipped_go1_command_policy(monk
     assert config["sac"]["privileged_critic"] is True  # Go1's own settings, applied
     assert config["sac"]["gait_search"]["track_gaits"] == 16
     assert (config["sac"].pop("seed"), recorded["config"].pop("seed")) == (0, 1)
+    assert config["sac"].pop("at_actor_start") == ""  # added since: one phase, as the run trained
     assert config["sac"] == recorded["config"]
     env, trained = config["env"], recorded["run_info"]["env"]
     assert env["randomization"]["eval_conditions"] == "robustness"

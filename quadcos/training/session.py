@@ -3,8 +3,9 @@
 What `python -m quadcos.train` does once its flags are a config, and what a library caller gets
 the same way: Warp's contact buffer sized for the largest batch, the gait search of a
 from-scratch run (`env.action_centre="search"`), the envs built, the run trained (or resumed) by
-`loop.train`, and the envs and trainer kept in a `reuse.Trainers` the caller holds, for a later
-run of the same programs.
+`loop.train` (in two phases where `sac.at_actor_start` names settings for the actor's start:
+`quadcos.training.phases`), and the envs and trainer kept in a `reuse.Trainers` the caller
+holds, for a later run of the same programs.
 """
 
 import functools
@@ -64,7 +65,8 @@ def run(
     `quadcos.training.ahead` applies. Otherwise builds the envs after it, or takes them and their
     compiled trainer from `trainers` when it holds a run of the same programs
     (`reuse.program_key`; given this run's gait: `reuse.with_gait`). Trains with `loop.train`
-    and keeps the envs and trainer in `trainers`.
+    (with `sac.at_actor_start`, to the actor's start and then on in the second phase's envs and
+    trainer) and keeps the envs and trainers in `trainers`.
 
     Args:
       config: the run config; changed in place as above.
