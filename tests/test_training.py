@@ -612,6 +612,25 @@ def test_a_two_phase_run_goes_on_from_its_first_phase_under_the_second_settings(
     assert result.trainer.replay_size(result.state) == 1024
 
 
+def test_a_two_phase_run_ended_before_its_switch_resumes_into_both_phases(tmp_path):
+    overrides = {"sac.actor_warmup_steps": 100, "sac.at_actor_start": SWITCH, "sac.seed": 3}
+    early = build_config(PRESETS["smoke"], {**overrides, "sac.num_timesteps": 512})
+    first = training.run(early, tmp_path / "run", progress=False)  # before the switch (656)
+    assert first.env_steps == 512 and first.trainer.config.max_grad_norm is None
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert saved["config"]["at_actor_start"] == SWITCH and "first_phase" not in saved["run_info"]
+    config = build_config(PRESETS["smoke"], overrides)  # the run's, to 1024 env steps
+    result = training.run(config, tmp_path / "run", resume=True, progress=False)
+    assert result.env_steps >= 1024 and result.trainer.config.max_grad_norm == 1.0
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert saved["config"]["at_actor_start"] == "" and saved["config"]["max_grad_norm"] == 1.0
+    switched = saved["run_info"]["first_phase"]["until_step"]
+    assert 656 <= switched < result.env_steps
+    # (its replay, not in the checkpoint, refilled past the switch: no chunk before it)
+    steps = [row["step"] for row in result.history]
+    assert steps[:2] == [0, 512] and steps == sorted(set(steps)) and steps[-1] == result.env_steps
+
+
 # --- Failures ---------------------------------------------------------------
 
 
