@@ -10,7 +10,6 @@ Run directory layout:
   policy/         the final policy (see `quadcos.training.policy`)
 """
 
-import copy
 import dataclasses
 import json
 import logging
@@ -31,6 +30,7 @@ from quadcos.training import best_policy, checkpoint, host, metrics_log, paralle
 from quadcos.training import config as config_lib
 from quadcos.training import policy as policy_lib
 from quadcos.training.checks import check_config, check_memory, check_tracked
+from quadcos.training.phases import trainer_until
 
 logger = logging.getLogger(__name__)
 
@@ -142,7 +142,7 @@ def train(
     if trainer is None:
         trainer = sac.SACTrainer(env, config, eval_env=eval_env)
     startup.mark("trainer_built")
-    trainer = _trainer_until(trainer, until)
+    trainer = trainer_until(trainer, until)
     check_memory(trainer)
     spec = run_files.policy_spec(trainer)
     run_info = _run_info(config, extra_run_info)
@@ -181,17 +181,6 @@ def train(
         chunk_traces=trainer.chunk_traces,
         trainer=trainer,
     )
-
-
-def _trainer_until(trainer: sac.SACTrainer, until: int | None) -> sac.SACTrainer:
-    """`trainer`, or where `until` comes before its config's num_timesteps a shallow copy (its
-    programs shared: they read no num_timesteps) whose run ends there."""
-    if until is None or until >= trainer.config.num_timesteps:
-        return trainer
-    trainer = copy.copy(trainer)
-    trainer.config = trainer.config.copy_and_resolve_references()
-    trainer.config.num_timesteps = until
-    return trainer
 
 
 def _initial_state(

@@ -9,6 +9,7 @@ Only what leaves the training state's shapes alone may change: the reward's weig
 learning settings (`SWITCHABLE`).
 """
 
+import copy
 import re
 from typing import Any
 
@@ -16,7 +17,7 @@ import jax
 import ml_collections
 
 from quadcos._util.overrides import apply_overrides, parse_value
-from quadcos.training import host
+from quadcos.training import host, sac
 from quadcos.training.checks import ConfigError
 
 # Run-config keys (or key prefixes, ending in ".") that `sac.at_actor_start` may set.
@@ -103,3 +104,14 @@ def carried(state: Any, template: Any) -> Any:
             " or of other shapes): it may change rewards and learning settings only"
         )
     return jax.tree.unflatten(treedef, arrays)
+
+
+def trainer_until(trainer: sac.SACTrainer, until: int | None) -> sac.SACTrainer:
+    """`trainer`, or where `until` comes before its config's num_timesteps a shallow copy (its
+    programs shared: they read no num_timesteps) whose run ends there."""
+    if until is None or until >= trainer.config.num_timesteps:
+        return trainer
+    trainer = copy.copy(trainer)
+    trainer.config = trainer.config.copy_and_resolve_references()
+    trainer.config.num_timesteps = until
+    return trainer
