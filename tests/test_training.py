@@ -550,7 +550,7 @@ def test_the_switch_reads_words_apart_by_spaces_or_commas_and_refuses_what_chang
 
 def test_the_second_phase_config_applies_the_switch_once_and_the_first_settings_are_kept():
     config = build_config(
-        PRESETS["smoke"], {"sac.actor_warmup_steps": 100, "sac.at_actor_start": SWITCH}
+        PRESETS["smoke"], {"sac.actor_warmup_steps": 128, "sac.at_actor_start": SWITCH}
     )
     second = phases.second(config)
     assert second.env.reward.forward == 2.0 and second.sac.max_grad_norm == 1.0
@@ -561,12 +561,12 @@ def test_the_second_phase_config_applies_the_switch_once_and_the_first_settings_
         "sac.max_grad_norm": None,
         "sac.learning_rate.critic": config.sac.learning_rate.critic,
     }
-    # smoke: 4 envs, a prefill of 256 env steps; 100 critic updates, one per step of the 4 envs
-    assert phases.switch_step(config.sac) == 256 + 100 * 4
+    # smoke: 4 envs, a prefill of 256 env steps; 128 critic updates, one per step of the 4 envs
+    assert phases.switch_step(config.sac) == 256 + 128 * 4
     with pytest.raises(UsageError, match="env.reward.forward"):
         build_config(
             PRESETS["smoke"],
-            {"sac.actor_warmup_steps": 100, "sac.at_actor_start": "env.reward.forward=fast"},
+            {"sac.actor_warmup_steps": 128, "sac.at_actor_start": "env.reward.forward=fast"},
         )
 
 
@@ -585,13 +585,16 @@ def test_a_state_is_carried_into_an_optimiser_that_clips_and_refused_where_shape
         phases.carried(state, wider)
 
 
-def test_a_two_phase_run_goes_on_from_its_first_phase_under_the_second_settings(tmp_path):
+def test_a_two_phase_run_goes_on_from_its_first_phase_under_the_second_settings(tmp_path, caplog):
     config = build_config(
         PRESETS["smoke"],
-        {"sac.actor_warmup_steps": 100, "sac.at_actor_start": SWITCH, "sac.seed": 3},
+        {"sac.actor_warmup_steps": 128, "sac.at_actor_start": SWITCH, "sac.seed": 3},
     )
-    result = training.run(config, tmp_path / "run", progress=False)
-    # smoke's chunks of 128 env steps: the first phase ends at the boundary at or past 656
+    with caplog.at_level(logging.WARNING, logger="quadcos.training.loop"):
+        result = training.run(config, tmp_path / "run", progress=False)
+    # the first phase ends where its actor would learn: no warning, the second one follows
+    assert "never learned" not in caplog.text
+    # smoke's chunks of 128 env steps: the first phase ends at the switch, 768 (a boundary)
     assert [row["step"] for row in result.history] == [0, 512, 768, 1024]
     # one run's updates: (1024 - 256) / 4 steps of the envs, one update each, none taken twice
     assert int(result.state.gradient_steps) == 192 and result.env_steps == 1024
@@ -612,10 +615,12 @@ def test_a_two_phase_run_goes_on_from_its_first_phase_under_the_second_settings(
     assert result.trainer.replay_size(result.state) == 1024
 
 
-def test_a_two_phase_run_ended_before_its_switch_resumes_into_both_phases(tmp_path):
-    overrides = {"sac.actor_warmup_steps": 100, "sac.at_actor_start": SWITCH, "sac.seed": 3}
+def test_a_two_phase_run_ended_before_its_switch_resumes_into_both_phases(tmp_path, caplog):
+    overrides = {"sac.actor_warmup_steps": 128, "sac.at_actor_start": SWITCH, "sac.seed": 3}
     early = build_config(PRESETS["smoke"], {**overrides, "sac.num_timesteps": 512})
-    first = training.run(early, tmp_path / "run", progress=False)  # before the switch (656)
+    with caplog.at_level(logging.WARNING, logger="quadcos.training.loop"):
+        first = training.run(early, tmp_path / "run", progress=False)  # before the switch (768)
+    assert "the actor never learned" in caplog.text  # no second phase follows: said
     assert first.env_steps == 512 and first.trainer.config.max_grad_norm is None
     saved = json.loads((tmp_path / "run" / "config.json").read_text())
     assert saved["config"]["at_actor_start"] == SWITCH and "first_phase" not in saved["run_info"]
@@ -625,7 +630,7 @@ def test_a_two_phase_run_ended_before_its_switch_resumes_into_both_phases(tmp_pa
     saved = json.loads((tmp_path / "run" / "config.json").read_text())
     assert saved["config"]["at_actor_start"] == "" and saved["config"]["max_grad_norm"] == 1.0
     switched = saved["run_info"]["first_phase"]["until_step"]
-    assert 656 <= switched < result.env_steps
+    assert 768 <= switched < result.env_steps
     # (its replay, not in the checkpoint, refilled past the switch: no chunk before it)
     steps = [row["step"] for row in result.history]
     assert steps[:2] == [0, 512] and steps == sorted(set(steps)) and steps[-1] == result.env_steps

@@ -30,7 +30,7 @@ from quadcos.training import best_policy, checkpoint, host, metrics_log, paralle
 from quadcos.training import config as config_lib
 from quadcos.training import policy as policy_lib
 from quadcos.training.checks import check_config, check_memory, check_tracked
-from quadcos.training.phases import trainer_until
+from quadcos.training.phases import switch_step, trainer_until
 
 logger = logging.getLogger(__name__)
 
@@ -320,7 +320,8 @@ def _log_the_end(
     ended inside the critics' warm-up, before the actor learned."""
     if out_of_time:
         logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
-    first_phase = config.at_actor_start.strip() and not out_of_time  # a second one follows
+    # a first phase that reached its switch: the second phase follows
+    first_phase = config.at_actor_start.strip() and step >= switch_step(config) and not out_of_time
     if not actor_has_learned(config, gradient_steps) and not first_phase:
         logger.warning(
             "the actor never learned: the run ended at env step %s after %s of the critics' %s"
