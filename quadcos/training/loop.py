@@ -30,7 +30,7 @@ from quadcos.training import best_policy, checkpoint, host, metrics_log, paralle
 from quadcos.training import config as config_lib
 from quadcos.training import policy as policy_lib
 from quadcos.training.checks import check_config, check_memory, check_tracked
-from quadcos.training.phases import switch_step, trainer_until
+from quadcos.training.phases import ends_at_switch, trainer_until
 
 logger = logging.getLogger(__name__)
 
@@ -242,7 +242,7 @@ def run_chunks(
     finish_start = on_start(state) if step == 0 else None
     if num_timesteps is not None:
         first_chunk_step = step + prefill * trainer.num_prefill_steps * trainer.config.num_envs
-        if not trainer.config.at_actor_start.strip():  # (a first phase: its second says)
+        if not ends_at_switch(trainer.config):  # (a first phase's: its second says)
             _log_final_step(trainer.config, num_timesteps, first_chunk_step)
         _log_actor_start(trainer.config, int(state.gradient_steps), first_chunk_step)
     if prefill:
@@ -320,9 +320,8 @@ def _log_the_end(
     ended inside the critics' warm-up, before the actor learned."""
     if out_of_time:
         logger.info("time budget of %g s spent at env step %s", config.max_seconds, f"{step:,}")
-    # a first phase that reached its switch: the second phase follows
-    first_phase = config.at_actor_start.strip() and step >= switch_step(config) and not out_of_time
-    if not actor_has_learned(config, gradient_steps) and not first_phase:
+    second_follows = ends_at_switch(config) and not out_of_time
+    if not actor_has_learned(config, gradient_steps) and not second_follows:
         logger.warning(
             "the actor never learned: the run ended at env step %s after %s of the critics' %s"
             " warm-up updates (sac.actor_warmup_steps), so every policy it wrote holds the"

@@ -16,7 +16,7 @@ from typing import Any
 import jax
 import ml_collections
 
-from quadcos._util.overrides import apply_overrides, parse_value
+from quadcos._util.overrides import apply_overrides, flatten, parse_value
 from quadcos.training import host, sac
 from quadcos.training.checks import ConfigError
 
@@ -77,13 +77,14 @@ def switch_step(config: ml_collections.ConfigDict) -> int:
 def first_settings(config: ml_collections.ConfigDict) -> dict[str, Any]:
     """The first phase's values of the keys `sac.at_actor_start` sets (recorded in the run's
     config.json, whose config is the second phase's once it runs)."""
-    values = {}
-    for key in parse(config.sac.at_actor_start):
-        node = config
-        for part in key.split("."):
-            node = node[part]
-        values[key] = node.to_dict() if isinstance(node, ml_collections.ConfigDict) else node
-    return values
+    flat = flatten(config.to_dict())
+    return {key: flat[key] for key in parse(config.sac.at_actor_start)}
+
+
+def ends_at_switch(config: ml_collections.ConfigDict) -> bool:
+    """Whether trainer `config` is a first phase's (`trainer_until`'s): its run ends where its
+    actor starts, and a second phase goes on from there."""
+    return bool(config.at_actor_start.strip()) and config.num_timesteps == switch_step(config)
 
 
 def carried(state: Any, template: Any) -> Any:

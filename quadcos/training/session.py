@@ -134,10 +134,9 @@ def run(
     )
     if trainers is not None:
         trainers.keep(key, env, eval_env, result.trainer)
-    if switch is None or result.stopped_by_signal or result.env_steps < switch:
-        return result  # one phase, or stopped before the switch (by a signal, or out of time)
-    if result.env_steps >= config.sac.num_timesteps:
-        return result
+    unswitched = switch is None or result.stopped_by_signal or result.env_steps < switch
+    if unswitched or result.env_steps >= config.sac.num_timesteps:
+        return result  # one phase, stopped before the switch (a signal, the time), or done
     return _second_phase(config, result, train, trainers, run_info)
 
 
