@@ -382,11 +382,15 @@ def test_the_command_preset_stiffens_anymal_c_ranks_by_conditions_flags_win(mena
     assert config.sac.updates_per_step == 2
     assert config.env.randomization.eval_conditions == "robustness"
     assert config.sac.gait_search.track_gaits == 0  # its search's best gait
+    # ... switched at the actor's start to the second phase's settings, the draws' ends a third
+    assert "sac.reward_scaling=0.028" in config.sac.at_actor_start
+    assert config.env.randomization.range_ends == 0.33
     for robot in ("menagerie:unitree_go1", "menagerie:unitree_go2"):
         go = built("command", **{"env.robot": robot})
         assert go.env.randomization.eval_conditions == "robustness"
         assert (go.sac.gait_search.track_gaits, go.sac.gait_search.max_attitude) == (16, 0.085)
         assert go.sac.updates_per_step == 8
+        assert go.sac.at_actor_start == "" and go.env.randomization.range_ends == 0.0
     assert built("command", **{}).env.randomization.eval_conditions == ""  # the default robot
     scratch = built("scratch", **{"env.robot": "menagerie:unitree_go1"})
     assert scratch.sac.gait_search.track_gaits == 0

@@ -275,6 +275,10 @@ ANYMAL_SAC = {  # run in campaign.json -> its change from the preset, and how it
     " switched at env step 4.16 M; alone on the GPU for 480 s",
     "anymalcmd_switchrs028_s0": "`anymalcmd_switch_s0`'s with `sac.reward_scaling` 0.028 from the"
     " switch too (w1 1600's rewards on w1 450's scale); alone on the GPU for 480 s",
+    "anymalcmd_switchrs028ends_s0": "`anymalcmd_switchrs028_s0`'s with a third of the"
+    " randomisation's draws at its ranges' ends (`randomization.range_ends` 0.33); alone on the GPU"
+    " for 480 s (the preset since)",
+    "anymalcmd_switchrs028ends_s1": "the same, seed 1; alone on the GPU for 480 s",
 }
 SAC_LEVERS = {  # run in campaign.json (run_gpu.sh levers) -> its change from `base`
     "go2_base": "— (heading tracked, w1 150, Brax's critics, actor every update)",

@@ -206,6 +206,12 @@ _LEVEL_TRACKED_GAIT_RANKED_BY_CONDITIONS = {
     "env.randomization.eval_conditions": "robustness",
 }
 _PRIVILEGED = {"sac.privileged_critic": True}
+_ANYMAL_AT_ACTOR_START = ",".join((
+    "sac.learning_rate.critic=3e-4", "sac.learning_rate.alpha=1e-9",
+    "sac.learning_rate.actor=3e-5", "sac.max_grad_norm=1.0", "sac.target_entropy=-12",
+    "sac.smoothness.temporal=30", "sac.smoothness.spatial=30", "env.reward.forward=1600",
+    "sac.reward_scaling=0.028",
+))
 PRESETS["command"] = {
     **PRESETS["scratch"],
     "env.terrain": "flat",
@@ -290,6 +296,18 @@ PRESETS["command"] = {
             # "ANYmal C: SAC against its searched gait").
             "sac.updates_per_step": 2,
             "env.randomization.eval_conditions": "robustness",
+            # As the actor starts (env step 4.16 M), SAC's five settings against its critics'
+            # loss growth (critic and temperature learning rates, actor's ÷10, gradients clipped,
+            # target entropy), CAPS's smoothness at 30 and the forward term w1 1600 with the
+            # rewards scaled by 0.028, not 0.1 (w1 1600's rewards on w1 450's scale); a third of
+            # the randomisation's draws at its ranges' ends throughout. Seeds 0 and 1, alone on a
+            # GPU, keep policies from training (6.0 and 18.1 M env steps) that track better than
+            # their gaits in all eight (condition, measure) cells (seed 1's searched gait, and so
+            # its policy, misses the tracking targets), where without the ends seed 0 kept its
+            # gait, its best evaluations behind it only in the speed at friction 0.4
+            # (experiments/commands, "From one state at the actor's start").
+            "sac.at_actor_start": _ANYMAL_AT_ACTOR_START,
+            "env.randomization.range_ends": 0.33,
         },
     },
 }
