@@ -361,7 +361,7 @@ def test_short_names_are_read_from_the_spec_alone():
 
 @needs_menagerie
 def test_the_command_preset_stiffens_anymal_c_ranks_by_conditions_flags_win(menagerie_root):
-    from quadcos.training import presets
+    from quadcos.training import phases, presets
 
     def built(preset, **overrides):
         return presets.build_config(presets.PRESETS[preset], overrides)
@@ -383,7 +383,10 @@ def test_the_command_preset_stiffens_anymal_c_ranks_by_conditions_flags_win(mena
     assert config.env.randomization.eval_conditions == "robustness"
     assert config.sac.gait_search.track_gaits == 0  # its search's best gait
     # ... switched at the actor's start to the second phase's settings, the draws' ends a third
-    assert "sac.reward_scaling=0.028" in config.sac.at_actor_start
+    second = phases.second(config)
+    assert (config.sac.reward_scaling, config.env.reward.forward) == (0.1, 450.0)
+    assert (second.sac.reward_scaling, second.env.reward.forward) == (0.028, 1600.0)
+    assert second.sac.learning_rate.actor == 3e-5 and second.sac.smoothness.temporal == 30.0
     assert config.env.randomization.range_ends == 0.33
     for robot in ("menagerie:unitree_go1", "menagerie:unitree_go2"):
         go = built("command", **{"env.robot": robot})
