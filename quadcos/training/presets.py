@@ -303,7 +303,7 @@ PRESETS["command"] = {
             # the randomisation's draws at its ranges' ends throughout. Seeds 0 and 1, alone on a
             # GPU, keep policies from training (6.0 and 18.1 M env steps) that track better than
             # their gaits in all eight (condition, measure) cells (seed 1's searched gait, and so
-            # its policy, misses the tracking targets), where without the ends seed 0 kept its
+            # its policy, misses the speed target), where without the ends seed 0 kept its
             # gait, its best evaluations behind it only in the speed at friction 0.4
             # (experiments/commands, "From one state at the actor's start").
             "sac.at_actor_start": _ANYMAL_AT_ACTOR_START,
