@@ -18,6 +18,7 @@ from jax.experimental import multihost_utils
 
 from quadcos import training
 from quadcos.benchmarking.settings import TrainRow, make_bench_env, trainer_config
+from quadcos.training import config as config_lib
 
 
 def measure_trainer(
@@ -142,7 +143,7 @@ def measure_stock_brax(
             raise _EnoughEpochs
 
     epoch_env_steps = epoch_steps * config.num_envs
-    prefill_env_steps = -(-config.min_replay_size // config.num_envs) * config.num_envs
+    prefill_env_steps = config_lib.prefill_steps(config) * config.num_envs
     max_epochs = 10_000  # an upper bound; the callback ends training
     network_factory = functools.partial(
         sac_networks.make_sac_networks, hidden_layer_sizes=tuple(config.hidden_sizes.policy)

@@ -264,7 +264,7 @@ def _check_config(config: ml_collections.ConfigDict) -> None:
         )
     if config.init_std is not None and not config.init_std > sac.MIN_STD:
         raise ValueError(f"config.init_std must be > {sac.MIN_STD}, got {config.init_std}")
-    prefill_steps = -(-config.min_replay_size // config.num_envs) * config.num_envs
+    prefill_steps = config_lib.prefill_steps(config) * config.num_envs
     if prefill_steps >= config.num_timesteps:
         raise ValueError(
             f"no training would happen: the prefill of min_replay_size"

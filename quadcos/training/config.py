@@ -31,6 +31,12 @@ def program_fields(config: ml_collections.ConfigDict) -> dict[str, Any]:
     return {k: v for k, v in flatten(config.to_dict()).items() if k not in HOST_FIELDS}
 
 
+def prefill_steps(config: ml_collections.ConfigDict) -> int:
+    """Steps of the `num_envs` envs that fill the replay to `min_replay_size` before the first
+    update (each `num_envs` env steps)."""
+    return -(-config.min_replay_size // config.num_envs)
+
+
 def default_config() -> ml_collections.ConfigDict:
     """Returns a fresh, locked SAC trainer config (unknown keys are an error).
 

@@ -17,6 +17,7 @@ import jax
 import ml_collections
 
 from quadcos._util.overrides import apply_overrides, flatten, parse_value
+from quadcos.training import config as config_lib
 from quadcos.training import host, sac
 from quadcos.training.checks import ConfigError
 
@@ -70,7 +71,7 @@ def second(config: ml_collections.ConfigDict) -> ml_collections.ConfigDict:
 def switch_step(config: ml_collections.ConfigDict) -> int:
     """The env step at which a run of trainer `config` that starts from nothing switches: where
     its actor starts learning, after the prefill (its first chunk's step)."""
-    prefill = -(-config.min_replay_size // config.num_envs) * config.num_envs
+    prefill = config_lib.prefill_steps(config) * config.num_envs
     return host.actor_start_step(config, 0, prefill) or prefill
 
 

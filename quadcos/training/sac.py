@@ -116,7 +116,7 @@ class SACTrainer:
         self.replay = replay_lib.for_transitions(
             config.replay_size, shards, critic_size, self.action_size
         )
-        self.num_prefill_steps = -(-config.min_replay_size // config.num_envs)
+        self.num_prefill_steps = config_lib.prefill_steps(config)
         self._key_init, self._eval_key = jax.random.split(jax.random.PRNGKey(config.seed))
         self.chunk_traces = 0
         programs = config_lib.program_fields(config)
